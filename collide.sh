@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# Collide: set up, build and run on a fresh Debian 12 machine.
+#
+#   ./collide.sh run     install what is missing, build, run a short simulated campaign
+#   ./collide.sh test    install what is missing, build, run the whole test suite (CTest)
+#   ./collide.sh gui     install, build, open the lab GUI on the simulated rig
+#   ./collide.sh bench   install, build, run the benchmarks (see docs/benchmarks.md)
+#   ./collide.sh build   install and build only
+#
+# Environment: BUILD_DIR (default ./build), JOBS (default: number of cores),
+# COLLIDE_OUT (where `run` writes shots, default ./shots).
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$here"
+BUILD_DIR="${BUILD_DIR:-$here/build}"
+JOBS="${JOBS:-$(nproc)}"
+
+# Debian 12 packages the project needs to build, test and run.
+PACKAGES=(
+  build-essential cmake ninja-build ccache pkg-config git
+  libeigen3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
+  libhdf5-dev libsqlite3-dev libtomlplusplus-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libaravis-dev aravis-tools libusb-1.0-0-dev libgpiod-dev gpiod libmodbus-dev libv4l-dev
+  qt6-base-dev qt6-charts-dev
+  socat mbpoll python3-h5py hdf5-tools sqlite3 xvfb xauth
+)
+
+say() { printf '\033[1m==> %s\033[0m\n' "$*"; }
+die() { printf 'collide.sh: %s\n' "$*" >&2; exit 1; }
+
+ensure_packages() {
+  local missing=() p
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || die "missing packages (${missing[*]}) and not root: install them as root, or run this as root"
+    sudo="sudo"
+  fi
+  say "Installing ${#missing[@]} missing Debian packages: ${missing[*]}"
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -q
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+build() {
+  say "Configuring and building in $BUILD_DIR (Release, Ninja${CCACHE_DIR:+, ccache})"
+  export CCACHE_BASEDIR="$here"
+  cmake -S "$here" -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build "$BUILD_DIR" -j "$JOBS" "$@"
+}
+
+run_main_job() {
+  local out="${COLLIDE_OUT:-$here/shots}"
+  say "Firing a short simulated campaign (config/sim.toml) into $out"
+  "$BUILD_DIR/app/collide" campaign --rig "$here/config/sim.toml" --shots 6 --out "$out" --seed 1
+  say "Analysing the campaign"
+  "$BUILD_DIR/app/collide" analyze "$out"
+  "$BUILD_DIR/app/collide" shots "$out"
+  say "Done. Shot files (HDF5) and catalog.sqlite are in $out"
+}
+
+cmd="${1:-}"
+case "$cmd" in
+  run)
+    ensure_packages
+    build --target collide
+    run_main_job
+    ;;
+  test)
+    ensure_packages
+    build
+    say "Running the test suite"
+    ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
+    ;;
+  gui)
+    ensure_packages
+    build --target collide-gui
+    exec "$BUILD_DIR/app/collide-gui" --rig "$here/config/sim.toml"
+    ;;
+  bench)
+    ensure_packages
+    build
+    for b in "$BUILD_DIR"/bench/*_bench; do say "$(basename "$b")"; "$b"; done
+    ;;
+  build)
+    ensure_packages
+    build
+    ;;
+  *)
+    sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+    [ -z "$cmd" ] && exit 2
+    die "unknown command '$cmd'"
+    ;;
+esac

@@ -1,0 +1,67 @@
+#pragma once
+// Draws what the rig's camera sees: white, front-lit spheres with black dots on
+// a black background, with anti-aliased edges, a darker rim, optional motion
+// blur over the exposure, sensor noise, and the camera's bit depth.
+// Projection is orthographic (the camera looks along -z from far away).
+// Image coordinates: u to the right, v down, pixel (0,0)'s centre at (0,0).
+#include <Eigen/Dense>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "analysis/types.hpp"
+#include "vision/frame.hpp"
+
+namespace collide::vision {
+
+/// Dot centres on the unit sphere, in the sphere's body frame.
+struct DotPattern {
+  std::vector<Vec3> centres;      ///< unit vectors
+  double angular_radius_rad = 0;  ///< each dot is a spherical cap of this half-angle
+
+  /// Random, reproducible from `seed`: dots of diameter `dot_diameter_fraction`
+  /// of the sphere's diameter covering about `coverage` of the surface
+  /// (SPEC.md: 1/10 and 5 %, about 20 dots), kept apart so they do not touch.
+  static DotPattern random(std::uint64_t seed, double dot_diameter_fraction = 0.1,
+                           double coverage = 0.05);
+};
+
+/// One sphere as the camera sees it at the middle of the exposure.
+struct SphereView {
+  Eigen::Vector2d centre_px{0, 0};  ///< (u, v)
+  double radius_px = 0;
+  Quat orientation = Quat::Identity();  ///< body -> world (x right, y up, z towards camera)
+  Eigen::Vector2d velocity_px_s{0, 0};  ///< (du/dt, dv/dt), for motion blur
+  Vec3 spin_rad_s = Vec3::Zero();       ///< world frame, for motion blur
+  const DotPattern* dots = nullptr;     ///< nullptr: no dots
+};
+
+struct RenderSettings {
+  int width = 640;
+  int height = 480;
+  PixelFormat format = PixelFormat::Mono8;
+  double exposure_s = 0.0;      ///< 0: no motion blur
+  int blur_samples = 0;         ///< time samples over the exposure; 0 = choose from motion
+  double sphere_level = 0.85;   ///< brightness at the sphere's centre, fraction of full scale
+  double rim_level = 0.45;      ///< brightness at the limb, fraction of full scale (front light)
+  double dot_level = 0.05;      ///< brightness of a dot, fraction of full scale
+  double background_level = 0.02;
+  double noise_grey = 0.0;      ///< std dev of additive Gaussian noise, in grey levels of the format
+  std::uint64_t noise_seed = 1;
+};
+
+class Renderer {
+ public:
+  explicit Renderer(RenderSettings settings);
+  const RenderSettings& settings() const { return settings_; }
+  /// A frame of settings().width x height in cvType(settings().format).
+  /// `frame_index` varies the noise from frame to frame (reproducibly).
+  /// Thread-safe (const, no shared mutable state).
+  cv::Mat render(const std::vector<SphereView>& spheres, std::uint64_t frame_index) const;
+
+ private:
+  RenderSettings settings_;
+  std::vector<float> noise_table_;  // precomputed unit Gaussian samples
+};
+
+}  // namespace collide::vision
