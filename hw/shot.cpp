@@ -2,6 +2,8 @@
 
 namespace collide::hw {
 
-const char* toString(ShotStatus s) { return s == ShotStatus::Ok ? "ok" : "failed"; }
+const char* toString(ShotStatus s) {
+  return s == ShotStatus::Ok ? "ok" : "failed";
+}
 
 }  // namespace collide::hw

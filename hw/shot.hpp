@@ -17,15 +17,16 @@ namespace collide::hw {
 
 /// One sequencer step, timestamped on the host's CLOCK_MONOTONIC.
 struct StepStamp {
-  std::string name;  ///< e.g. "set_pressure", "settled", "arm", "fire", "trigger", "collected", "stop"
+  std::string
+      name;  ///< e.g. "set_pressure", "settled", "arm", "fire", "trigger", "collected", "stop"
   std::int64_t t_ns = 0;
   std::string detail;
 };
 
 struct LauncherRecord {
-  double wanted_speed_m_s = 0.0;  ///< asked for (NaN if pressure was set directly)
-  double commanded_kPa = 0.0;     ///< setpoint written to the regulator
-  double readback_kPa = 0.0;      ///< regulator read-back when the valve fired
+  double wanted_speed_m_s = 0.0;   ///< asked for (NaN if pressure was set directly)
+  double commanded_kPa = 0.0;      ///< setpoint written to the regulator
+  double readback_kPa = 0.0;       ///< regulator read-back when the valve fired
   std::int64_t valve_open_ns = 0;  ///< achieved valve opening, CLOCK_MONOTONIC
   std::int64_t pulse_us = 0;       ///< achieved pulse width
 };
@@ -55,7 +56,7 @@ struct SceneRecord {
 
 /// Ground truth of a simulated shot, one sample per frame.
 struct TruthRecord {
-  Material material;  ///< material used at the collision (e after any |v_n| law)
+  Material material;           ///< material used at the collision (e after any |v_n| law)
   double t_collision_s = 0.0;  ///< on the burst's clock: seconds after frame 0's mid-exposure
   std::vector<std::int64_t> frame_id;
   std::vector<double> t_s;  ///< per frame, same clock as t_collision_s

@@ -17,10 +17,14 @@ const char* toString(PixelFormat f) {
 bool parsePixelFormat(const std::string& s, PixelFormat& out) {
   std::string l = s;
   std::transform(l.begin(), l.end(), l.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (l == "mono8") out = PixelFormat::Mono8;
-  else if (l == "mono12") out = PixelFormat::Mono12;
-  else if (l == "mono16") out = PixelFormat::Mono16;
-  else return false;
+  if (l == "mono8")
+    out = PixelFormat::Mono8;
+  else if (l == "mono12")
+    out = PixelFormat::Mono12;
+  else if (l == "mono16")
+    out = PixelFormat::Mono16;
+  else
+    return false;
   return true;
 }
 

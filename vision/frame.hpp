@@ -12,9 +12,15 @@ namespace collide::vision {
 /// Bits of real data per pixel. Mono12 is stored in 16-bit words (values 0..4095).
 enum class PixelFormat { Mono8, Mono12, Mono16 };
 
-inline int bitDepth(PixelFormat f) { return f == PixelFormat::Mono8 ? 8 : f == PixelFormat::Mono12 ? 12 : 16; }
-inline int maxValue(PixelFormat f) { return (1 << bitDepth(f)) - 1; }
-inline int cvType(PixelFormat f) { return f == PixelFormat::Mono8 ? CV_8UC1 : CV_16UC1; }
+inline int bitDepth(PixelFormat f) {
+  return f == PixelFormat::Mono8 ? 8 : f == PixelFormat::Mono12 ? 12 : 16;
+}
+inline int maxValue(PixelFormat f) {
+  return (1 << bitDepth(f)) - 1;
+}
+inline int cvType(PixelFormat f) {
+  return f == PixelFormat::Mono8 ? CV_8UC1 : CV_16UC1;
+}
 const char* toString(PixelFormat f);
 /// "Mono8", "Mono12", "Mono16" (case-insensitive); false if unknown.
 bool parsePixelFormat(const std::string& s, PixelFormat& out);
@@ -47,8 +53,8 @@ struct BurstStats {
 
 struct Burst {
   PixelFormat format = PixelFormat::Mono8;
-  double fps = 1000.0;     ///< nominal frame rate, frames per second
-  double exposure_us = 0;  ///< exposure time, microseconds
+  double fps = 1000.0;        ///< nominal frame rate, frames per second
+  double exposure_us = 0;     ///< exposure time, microseconds
   std::vector<Frame> frames;  ///< ordered by id
   BurstStats stats;
   bool complete = true;  ///< false when the camera stopped before the burst was full

@@ -40,13 +40,13 @@ struct RenderSettings {
   int width = 640;
   int height = 480;
   PixelFormat format = PixelFormat::Mono8;
-  double exposure_s = 0.0;      ///< 0: no motion blur
-  int blur_samples = 0;         ///< time samples over the exposure; 0 = choose from motion
-  double sphere_level = 0.85;   ///< brightness at the sphere's centre, fraction of full scale
-  double rim_level = 0.45;      ///< brightness at the limb, fraction of full scale (front light)
-  double dot_level = 0.05;      ///< brightness of a dot, fraction of full scale
+  double exposure_s = 0.0;     ///< 0: no motion blur
+  int blur_samples = 0;        ///< time samples over the exposure; 0 = choose from motion
+  double sphere_level = 0.85;  ///< brightness at the sphere's centre, fraction of full scale
+  double rim_level = 0.45;     ///< brightness at the limb, fraction of full scale (front light)
+  double dot_level = 0.05;     ///< brightness of a dot, fraction of full scale
   double background_level = 0.02;
-  double noise_grey = 0.0;      ///< std dev of additive Gaussian noise, in grey levels of the format
+  double noise_grey = 0.0;  ///< std dev of additive Gaussian noise, in grey levels of the format
   std::uint64_t noise_seed = 1;
 };
 

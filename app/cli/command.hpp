@@ -44,5 +44,6 @@ inline constexpr int kExitBadInput = 2;
 
 #define COLLIDE_COMMAND_CAT2(a, b) a##b
 #define COLLIDE_COMMAND_CAT(a, b) COLLIDE_COMMAND_CAT2(a, b)
-#define COLLIDE_COMMAND(name, description, setup) \
-  static ::collide::cli::Registrar COLLIDE_COMMAND_CAT(collide_command_, __LINE__)(#name, description, setup)
+#define COLLIDE_COMMAND(name, description, setup)                                   \
+  static ::collide::cli::Registrar COLLIDE_COMMAND_CAT(collide_command_, __LINE__)( \
+      #name, description, setup)

@@ -9,14 +9,16 @@
 
 int main(int argc, char** argv) {
   using namespace collide::cli;
-  CLI::App app{"collide: fire, record and measure sphere collisions (Walton's model).\n"
-               "Every device has a simulated backend: try `collide campaign --rig config/sim.toml`."};
+  CLI::App app{
+      "collide: fire, record and measure sphere collisions (Walton's model).\n"
+      "Every device has a simulated backend: try `collide campaign --rig config/sim.toml`."};
   app.set_version_flag("--version", std::string("collide ") + collide::kVersion);
   app.require_subcommand(1);
   app.get_formatter()->column_width(30);
 
   auto& commands = registry();
-  std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  std::sort(commands.begin(), commands.end(),
+            [](const auto& a, const auto& b) { return a.name < b.name; });
   std::vector<std::function<int()>> runners(commands.size());
   std::vector<CLI::App*> subs;
   for (std::size_t i = 0; i < commands.size(); ++i) {
