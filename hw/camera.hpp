@@ -1,0 +1,118 @@
+#pragma once
+// Role: the high-speed camera (libcamera's Camera: one class plays the role,
+// backends plug in underneath). While running it streams frames into a
+// pre-trigger ring (BurstRecorder); a shot arms the ring, triggers it, and
+// takes the burst of pre- and post-trigger frames with its stream statistics.
+// Backends: CameraSim ("sim"), CameraReplay ("replay"); later CameraAravis,
+// CameraV4l2.
+//
+// Threads: lifecycle calls, arm/trigger/waitBurst/takeBurst from the rig's
+// control thread, one at a time; state() from any thread. Each backend owns
+// its acquisition thread, which only pushes frames into the armed recorder
+// (recorder()); it never calls back into the control side.
+// Errors: wrong lifecycle state, settings the device cannot do, and device
+// failures come back as Error values naming the device and what to do.
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "hw/burst_recorder.hpp"
+#include "hw/lifecycle.hpp"
+#include "vision/frame.hpp"
+
+namespace collide::hw {
+
+struct CameraInfo {
+  std::string backend;   ///< "sim", "replay", "aravis", "v4l2"
+  std::string device;    ///< device id / path / address, as in the profile
+  int sensor_width = 0;  ///< full sensor, pixels
+  int sensor_height = 0;
+  std::vector<vision::PixelFormat> formats;  ///< pixel formats it can deliver
+  double max_fps = 0.0;                      ///< frames per second at full sensor
+  double max_gain_db = 0.0;
+};
+
+struct CameraConfig {
+  int roi_x = 0;  ///< region of interest, sensor pixels from the top-left corner
+  int roi_y = 0;
+  int width = 0;  ///< region of interest size, pixels
+  int height = 0;
+  vision::PixelFormat format = vision::PixelFormat::Mono8;
+  double fps = 0.0;          ///< frames per second
+  double exposure_us = 0.0;  ///< exposure time, microseconds, at most one frame period
+  double gain_db = 0.0;      ///< analogue gain, dB
+
+  std::int64_t framePeriodNs() const { return static_cast<std::int64_t>(1e9 / fps + 0.5); }
+};
+
+class Camera {
+ public:
+  virtual ~Camera() = default;
+  Camera(const Camera&) = delete;
+  Camera& operator=(const Camera&) = delete;
+
+  /// Identity and capabilities; backend/device always, the rest once open.
+  virtual CameraInfo info() const = 0;
+  const std::string& label() const { return lifecycle_.device(); }
+  DeviceState state() const { return lifecycle_.state(); }
+
+  // Lifecycle (see lifecycle.hpp). configure() refuses a region outside the
+  // sensor, a format the camera cannot deliver, fps <= 0 or above max_fps,
+  // an exposure <= 0 or longer than a frame period, gain outside 0..max.
+  // start() starts streaming (frames are discarded until arm()); stop() ends
+  // the stream (an armed burst keeps what arrived; takeBurst() still works).
+  Status open();
+  Status configure(const CameraConfig& config);
+  Status start();
+  Status stop();
+  Status close();
+  const CameraConfig& config() const { return config_; }
+
+  /// Starts recording a burst of `pre_trigger_frames` (>= 0) frames before
+  /// the trigger and `post_trigger_frames` (>= 1) from it on. Running. Drops
+  /// any burst armed before.
+  Status arm(int pre_trigger_frames, int post_trigger_frames);
+  /// Frame 0 is the first frame whose exposure starts at or after `at_ns`
+  /// (CLOCK_MONOTONIC; may be in the future). Running and armed.
+  Status trigger(std::int64_t at_ns);
+  /// Blocks until the burst is complete or the stream ended (true), or until
+  /// `deadline_ns` (CLOCK_MONOTONIC) passes (false). Running or configured,
+  /// and armed.
+  Result<bool> waitBurst(std::int64_t deadline_ns);
+  /// The armed burst as it stands (complete or not; see Burst::complete and
+  /// note), with format, fps and exposure filled in; disarms. Running or
+  /// configured, and armed.
+  Result<vision::Burst> takeBurst();
+
+ protected:
+  explicit Camera(std::string label) : lifecycle_(std::move(label)) {}
+
+  virtual Status onOpen() = 0;
+  virtual Status onConfigure(const CameraConfig& config) = 0;
+  /// Start the acquisition thread.
+  virtual Status onStart() = 0;
+  /// Stop and join the acquisition thread.
+  virtual Status onStop() = 0;
+  virtual Status onClose() = 0;
+  /// A fresh recorder was armed (control thread). Default: nothing.
+  virtual void onArm() {}
+  /// The trigger instant was set (control thread). Default: nothing.
+  virtual void onTrigger(std::int64_t at_ns) {}
+
+  /// The armed recorder, or null: what the acquisition thread pushes into.
+  /// Any thread.
+  std::shared_ptr<BurstRecorder> recorder() const;
+
+ private:
+  Result<std::shared_ptr<BurstRecorder>> armed(const char* call) const;
+
+  Lifecycle lifecycle_;
+  CameraConfig config_;
+  mutable std::mutex recorder_mutex_;
+  std::shared_ptr<BurstRecorder> recorder_;
+};
+
+}  // namespace collide::hw
