@@ -1,0 +1,135 @@
+#pragma once
+// The rig profile (config/*.toml): which backend plays each device role and
+// with what settings, the tube geometry, the spheres, the launch calibration,
+// the burst, the sequencer's tolerances, the safety limits and the simulation
+// knobs. config/sim.toml documents every field and is compiled in as the
+// default. Parsing checks every value and reports the first problem as
+// "<file>:<line>: <section>.<field> = <value>: <what is wrong>".
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "analysis/types.hpp"
+#include "hw/camera.hpp"
+#include "hw/settings.hpp"
+
+namespace collide::hw {
+
+/// A device role as the profile names it.
+struct DeviceProfile {
+  std::string backend;  ///< "sim", "replay", "aravis", ...
+  std::string device;   ///< "device" key: id, address or path (default: the backend name)
+  /// The device's whole table, including the backend's own settings.
+  SettingsTable table;
+  /// Keys of `table` the profile itself reads (role settings, not the backend's).
+  std::vector<std::string> role_keys;
+
+  /// A reader over `table` with the role keys already marked read: a backend
+  /// reads its own keys and then calls finish() to refuse unknown ones.
+  /// The reader borrows `table`: keep this DeviceProfile alive while using it.
+  SettingsReader backendSettings() const;
+};
+
+struct LauncherProfile {
+  std::string name;           ///< e.g. "left"
+  int valve = 0;              ///< valve-bank output that fires this tube
+  int regulator_channel = 0;  ///< regulator output that feeds this tube
+  Vec3 exit_m = Vec3::Zero();     ///< where the sphere's centre leaves the muzzle, world frame
+  Vec3 direction = Vec3::UnitX();  ///< unit tube axis, out of the muzzle
+};
+
+struct GeometryProfile {
+  double pixel_size_m = 0.0;  ///< object-plane size of one pixel
+  double origin_u_px = 0.0;   ///< image pixel (u right, v down) of the world origin
+  double origin_v_px = 0.0;
+  std::optional<Vec3> meet_point_m;  ///< where the spheres should meet; none: image centre
+};
+
+struct SpheresProfile {
+  std::string material_name;  ///< e.g. "nylon-6/6"
+  Material material;          ///< Walton's e, mu, beta0 (simulation only)
+  std::array<double, 2> diameter_m{0.0, 0.0};
+  std::array<double, 2> mass_kg{0.0, 0.0};
+};
+
+struct CalibrationProfile {
+  /// v(p) = c0 + c1 x + c2 x^2 + c3 x^3, x = p / 100, v in m/s, p gauge kPa.
+  std::array<double, 4> coefficients{0.143, 6.6, -5.0, 3.38};
+  double min_kPa = 0.0;  ///< working range (v(p) increases on it)
+  double max_kPa = 0.0;
+  double exit_delay_s = 0.0;  ///< valve opening to the sphere leaving the tube
+};
+
+struct BurstProfile {
+  int pre_trigger_frames = 0;
+  int post_trigger_frames = 0;
+};
+
+struct SequencerProfile {
+  double settle_tolerance_kPa = 0.5;
+  double settle_hold_s = 0.005;
+  double settle_timeout_s = 2.0;
+  double poll_interval_s = 0.001;
+  std::int64_t pulse_us = 15000;
+  double collect_timeout_s = 1.0;
+  int max_dropped_frames = 0;
+};
+
+struct SafetyProfile {
+  double max_pressure_kPa = 0.0;
+  std::int64_t max_valve_pulse_us = 0;
+  bool vent_on_failure = true;
+};
+
+enum class RestitutionLaw { Constant, Power, Viscoelastic };
+
+struct SimulationProfile {
+  std::uint64_t seed = 1;
+  double speed_scatter = 0.0;          ///< relative std dev of the exit speed
+  double direction_scatter_rad = 0.0;  ///< std dev of the exit direction, per axis
+  std::array<double, 2> spin_at_exit_rad_s{0.0, 0.0};  ///< magnitude range
+  RestitutionLaw restitution = RestitutionLaw::Constant;
+  double restitution_ref_speed_m_s = 1.0;
+  double restitution_exponent = 0.0;
+};
+
+struct RigProfile {
+  std::string name;    ///< rig name
+  std::string source;  ///< file name the profile came from (for messages)
+  std::string text;    ///< the TOML text exactly as read
+
+  DeviceProfile regulator;
+  DeviceProfile valves;
+  DeviceProfile camera;
+  CameraConfig camera_config;  ///< ROI, format, fps, exposure, gain from [camera]
+  BurstProfile burst;
+  GeometryProfile geometry;
+  std::array<LauncherProfile, 2> launchers;
+  SpheresProfile spheres;
+  CalibrationProfile calibration;
+  SequencerProfile sequencer;
+  SafetyProfile safety;
+  SimulationProfile simulation;
+};
+
+/// Parses profile `text`; `source_name` names it in messages (a file name).
+/// Errors: TOML syntax, a missing or unknown section or field, a value of the
+/// wrong type or out of range, inconsistent values (e.g. a pulse above the
+/// safety limit) — each with file, line and field.
+Result<RigProfile> parseRigProfile(std::string_view text, const std::string& source_name);
+
+/// Reads and parses the file at `path`. Errors as parseRigProfile, plus an
+/// unreadable file.
+Result<RigProfile> loadRigProfile(const std::filesystem::path& path);
+
+/// config/sim.toml as compiled into the library.
+std::string_view defaultRigProfileText();
+/// parseRigProfile(defaultRigProfileText(), "config/sim.toml (built in)").
+Result<RigProfile> defaultRigProfile();
+
+}  // namespace collide::hw
