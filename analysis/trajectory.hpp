@@ -97,8 +97,10 @@ enum class CollisionSide {
 };
 
 struct CollisionInstant {
-  double t_s = 0.0;      ///< contact instant (s, same clock as the fits)
-  double sigma_s = 0.0;  ///< standard uncertainty propagated from both fits' covariances
+  double t_s = 0.0;  ///< contact instant (s, same clock as the fits)
+  /// Standard uncertainty propagated from both fits' covariances; NaN when a
+  /// fit's noise scale is unknown (relative weights, no residual degrees of freedom).
+  double sigma_s = 0.0;
 };
 
 /// Instant at which the fitted centres of A and B are contact_distance_m
