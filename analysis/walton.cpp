@@ -1,18 +1,15 @@
 #include "analysis/walton.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <string>
+
+#include "analysis/format.hpp"
 
 namespace collide {
 namespace {
 
-std::string num(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
+using detail::formatNumber;
 
 std::string field(std::string_view name, std::string_view member) {
   return std::string(name) + "." + std::string(member);
@@ -109,7 +106,7 @@ Status checkApproaching(const ContactKinematics& k, std::string_view where) {
   if (!(k.v_n_m_s < 0))
     return fail(std::string(where) +
                 ".velocity_m_s: the bodies are not approaching at contact (v_n = " +
-                num(k.v_n_m_s) + " m/s, must be < 0); check the velocity and spin signs");
+                formatNumber(k.v_n_m_s) + " m/s, must be < 0); check the velocity and spin signs");
   return Ok{};
 }
 
@@ -156,9 +153,10 @@ Status checkSpheres(const std::array<Sphere, 2>& s) {
 
 Status validateSphere(const Sphere& s, std::string_view name) {
   if (!std::isfinite(s.mass_kg) || !(s.mass_kg > 0))
-    return fail(field(name, "mass_kg") + ": must be > 0 (got " + num(s.mass_kg) + ")");
+    return fail(field(name, "mass_kg") + ": must be > 0 (got " + formatNumber(s.mass_kg) + ")");
   if (!std::isfinite(s.diameter_m) || !(s.diameter_m > 0))
-    return fail(field(name, "diameter_m") + ": must be > 0 (got " + num(s.diameter_m) + ")");
+    return fail(field(name, "diameter_m") + ": must be > 0 (got " + formatNumber(s.diameter_m) +
+                ")");
   for (auto [v, member] :
        {std::pair{&s.position_m, "position_m"}, std::pair{&s.velocity_m_s, "velocity_m_s"},
         std::pair{&s.spin_rad_s, "spin_rad_s"}}) {
@@ -169,11 +167,12 @@ Status validateSphere(const Sphere& s, std::string_view name) {
 }
 
 Status validateMaterial(const Material& m) {
-  if (!(m.e >= 0 && m.e <= 1)) return fail("material.e: must be in [0, 1] (got " + num(m.e) + ")");
+  if (!(m.e >= 0 && m.e <= 1))
+    return fail("material.e: must be in [0, 1] (got " + formatNumber(m.e) + ")");
   if (!(m.mu >= 0) || !std::isfinite(m.mu))
-    return fail("material.mu: must be a finite number >= 0 (got " + num(m.mu) + ")");
+    return fail("material.mu: must be a finite number >= 0 (got " + formatNumber(m.mu) + ")");
   if (!(m.beta0 >= -1 && m.beta0 <= 1))
-    return fail("material.beta0: must be in [-1, 1] (got " + num(m.beta0) + ")");
+    return fail("material.beta0: must be in [-1, 1] (got " + formatNumber(m.beta0) + ")");
   return Ok{};
 }
 
@@ -188,8 +187,8 @@ Result<Collision> collideSpheres(const Sphere& s1, const Sphere& s2, const Mater
   const double distance_m = (s1.position_m - s2.position_m).norm();
   const double contact_m = 0.5 * (s1.diameter_m + s2.diameter_m);
   if (std::abs(distance_m - contact_m) > 0.01 * contact_m)
-    return fail("spheres[].position_m: centres are " + num(distance_m) +
-                " m apart but touch at (sigma1 + sigma2)/2 = " + num(contact_m) +
+    return fail("spheres[].position_m: centres are " + formatNumber(distance_m) +
+                " m apart but touch at (sigma1 + sigma2)/2 = " + formatNumber(contact_m) +
                 " m; place them in contact (within 1 %)");
   const Vec3 n = (s1.position_m - s2.position_m) / distance_m;
   Body b1 = bodyOf(s1), b2 = bodyOf(s2);
@@ -211,8 +210,8 @@ Result<WallCollision> collideWithWall(const Sphere& s, const Wall& wall, const M
   const double height_m = (s.position_m - wall.point_m).dot(n);
   if (height_m < 0) n = -n;  // n points from the wall (body 2) to the sphere (body 1)
   if (std::abs(std::abs(height_m) - s.radius_m()) > 0.01 * s.radius_m())
-    return fail("spheres[0].position_m: centre is " + num(std::abs(height_m)) +
-                " m from the wall but touches it at diameter_m/2 = " + num(s.radius_m()) +
+    return fail("spheres[0].position_m: centre is " + formatNumber(std::abs(height_m)) +
+                " m from the wall but touches it at diameter_m/2 = " + formatNumber(s.radius_m()) +
                 " m; place it in contact (within 1 %)");
   Body b1 = bodyOf(s), wall_body;  // wall: zero inverse mass and inertia, at rest
   if (auto st = checkApproaching(kinematicsAlong(n, b1, wall_body), "spheres[0]"); !st)
