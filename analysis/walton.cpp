@@ -149,6 +149,42 @@ Status checkSpheres(const std::array<Sphere, 2>& s) {
   return Ok{};
 }
 
+Vec3 normalOf(const Sphere& s1, const Sphere& s2) {
+  return (s1.position_m - s2.position_m).normalized();
+}
+
+// Both spheres before and after the impact, as bodies, along the measured n.
+struct MeasuredShot {
+  Vec3 n;
+  std::array<Body, 2> before, after;
+
+  // The impulse on sphere 1 from both spheres' velocity changes:
+  // m_12 [(v1' - v1) - (v2' - v2)] equals m1 (v1' - v1) = -m2 (v2' - v2) when
+  // momentum is conserved, and weighs the two by mass when noise breaks that.
+  Vec3 impulse_N_s() const {
+    const Vec3 dv_rel = (after[0].velocity_m_s - before[0].velocity_m_s) -
+                        (after[1].velocity_m_s - before[1].velocity_m_s);
+    return dv_rel / (before[0].inv_mass_kg + before[1].inv_mass_kg);
+  }
+};
+
+Result<MeasuredShot> readShot(const std::array<Sphere, 2>& before,
+                              const std::array<Sphere, 2>& after) {
+  if (auto st = checkSpheres(before); !st) return st.error();
+  MeasuredShot shot;
+  shot.n = normalOf(before[0], before[1]);
+  for (int i = 0; i < 2; ++i) {
+    const std::string name = "after.spheres[" + std::to_string(i) + "]";
+    if (auto st = checkFinite(after[i].velocity_m_s, name, "velocity_m_s"); !st) return st.error();
+    if (auto st = checkFinite(after[i].spin_rad_s, name, "spin_rad_s"); !st) return st.error();
+    shot.before[i] = bodyOf(before[i]);
+    shot.after[i] = shot.before[i];
+    shot.after[i].velocity_m_s = after[i].velocity_m_s;
+    shot.after[i].spin_rad_s = after[i].spin_rad_s;
+  }
+  return shot;
+}
+
 }  // namespace
 
 Status validateSphere(const Sphere& s, std::string_view name) {
@@ -177,8 +213,7 @@ Status validateMaterial(const Material& m) {
 }
 
 ContactKinematics contactKinematics(const Sphere& s1, const Sphere& s2) {
-  const Vec3 n = (s1.position_m - s2.position_m).normalized();
-  return kinematicsAlong(n, bodyOf(s1), bodyOf(s2));
+  return kinematicsAlong(normalOf(s1, s2), bodyOf(s1), bodyOf(s2));
 }
 
 Result<Collision> collideSpheres(const Sphere& s1, const Sphere& s2, const Material& material) {
@@ -190,7 +225,7 @@ Result<Collision> collideSpheres(const Sphere& s1, const Sphere& s2, const Mater
     return fail("spheres[].position_m: centres are " + formatNumber(distance_m) +
                 " m apart but touch at (sigma1 + sigma2)/2 = " + formatNumber(contact_m) +
                 " m; place them in contact (within 1 %)");
-  const Vec3 n = (s1.position_m - s2.position_m) / distance_m;
+  const Vec3 n = normalOf(s1, s2);
   Body b1 = bodyOf(s1), b2 = bodyOf(s2);
   if (auto st = checkApproaching(kinematicsAlong(n, b1, b2), "spheres[]"); !st) return st.error();
   Collision c;
@@ -225,30 +260,18 @@ Result<WallCollision> collideWithWall(const Sphere& s, const Wall& wall, const M
 
 Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
                                            const std::array<Sphere, 2>& after) {
-  if (auto st = checkSpheres(before); !st) return st.error();
-  for (int i = 0; i < 2; ++i) {
-    const std::string name = "after.spheres[" + std::to_string(i) + "]";
-    if (auto st = checkFinite(after[i].velocity_m_s, name, "velocity_m_s"); !st) return st.error();
-    if (auto st = checkFinite(after[i].spin_rad_s, name, "spin_rad_s"); !st) return st.error();
-  }
-  const Vec3 n = (before[0].position_m - before[1].position_m).normalized();
-  const Body b1 = bodyOf(before[0]), b2 = bodyOf(before[1]);
-  Body a1 = b1, a2 = b2;
-  a1.velocity_m_s = after[0].velocity_m_s;
-  a1.spin_rad_s = after[0].spin_rad_s;
-  a2.velocity_m_s = after[1].velocity_m_s;
-  a2.spin_rad_s = after[1].spin_rad_s;
-
+  auto shot = readShot(before, after);
+  if (!shot) return shot.error();
+  const Vec3& n = shot->n;
   WaltonMeasurement m;
-  m.before = kinematicsAlong(n, b1, b2);
+  m.before = kinematicsAlong(n, shot->before[0], shot->before[1]);
   if (auto st = checkApproaching(m.before, "spheres[]"); !st) return st.error();
-  m.after = kinematicsAlong(n, a1, a2);
-  const PairResponse pair(b1, b2);
+  m.after = kinematicsAlong(n, shot->after[0], shot->after[1]);
+  const PairResponse pair(shot->before[0], shot->before[1]);
   m.kappa = pair.kappa;
   m.e = -m.after.v_n_m_s / m.before.v_n_m_s;
   m.beta = betaFrom(m.before, m.after.v_c_m_s);
-  m.impulse_N_s =
-      ((a1.velocity_m_s - b1.velocity_m_s) - (a2.velocity_m_s - b2.velocity_m_s)) / pair.inv_m12;
+  m.impulse_N_s = shot->impulse_N_s();
   m.beta_from_impulse =
       betaFrom(m.before, m.before.v_c_m_s + pair.contactVelocityChange(n, m.impulse_N_s));
   m.f = impulseRatio(n, m.impulse_N_s);
@@ -257,22 +280,16 @@ Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
 
 Result<OutOfPlaneVelocity> outOfPlaneVelocity(const std::array<Sphere, 2>& before,
                                               const std::array<Sphere, 2>& after) {
-  if (auto st = checkSpheres(before); !st) return st.error();
-  for (int i = 0; i < 2; ++i) {
-    const std::string name = "after.spheres[" + std::to_string(i) + "]";
-    if (auto st = checkFinite(after[i].velocity_m_s, name, "velocity_m_s"); !st) return st.error();
-    if (auto st = checkFinite(after[i].spin_rad_s, name, "spin_rad_s"); !st) return st.error();
-  }
-  const Vec3 n = (before[0].position_m - before[1].position_m).normalized();
+  auto shot = readShot(before, after);
+  if (!shot) return shot.error();
+  const Vec3& n = shot->n;
   if (std::hypot(n.x(), n.y()) <= 0.1)
     return fail(
         "spheres[].position_m: the line of centres is within 6 degrees of the camera axis; "
         "dP_z cannot be had from the spin changes");
-  const double inv_m12 = 1.0 / before[0].mass_kg + 1.0 / before[1].mass_kg;
   // Only the in-plane impulse is measured; it enters through n_z alone.
-  const Vec3 dv_rel = (after[0].velocity_m_s - before[0].velocity_m_s) -
-                      (after[1].velocity_m_s - before[1].velocity_m_s);
-  const double dP_x = dv_rel.x() / inv_m12, dP_y = dv_rel.y() / inv_m12;
+  const Vec3 dP = shot->impulse_N_s();
+  const double dP_x = dP.x(), dP_y = dP.y();
   // Rows x and y of -n x dP = (2 I_i / sigma_i) d omega_i, solved for dP_z:
   //   x: dP_z = (n_z dP_y - c_i d omega_ix) / n_y
   //   y: dP_z = (n_z dP_x + c_i d omega_iy) / n_x
@@ -281,7 +298,7 @@ Result<OutOfPlaneVelocity> outOfPlaneVelocity(const std::array<Sphere, 2>& befor
   double sum = 0.0;
   int count = 0;
   for (int i = 0; i < 2; ++i) {
-    const double c = 2.0 * before[i].inertia_kg_m2() / before[i].diameter_m;
+    const double c = 2.0 * before[i].inertia_kg_m2() / before[i].diameter_m;  // 2 I_i / sigma_i
     const Vec3 d_omega = after[i].spin_rad_s - before[i].spin_rad_s;
     if (use_x) {
       sum += (n.z() * dP_y - c * d_omega.x()) / n.y();
