@@ -40,7 +40,7 @@ class BackendContext {
 
   /// The one simulated world all simulated devices of the rig share (pressures
   /// and valve firings feed what the simulated camera sees); made on first use.
-  std::shared_ptr<SimWorld> simWorld();
+  Result<std::shared_ptr<SimWorld>> simWorld();
 
  private:
   std::shared_ptr<SimWorld>& world_;

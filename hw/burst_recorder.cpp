@@ -93,6 +93,11 @@ bool BurstRecorder::triggered() const {
   return trigger_ns_.has_value();
 }
 
+std::optional<std::int64_t> BurstRecorder::triggerNs() const {
+  std::lock_guard lock(mutex_);
+  return trigger_ns_;
+}
+
 bool BurstRecorder::waitUntil(std::int64_t deadline_ns) {
   std::unique_lock lock(mutex_);
   // steady_clock is CLOCK_MONOTONIC on Linux (libstdc++), the clock of deadline_ns.

@@ -56,6 +56,8 @@ class BurstRecorder {
   /// past (frames still in the ring are renumbered). A second call is ignored.
   void trigger(std::int64_t at_ns);
   bool triggered() const;
+  /// The trigger instant, once set. Any thread.
+  std::optional<std::int64_t> triggerNs() const;
   /// Blocks until the burst is complete or the stream ended, or until
   /// `deadline_ns` (CLOCK_MONOTONIC) has passed. True if complete or ended.
   bool waitUntil(std::int64_t deadline_ns);

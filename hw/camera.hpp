@@ -21,6 +21,7 @@
 #include "analysis/result.hpp"
 #include "hw/burst_recorder.hpp"
 #include "hw/lifecycle.hpp"
+#include "hw/truth_source.hpp"
 #include "vision/frame.hpp"
 
 namespace collide::hw {
@@ -58,6 +59,9 @@ class Camera {
   virtual CameraInfo info() const = 0;
   const std::string& label() const { return lifecycle_.device(); }
   DeviceState state() const { return lifecycle_.state(); }
+  /// What the camera was shown, if it knows (a simulated camera); null for a
+  /// real camera. Any thread.
+  virtual std::shared_ptr<const TruthSource> groundTruth() const { return nullptr; }
 
   // Lifecycle (see lifecycle.hpp). configure() refuses a region outside the
   // sensor, a format the camera cannot deliver, fps <= 0 or above max_fps,

@@ -3,11 +3,12 @@
 // else reads those.
 #include "hw/rig_profile.hpp"
 
+#include <toml++/toml.h>
+
 #include <algorithm>
 #include <fstream>
 #include <map>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "hw/backend_registry.hpp"
 #include "hw/default_profile.hpp"
@@ -18,9 +19,9 @@ namespace collide::hw {
 
 namespace {
 
-const std::vector<std::string> kSections = {"regulator", "valves",      "camera",    "burst",
-                                            "geometry",  "launcher",    "spheres",   "calibration",
-                                            "sequencer", "safety",      "simulation"};
+const std::vector<std::string> kSections = {"regulator", "valves",   "camera",    "burst",
+                                            "geometry",  "launcher", "spheres",   "calibration",
+                                            "sequencer", "safety",   "simulation"};
 
 std::string at(const std::string& source, const toml::source_region& where) {
   return source + ":" + std::to_string(where.begin.line);
@@ -120,8 +121,10 @@ Result<Document> toDocument(std::string_view text, const std::string& source) {
                       ": launcher: write one [[launcher]] table per tube (two of them)");
         int n = 0;
         for (const toml::node& t : *node.as_array()) {
-          SettingsTable table{"launcher[" + std::to_string(++n) + "]", source,
-                              static_cast<int>(t.source().begin.line), {}};
+          SettingsTable table{"launcher[" + std::to_string(++n) + "]",
+                              source,
+                              static_cast<int>(t.source().begin.line),
+                              {}};
           COLLIDE_RETURN_IF_ERROR(flatten(*t.as_table(), "", table));
           doc.launchers.push_back(std::move(table));
         }
@@ -203,6 +206,7 @@ Status parseRegulator(const SettingsTable& t, RigProfile& p, double& min_kPa, do
   keepRoleKeys(p.regulator, {"min_kpa", "max_kpa"});
   COLLIDE_ASSIGN_OR_RETURN(min_kPa, r.number("min_kpa", 0.0, {.ge = 0.0}));
   COLLIDE_ASSIGN_OR_RETURN(max_kPa, r.number("max_kpa", std::nullopt, {.gt = min_kPa}));
+  p.regulator_config = {min_kPa, std::min(max_kPa, p.safety.max_pressure_kPa)};
   return checkBackendKnown<PressureRegulator>(p.regulator);
 }
 
@@ -210,6 +214,7 @@ Status parseValves(const SettingsTable& t, RigProfile& p) {
   SettingsReader r(t);
   COLLIDE_ASSIGN_OR_RETURN(p.valves, deviceHead(t, r));
   keepRoleKeys(p.valves, {});
+  p.valve_config.max_pulse_us = p.safety.max_valve_pulse_us;
   return checkBackendKnown<ValveBank>(p.valves);
 }
 
@@ -242,8 +247,9 @@ Status parseGeometry(const SettingsTable& t, RigProfile& p) {
 
 Status parseLaunchers(const Document& doc, RigProfile& p) {
   if (doc.launchers.size() != 2)
-    return fail(doc.top.source + ": the profile needs exactly two [[launcher]] tables, one per "
-                                 "tube (found " +
+    return fail(doc.top.source +
+                ": the profile needs exactly two [[launcher]] tables, one per "
+                "tube (found " +
                 std::to_string(doc.launchers.size()) + ")");
   for (std::size_t i = 0; i < 2; ++i) {
     SettingsReader r(doc.launchers[i]);
@@ -284,11 +290,6 @@ Status parseSpheres(const SettingsTable& t, RigProfile& p) {
   return r.finish("[spheres]");
 }
 
-double cubic(const std::array<double, 4>& c, double p_kPa) {
-  const double x = p_kPa / 100.0;
-  return c[0] + x * (c[1] + x * (c[2] + x * c[3]));
-}
-
 Status parseCalibration(const SettingsTable& t, RigProfile& p) {
   SettingsReader r(t);
   CalibrationProfile& c = p.calibration;
@@ -300,20 +301,11 @@ Status parseCalibration(const SettingsTable& t, RigProfile& p) {
                            r.number("exit_delay_ms", std::nullopt, {.ge = 0.0, .le = 1000.0}));
   c.exit_delay_s = delay_ms * 1e-3;
   // Speeds become pressures by inverting v(p): it must rise over the range.
-  constexpr int kSamples = 400;
-  double previous = cubic(c.coefficients, c.min_kPa);
-  if (!(previous > 0.0))
-    return r.invalid("coefficients", "v(min_kpa) = " + num(previous) +
+  Result<LaunchCalibration> curve = c.curve();
+  if (!curve) return r.invalid("coefficients", curve.error().message);
+  if (!(curve->minSpeed_m_s() > 0.0))
+    return r.invalid("coefficients", "v(min_kpa) = " + num(curve->minSpeed_m_s()) +
                                          " m/s: the exit speed must be > 0 over the range");
-  for (int i = 1; i <= kSamples; ++i) {
-    const double p_kPa = c.min_kPa + (c.max_kPa - c.min_kPa) * i / kSamples;
-    const double v = cubic(c.coefficients, p_kPa);
-    if (!(v > previous))
-      return r.invalid("coefficients", "v(p) must rise over min_kpa..max_kpa but stops rising "
-                                       "near " +
-                                           num(p_kPa) + " kPa");
-    previous = v;
-  }
   return r.finish("[calibration]");
 }
 
@@ -359,13 +351,13 @@ Status parseSimulation(const SettingsTable& t, RigProfile& p) {
   COLLIDE_ASSIGN_OR_RETURN(s.speed_scatter, r.number("speed_scatter", 0.0, {.ge = 0.0, .lt = 1.0}));
   COLLIDE_ASSIGN_OR_RETURN(s.direction_scatter_rad,
                            r.number("direction_scatter_rad", 0.0, {.ge = 0.0, .le = 0.5}));
-  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> spin,
-                           r.numbers("spin_at_exit_rad_s", 2, std::vector<double>{0.0, 0.0},
-                                     {.ge = 0.0}));
+  COLLIDE_ASSIGN_OR_RETURN(
+      const std::vector<double> spin,
+      r.numbers("spin_at_exit_rad_s", 2, std::vector<double>{0.0, 0.0}, {.ge = 0.0}));
   if (spin[0] > spin[1]) return r.invalid("spin_at_exit_rad_s", "must be [smallest, largest]");
   s.spin_at_exit_rad_s = {spin[0], spin[1]};
-  COLLIDE_ASSIGN_OR_RETURN(const std::string law,
-                           r.text("restitution", "constant", {"constant", "power", "viscoelastic"}));
+  COLLIDE_ASSIGN_OR_RETURN(const std::string law, r.text("restitution", "constant",
+                                                         {"constant", "power", "viscoelastic"}));
   s.restitution = law == "power"          ? RestitutionLaw::Power
                   : law == "viscoelastic" ? RestitutionLaw::Viscoelastic
                                           : RestitutionLaw::Constant;
@@ -416,8 +408,8 @@ Result<RigProfile> parseRigProfile(std::string_view text, const std::string& sou
   COLLIDE_RETURN_IF_ERROR(parseCalibration(*calibration, p));
   if (p.calibration.max_kPa > p.safety.max_pressure_kPa) {
     SettingsReader r(*calibration);
-    return r.invalid("max_kpa", "exceeds safety.max_pressure_kpa = " +
-                                    num(p.safety.max_pressure_kPa));
+    return r.invalid("max_kpa",
+                     "exceeds safety.max_pressure_kpa = " + num(p.safety.max_pressure_kPa));
   }
   if (p.calibration.max_kPa > regulator_max || p.calibration.min_kPa < regulator_min) {
     SettingsReader r(*calibration);
@@ -430,8 +422,7 @@ Result<RigProfile> parseRigProfile(std::string_view text, const std::string& sou
   // [simulation] is optional: a real rig has no use for it.
   const auto sim = doc.sections.find("simulation");
   const SettingsTable empty_sim{"simulation", source_name, 0, {}};
-  COLLIDE_RETURN_IF_ERROR(
-      parseSimulation(sim == doc.sections.end() ? empty_sim : sim->second, p));
+  COLLIDE_RETURN_IF_ERROR(parseSimulation(sim == doc.sections.end() ? empty_sim : sim->second, p));
   return p;
 }
 

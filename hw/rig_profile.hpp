@@ -13,10 +13,13 @@
 #include <string_view>
 #include <vector>
 
+#include "analysis/calibration.hpp"
 #include "analysis/result.hpp"
 #include "analysis/types.hpp"
 #include "hw/camera.hpp"
+#include "hw/pressure_regulator.hpp"
 #include "hw/settings.hpp"
+#include "hw/valve_bank.hpp"
 
 namespace collide::hw {
 
@@ -36,10 +39,10 @@ struct DeviceProfile {
 };
 
 struct LauncherProfile {
-  std::string name;           ///< e.g. "left"
-  int valve = 0;              ///< valve-bank output that fires this tube
-  int regulator_channel = 0;  ///< regulator output that feeds this tube
-  Vec3 exit_m = Vec3::Zero();     ///< where the sphere's centre leaves the muzzle, world frame
+  std::string name;                ///< e.g. "left"
+  int valve = 0;                   ///< valve-bank output that fires this tube
+  int regulator_channel = 0;       ///< regulator output that feeds this tube
+  Vec3 exit_m = Vec3::Zero();      ///< where the sphere's centre leaves the muzzle, world frame
   Vec3 direction = Vec3::UnitX();  ///< unit tube axis, out of the muzzle
 };
 
@@ -63,6 +66,11 @@ struct CalibrationProfile {
   double min_kPa = 0.0;  ///< working range (v(p) increases on it)
   double max_kPa = 0.0;
   double exit_delay_s = 0.0;  ///< valve opening to the sphere leaving the tube
+
+  /// The curve on the working range (always valid in a parsed profile).
+  Result<LaunchCalibration> curve() const {
+    return LaunchCalibration::create(coefficients, min_kPa, max_kPa);
+  }
 };
 
 struct BurstProfile {
@@ -90,8 +98,8 @@ enum class RestitutionLaw { Constant, Power, Viscoelastic };
 
 struct SimulationProfile {
   std::uint64_t seed = 1;
-  double speed_scatter = 0.0;          ///< relative std dev of the exit speed
-  double direction_scatter_rad = 0.0;  ///< std dev of the exit direction, per axis
+  double speed_scatter = 0.0;                          ///< relative std dev of the exit speed
+  double direction_scatter_rad = 0.0;                  ///< std dev of the exit direction, per axis
   std::array<double, 2> spin_at_exit_rad_s{0.0, 0.0};  ///< magnitude range
   RestitutionLaw restitution = RestitutionLaw::Constant;
   double restitution_ref_speed_m_s = 1.0;
@@ -106,6 +114,10 @@ struct RigProfile {
   DeviceProfile regulator;
   DeviceProfile valves;
   DeviceProfile camera;
+  /// [regulator] min_kpa..max_kpa, the maximum capped at safety.max_pressure_kpa.
+  RegulatorConfig regulator_config;
+  /// The pulse limit from safety.max_valve_pulse_us.
+  ValveConfig valve_config;
   CameraConfig camera_config;  ///< ROI, format, fps, exposure, gain from [camera]
   BurstProfile burst;
   GeometryProfile geometry;

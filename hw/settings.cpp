@@ -113,8 +113,7 @@ Result<double> SettingsReader::number(const std::string& key, std::optional<doub
 }
 
 Result<std::int64_t> SettingsReader::integer(const std::string& key,
-                                             std::optional<std::int64_t> fallback,
-                                             Bounds bounds) {
+                                             std::optional<std::int64_t> fallback, Bounds bounds) {
   const SettingValue* v = find(key);
   if (!v) {
     if (fallback) return *fallback;
@@ -176,8 +175,8 @@ Result<std::vector<double>> SettingsReader::numbers(const std::string& key, std:
     return missing(key);
   }
   const auto* arr = std::get_if<std::vector<double>>(&v->value);
-  const std::string want =
-      count ? "an array of " + std::to_string(count) + " numbers" : std::string("an array of numbers");
+  const std::string want = count ? "an array of " + std::to_string(count) + " numbers"
+                                 : std::string("an array of numbers");
   if (!arr) return invalid(key, "must be " + want);
   if (count && arr->size() != count) return invalid(key, "must be " + want);
   for (double d : *arr)

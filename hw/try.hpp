@@ -14,8 +14,7 @@
   lhs = std::move(tmp).value()
 
 /// Return the Error of a failed Status/Result from the enclosing function.
-#define COLLIDE_RETURN_IF_ERROR(expr)    \
-  do {                                   \
-    if (auto collide_s_ = (expr); !collide_s_) \
-      return collide_s_.error();         \
+#define COLLIDE_RETURN_IF_ERROR(expr)                                     \
+  do {                                                                    \
+    if (auto collide_s_ = (expr); !collide_s_) return collide_s_.error(); \
   } while (0)

@@ -1,0 +1,256 @@
+#include "hw/camera_sim.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "hw/backend_registry.hpp"
+#include "hw/clock.hpp"
+#include "hw/try.hpp"
+
+namespace collide::hw {
+
+Result<CameraSimSettings> CameraSimSettings::read(SettingsReader& r) {
+  CameraSimSettings s;
+  COLLIDE_ASSIGN_OR_RETURN(
+      const std::vector<double> sensor,
+      r.numbers("sensor_px", 2, std::vector<double>{640, 480}, {.ge = 1, .le = 65536}));
+  if (std::floor(sensor[0]) != sensor[0] || std::floor(sensor[1]) != sensor[1])
+    return r.invalid("sensor_px", "must be whole numbers of pixels");
+  s.sensor_width = static_cast<int>(sensor[0]);
+  s.sensor_height = static_cast<int>(sensor[1]);
+  COLLIDE_ASSIGN_OR_RETURN(s.realtime, r.boolean("realtime", false));
+  COLLIDE_ASSIGN_OR_RETURN(s.noise_grey, r.number("noise_grey", 0.0, {.ge = 0.0}));
+  COLLIDE_ASSIGN_OR_RETURN(s.drop_every, r.integer("drop_every", 0, {.ge = 0, .le = 1e9}));
+  COLLIDE_ASSIGN_OR_RETURN(s.stop_after_frames,
+                           r.integer("stop_after_frames", -1, {.ge = -1, .le = 1e9}));
+  COLLIDE_RETURN_IF_ERROR(r.finish("the sim camera backend"));
+  return s;
+}
+
+CameraSim::CameraSim(std::shared_ptr<SimWorld> world, CameraSimSettings settings,
+                     std::string device)
+    : Camera("camera \"" + device + "\""),
+      world_(std::move(world)),
+      settings_(settings),
+      device_(std::move(device)) {
+  // A launch makes the rest of the burst known: wake the thread to render it.
+  world_->onLaunch([weak = std::weak_ptr<Signal>(signal_)] {
+    if (auto s = weak.lock()) {
+      std::lock_guard lock(s->mutex);
+      ++s->generation;
+      s->cv.notify_all();
+    }
+  });
+}
+
+CameraSim::~CameraSim() {
+  if (thread_.joinable()) {
+    {
+      std::lock_guard lock(signal_->mutex);
+      signal_->stop = true;
+      signal_->cv.notify_all();
+    }
+    thread_.join();
+  }
+}
+
+CameraInfo CameraSim::info() const {
+  return {"sim",
+          device_,
+          settings_.sensor_width,
+          settings_.sensor_height,
+          {vision::PixelFormat::Mono8, vision::PixelFormat::Mono12, vision::PixelFormat::Mono16},
+          settings_.max_fps,
+          settings_.max_gain_db};
+}
+
+Status CameraSim::onConfigure(const CameraConfig& config) {
+  vision::RenderSettings rs;
+  rs.width = config.width;
+  rs.height = config.height;
+  rs.format = config.format;
+  rs.exposure_s = config.exposure_us * 1e-6;
+  // Gain scales the signal and the noise alike (analogue gain before the ADC).
+  const double gain = std::pow(10.0, config.gain_db / 20.0);
+  rs.sphere_level = std::min(1.0, rs.sphere_level * gain);
+  rs.rim_level = std::min(1.0, rs.rim_level * gain);
+  rs.dot_level = std::min(1.0, rs.dot_level * gain);
+  rs.background_level = std::min(1.0, rs.background_level * gain);
+  rs.noise_grey = settings_.noise_grey * gain;
+  rs.noise_seed = world_->profile().simulation.seed;
+  renderer_.emplace(rs);
+  config_ = config;
+  return Ok{};
+}
+
+Status CameraSim::onStart() {
+  {
+    std::lock_guard lock(signal_->mutex);
+    signal_->stop = false;
+  }
+  thread_ = std::thread(&CameraSim::run, this);
+  return Ok{};
+}
+
+Status CameraSim::onStop() {
+  {
+    std::lock_guard lock(signal_->mutex);
+    signal_->stop = true;
+    signal_->cv.notify_all();
+  }
+  if (thread_.joinable()) thread_.join();
+  return Ok{};
+}
+
+void CameraSim::wake() {
+  std::lock_guard lock(signal_->mutex);
+  ++signal_->generation;
+  signal_->cv.notify_all();
+}
+
+void CameraSim::onArm() {
+  world_->beginBurst();
+  wake();
+}
+
+void CameraSim::onTrigger(std::int64_t) {
+  wake();
+}
+
+std::vector<vision::SphereView> CameraSim::sceneAt(const SimLaunch& launch,
+                                                   std::int64_t t_ns) const {
+  const RigProfile& p = world_->profile();
+  const double px = p.geometry.pixel_size_m;
+  const auto states = launch.at(t_ns);
+  std::vector<vision::SphereView> views;
+  for (int i = 0; i < 2; ++i) {
+    if (!launch.visible(i, t_ns)) continue;
+    const SphereState& s = states[i];
+    vision::SphereView v;
+    // World y is up, image v is down.
+    v.centre_px = {p.geometry.origin_u_px + s.position_m.x() / px,
+                   p.geometry.origin_v_px - s.position_m.y() / px};
+    v.radius_px = 0.5 * p.spheres.diameter_m[i] / px;
+    v.orientation = s.orientation;
+    v.velocity_px_s = {s.velocity_m_s.x() / px, -s.velocity_m_s.y() / px};
+    v.spin_rad_s = s.spin_rad_s;
+    v.dots = &launch.dots[i];
+    // Skip spheres wholly outside the picture, blur included.
+    const double reach = v.radius_px + v.velocity_px_s.norm() * config_.exposure_us * 1e-6 + 2;
+    if (v.centre_px.x() < -reach || v.centre_px.y() < -reach ||
+        v.centre_px.x() > config_.width - 1 + reach || v.centre_px.y() > config_.height - 1 + reach)
+      continue;
+    views.push_back(v);
+  }
+  return views;
+}
+
+vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const {
+  vision::Frame f;
+  f.timestamp_ns = exposure_start_ns;
+  const std::int64_t mid = exposure_start_ns + std::llround(config_.exposure_us * 500.0);
+  const std::shared_ptr<const SimLaunch> launch = world_->currentLaunch();
+  // The launch owns the dot patterns the views point at: keep it alive while rendering.
+  const std::vector<vision::SphereView> views =
+      launch ? sceneAt(*launch, mid) : std::vector<vision::SphereView>{};
+  f.image = renderer_->render(views, sequence);
+  return f;
+}
+
+void CameraSim::run() {
+  const std::int64_t period = config_.framePeriodNs();
+  const std::int64_t exposure = std::llround(config_.exposure_us * 1000.0);
+  const std::int64_t t_start = monotonicNowNs();
+  auto startOf = [&](std::uint64_t seq) {
+    return t_start + static_cast<std::int64_t>(seq) * period;
+  };
+  // The first frame whose exposure starts at or after t.
+  auto firstFrom = [&](std::int64_t t) -> std::uint64_t {
+    return t <= t_start ? 0 : static_cast<std::uint64_t>((t - t_start + period - 1) / period);
+  };
+
+  std::uint64_t seq = 0;  // the camera's running frame counter
+  std::shared_ptr<BurstRecorder> current;
+  std::int64_t post_delivered = 0;
+  bool stalled = false;  // fault: the stream stopped for this burst
+  for (;;) {
+    std::uint64_t generation = 0;
+    {
+      std::lock_guard lock(signal_->mutex);
+      if (signal_->stop) return;
+      generation = signal_->generation;
+    }
+    if (std::shared_ptr<BurstRecorder> armed = recorder(); armed != current) {
+      current = armed;
+      post_delivered = 0;
+      stalled = false;
+      // Frames exposed while nothing was armed were never kept: resume now.
+      if (current) seq = std::max(seq, firstFrom(monotonicNowNs()));
+    }
+
+    std::int64_t sleep_until = std::numeric_limits<std::int64_t>::max();
+    if (current && !stalled) {
+      const std::int64_t ts = startOf(seq);
+      const std::optional<std::int64_t> trigger = current->triggerNs();
+      if (!current->wants(ts)) {
+        if (trigger && ts < *trigger) {
+          // Far before the window: those frames would be overwritten anyway.
+          const int pre = current->layout().pre_trigger_frames;
+          seq = std::max(seq + 1, firstFrom(*trigger - (pre + 2) * period));
+          continue;
+        }
+        // Complete or ended: idle until armed again.
+      } else {
+        // A frame exists once exposed; without realtime it may be rendered
+        // earlier, as soon as the world is certain up to its end.
+        const std::int64_t ready = ts + exposure;
+        if (monotonicNowNs() >= ready || (!settings_.realtime && world_->knownUntilNs() >= ready)) {
+          const bool post = trigger && ts >= *trigger;
+          if (settings_.drop_every > 0 && (seq + 1) % settings_.drop_every == 0) {
+            ++seq;  // lost in transport: a gap in the sequence
+            continue;
+          }
+          if (post && settings_.stop_after_frames >= 0 &&
+              post_delivered >= settings_.stop_after_frames) {
+            stalled = true;
+            continue;
+          }
+          current->push(seq, renderFrame(ts, seq));
+          if (post) ++post_delivered;
+          ++seq;
+          continue;
+        }
+        sleep_until = ready;
+      }
+    }
+    std::unique_lock lock(signal_->mutex);
+    const auto deadline =
+        std::chrono::steady_clock::time_point(std::chrono::nanoseconds(sleep_until));
+    auto woken = [&] { return signal_->stop || signal_->generation != generation; };
+    if (sleep_until == std::numeric_limits<std::int64_t>::max())
+      signal_->cv.wait(lock, woken);
+    else
+      signal_->cv.wait_until(lock, deadline, woken);
+  }
+}
+
+namespace {
+
+Result<std::unique_ptr<Camera>> makeSim(BackendContext& ctx) {
+  SettingsReader r = ctx.device.backendSettings();
+  COLLIDE_ASSIGN_OR_RETURN(const CameraSimSettings settings, CameraSimSettings::read(r));
+  if (ctx.clock != monotonicClock())
+    return fail("camera \"" + ctx.device.device +
+                "\": the simulated camera runs on CLOCK_MONOTONIC; build its rig without "
+                "RigHooks::clock");
+  COLLIDE_ASSIGN_OR_RETURN(const std::shared_ptr<SimWorld> world, ctx.simWorld());
+  return std::unique_ptr<Camera>(std::make_unique<CameraSim>(world, settings, ctx.device.device));
+}
+
+const bool registered = BackendRegistry<Camera>::instance().add("sim", &makeSim);
+
+}  // namespace
+
+}  // namespace collide::hw

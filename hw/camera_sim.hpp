@@ -1,0 +1,85 @@
+#pragma once
+// CameraSim ("sim"): renders what the rig's camera would see of the simulated
+// world (sim_world.hpp) — both spheres with their dots, at the configured
+// region, frame rate, exposure (motion blur), bit depth, gain and sensor
+// noise — through vision::Renderer. Like a real camera it streams on its own
+// acquisition thread into the armed pre-trigger ring. With realtime = false
+// it renders a burst as fast as it can once the valves have fired (the physics
+// is then known), so a shot takes less wall time than real time. Fault knobs:
+// lose every Nth frame, or stop streaming after N post-trigger frames.
+//
+// Runs on CLOCK_MONOTONIC (its frame timestamps are compared with the valves'
+// times), so its rig must use the monotonic clock.
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "hw/camera.hpp"
+#include "hw/settings.hpp"
+#include "hw/sim_world.hpp"
+#include "vision/render.hpp"
+
+namespace collide::hw {
+
+struct CameraSimSettings {
+  int sensor_width = 640;
+  int sensor_height = 480;
+  bool realtime = false;       ///< deliver frames at the frame rate rather than as fast as possible
+  double noise_grey = 0.0;     ///< sensor noise, std dev in grey levels of the format
+  int drop_every = 0;          ///< fault: lose every Nth frame in transport (0: never)
+  int stop_after_frames = -1;  ///< fault: stop after N post-trigger frames (-1: never)
+  double max_fps = 100000.0;
+  double max_gain_db = 24.0;
+
+  /// From the [camera] table (sensor_px, realtime, noise_grey, drop_every,
+  /// stop_after_frames); refuses unknown keys.
+  static Result<CameraSimSettings> read(SettingsReader& r);
+};
+
+class CameraSim final : public Camera {
+ public:
+  CameraSim(std::shared_ptr<SimWorld> world, CameraSimSettings settings,
+            std::string device = "sim");
+  ~CameraSim() override;
+
+  CameraInfo info() const override;
+  std::shared_ptr<const TruthSource> groundTruth() const override { return world_; }
+
+  /// The spheres in view at `t_ns` (CLOCK_MONOTONIC, mid-exposure), in image
+  /// pixels of the configured region. Any thread.
+  std::vector<vision::SphereView> sceneAt(const SimLaunch& launch, std::int64_t t_ns) const;
+
+ protected:
+  Status onOpen() override { return Ok{}; }
+  Status onConfigure(const CameraConfig& config) override;
+  Status onStart() override;
+  Status onStop() override;
+  Status onClose() override { return Ok{}; }
+  void onArm() override;
+  void onTrigger(std::int64_t at_ns) override;
+
+ private:
+  // The acquisition thread and what wakes it (arm, trigger, a launch, stop).
+  struct Signal {
+    std::mutex mutex;
+    std::condition_variable cv;
+    bool stop = false;
+    std::uint64_t generation = 0;  // bumped on every wake-up reason
+  };
+  void run();
+  void wake();
+  vision::Frame renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const;
+
+  std::shared_ptr<SimWorld> world_;
+  CameraSimSettings settings_;
+  std::string device_;
+  CameraConfig config_;  // a copy for the acquisition thread, set before it starts
+  std::optional<vision::Renderer> renderer_;
+  std::shared_ptr<Signal> signal_ = std::make_shared<Signal>();
+  std::thread thread_;
+};
+
+}  // namespace collide::hw
