@@ -62,6 +62,9 @@ class Renderer {
  private:
   RenderSettings settings_;
   std::vector<float> noise_table_;  // precomputed unit Gaussian samples
+  // round(background + noise_grey * noise_table_[i]) in the output format's
+  // bytes: rows of plain background are copied from here, not computed.
+  std::vector<std::uint8_t> background_table_;
 };
 
 }  // namespace collide::vision
