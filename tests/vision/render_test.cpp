@@ -462,6 +462,26 @@ TEST(Render, RotationMovesDotsTheRightWay) {
   }
 }
 
+TEST(Render, DotsAndSphereHaveTheirLevels) {
+  // Face-on dot of radius 6 px at the centre: its middle pixels are dot_level;
+  // the lit sphere just outside it follows the profile.
+  RenderSettings st = noiseFree(PixelFormat::Mono16);
+  st.dot_level = 0.05;
+  DotPattern one;
+  one.centres = {Vec3::UnitZ()};
+  one.angular_radius_rad = std::asin(0.1);
+  SphereView s;
+  s.radius_px = 60;
+  s.centre_px = {320, 240};
+  s.dots = &one;
+  const cv::Mat img = Renderer(st).render({s}, 0);
+  for (const auto& [du, dv] : {std::pair{0, 0}, std::pair{4, 0}, std::pair{0, -4}, std::pair{3, 3}})
+    EXPECT_NEAR(pixel(img, 240 + dv, 320 + du), 0.05 * 65535, 1.0) << du << "," << dv;
+  const double rho = 8.0 / 60.0;  // 2 px outside the dot's edge
+  EXPECT_NEAR(pixel(img, 240, 328) / 65535.0,
+              st.rim_level + (st.sphere_level - st.rim_level) * (1 - rho * rho), 1e-3);
+}
+
 TEST(Render, TouchingSpheresBothDrawn) {
   // Two spheres in contact: each keeps its centroid (the shared edge pixels
   // hold light from both) and no pixel exceeds the brighter sphere's centre.
