@@ -27,7 +27,7 @@ double uniform01(std::uint64_t& state) {
 
 // Unit Gaussian samples; each row of a frame reads a run of them from a random
 // offset. 2^18 samples (1 MiB) keep rows that share a run rare (~0.5 % of row
-// pairs) while the table still sits in a core's L2 cache.
+// pairs) while the table stays small enough to live in cache.
 constexpr int kNoiseTableSize = 1 << 18;
 
 // Edge pixels are integrated exactly along u and with this many sub-rows along
