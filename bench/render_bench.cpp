@@ -2,7 +2,9 @@
 // frames/s) with room to spare. Target: >= 2000 frames/s on one core for
 // 640 x 480 Mono8, two dotted spheres ~120 px across, noise 2 grey levels, no
 // blur. items_per_second is frames per second.
-//   build/bench/render_bench --benchmark_min_time=2
+//   build/bench/render_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only
+// Measured (AMD EPYC VM, 2 cores shared with other builds, median CPU time):
+// Mono8 7600 frames/s, Mono8 + motion blur (13 time samples) 730, Mono16 7100.
 #include <benchmark/benchmark.h>
 
 #include "vision/render.hpp"
