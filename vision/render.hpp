@@ -22,6 +22,11 @@ struct DotPattern {
   /// Random, reproducible from `seed`: dots of diameter `dot_diameter_fraction`
   /// of the sphere's diameter covering about `coverage` of the surface
   /// (SPEC.md: 1/10 and 5 %, about 20 dots), kept apart so they do not touch.
+  /// Diameter means the face-on diameter: sin(angular_radius) = fraction. Centres
+  /// are uniform on the sphere with at least one dot radius of bare surface
+  /// between dots; a request too dense to place gets as many dots as fit.
+  /// Throws std::invalid_argument unless 0 < fraction < 1 and 0 < coverage < 1
+  /// (a bug: callers validate user input first).
   static DotPattern random(std::uint64_t seed, double dot_diameter_fraction = 0.1,
                            double coverage = 0.05);
 };
@@ -52,16 +57,26 @@ struct RenderSettings {
 
 class Renderer {
  public:
+  /// Throws std::invalid_argument for width/height <= 0 or negative exposure,
+  /// blur_samples or noise (a bug: callers validate user input first).
   explicit Renderer(RenderSettings settings);
   const RenderSettings& settings() const { return settings_; }
   /// A frame of settings().width x height in cvType(settings().format).
   /// `frame_index` varies the noise from frame to frame (reproducibly).
+  /// Shading: rim + (centre - rim) cos^2(theta), theta between surface normal
+  /// and line of sight. Every pixel is the exact average over its area (edge
+  /// pixels to ~1e-3), so a dotless sphere's intensity centroid is its centre.
+  /// Spheres overlapping in the image: later in the vector is drawn in front.
+  /// Grey level = round(clamp(level * maxValue + noise, 0, maxValue)).
   /// Thread-safe (const, no shared mutable state).
   cv::Mat render(const std::vector<SphereView>& spheres, std::uint64_t frame_index) const;
 
  private:
   RenderSettings settings_;
   std::vector<float> noise_table_;  // precomputed unit Gaussian samples
+  // round(background + noise_grey * noise_table_[i]) in the output format's
+  // bytes: rows of plain background are copied from here, not computed.
+  std::vector<std::uint8_t> background_table_;
 };
 
 }  // namespace collide::vision

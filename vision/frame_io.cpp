@@ -1,0 +1,327 @@
+#include "vision/frame_io.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <set>
+#include <system_error>
+#include <vector>
+
+namespace collide::vision {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+bool isImageExtension(const fs::path& p) {
+  static const std::set<std::string> kExtensions = {".png", ".tif", ".tiff", ".pgm", ".ppm",
+                                                    ".pnm", ".bmp", ".jpg",  ".jpeg"};
+  return kExtensions.count(lower(p.extension().string())) > 0;
+}
+
+std::string sizeText(const cv::Mat& m) {
+  return std::to_string(m.cols) + "x" + std::to_string(m.rows);
+}
+
+int bitsOf(const cv::Mat& m) {
+  return m.depth() == CV_8U ? 8 : 16;
+}
+
+// Brings a decoded image to one grey channel of 8 or 16 bits, or says why not.
+Result<cv::Mat> toGrey(cv::Mat img, const std::string& what) {
+  if (img.depth() != CV_8U && img.depth() != CV_16U)
+    return fail(what + " has " + cv::typeToString(img.type()) +
+                " pixels; only 8- or 16-bit unsigned images are supported: convert it to 8- or "
+                "16-bit grey");
+  switch (img.channels()) {
+    case 1: return img;
+    case 3: cv::cvtColor(img, img, cv::COLOR_BGR2GRAY); return img;
+    case 4: cv::cvtColor(img, img, cv::COLOR_BGRA2GRAY); return img;
+    default:
+      return fail(what + " has " + std::to_string(img.channels()) +
+                  " channels; convert it to grey (1 channel) or colour (3 channels)");
+  }
+}
+
+// Mono12 when every pixel of a 16-bit burst fits in 12 bits (a 12-bit camera's
+// data in 16-bit words), so the burst keeps its real full scale.
+PixelFormat formatOf(const std::vector<Frame>& frames) {
+  if (frames.empty() || frames.front().image.depth() == CV_8U) return PixelFormat::Mono8;
+  for (const Frame& f : frames) {
+    double hi = 0;
+    cv::minMaxLoc(f.image, nullptr, &hi);
+    if (hi > 4095) return PixelFormat::Mono16;
+  }
+  return PixelFormat::Mono12;
+}
+
+std::int64_t timestampNs(std::size_t i, double fps) {
+  return std::llround(static_cast<double>(i) * 1e9 / fps);
+}
+
+std::string listSome(const std::vector<std::string>& names) {
+  constexpr std::size_t kShown = 5;
+  std::string s;
+  for (std::size_t i = 0; i < names.size() && i < kShown; ++i) s += (i ? ", " : "") + names[i];
+  if (names.size() > kShown) s += " and " + std::to_string(names.size() - kShown) + " more";
+  return s;
+}
+
+int digitsOf(std::uint64_t n) {
+  int d = 1;
+  while (n >= 10) n /= 10, ++d;
+  return d;
+}
+
+std::uint64_t magnitude(std::int64_t id) {
+  return id < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(id)
+                : static_cast<std::uint64_t>(id);
+}
+
+bool isExportedFrameName(const std::string& name) {
+  if (name.size() < 12 || name.rfind("frame_", 0) != 0 ||
+      lower(name.substr(name.size() - 4)) != ".png")
+    return false;
+  const char sign = name[6];
+  const std::string digits = name.substr(7, name.size() - 11);
+  return (sign == 'm' || sign == 'p') && !digits.empty() &&
+         std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); });
+}
+
+}  // namespace
+
+bool naturalLess(const std::string& a, const std::string& b) {
+  std::size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i]));
+    const bool db = std::isdigit(static_cast<unsigned char>(b[j]));
+    if (da && db) {
+      // Compare the digit runs as numbers: skip leading zeros, then the longer
+      // run is larger, else the first differing digit decides.
+      std::size_t ie = i, je = j;
+      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
+      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
+      std::size_t is = i, js = j;
+      while (is + 1 < ie && a[is] == '0') ++is;
+      while (js + 1 < je && b[js] == '0') ++js;
+      if (ie - is != je - js) return ie - is < je - js;
+      const int c = a.compare(is, ie - is, b, js, je - js);
+      if (c != 0) return c < 0;
+      i = ie;
+      j = je;
+    } else {
+      if (a[i] != b[j]) return static_cast<unsigned char>(a[i]) < static_cast<unsigned char>(b[j]);
+      ++i;
+      ++j;
+    }
+  }
+  if ((a.size() - i) != (b.size() - j)) return a.size() - i < b.size() - j;
+  return a < b;  // equal as numbers ("frame01" vs "frame1"): any fixed order
+}
+
+std::string frameFileName(std::int64_t id, int digits) {
+  const std::uint64_t mag = magnitude(id);
+  const int width = std::max({1, digits, digitsOf(mag)});
+  std::uint64_t number = mag;
+  if (id < 0) {
+    std::uint64_t scale = 1;
+    for (int i = 0; i < width; ++i) scale *= 10;
+    number = scale - mag;  // complement: -5 sorts before -1
+  }
+  std::string text = std::to_string(number);
+  text.insert(0, static_cast<std::size_t>(width) - std::min<std::size_t>(width, text.size()), '0');
+  return std::string("frame_") + (id < 0 ? 'm' : 'p') + text + ".png";
+}
+
+Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
+  if (!(fps > 0) || !std::isfinite(fps))
+    return fail("frame rate " + std::to_string(fps) + " for " + dir +
+                " is not > 0: give the frames/s the footage was recorded at");
+  std::error_code ec;
+  if (!fs::exists(dir, ec)) return fail("frame folder " + dir + " does not exist: check the path");
+  if (!fs::is_directory(dir, ec))
+    return fail(dir + " is not a folder: give the folder that holds the frame images");
+
+  std::vector<std::string> images, skipped;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (it->is_regular_file(ec) && isImageExtension(it->path()))
+      images.push_back(name);
+    else
+      skipped.push_back(name);
+  }
+  if (ec) return fail("cannot list frame folder " + dir + ": " + ec.message());
+  std::sort(skipped.begin(), skipped.end(), naturalLess);
+  if (images.empty())
+    return fail("frame folder " + dir + " holds no images (PNG or TIFF)" +
+                (skipped.empty() ? std::string() : " (found only: " + listSome(skipped) + ")") +
+                ": give the folder that holds the frames");
+  std::sort(images.begin(), images.end(), naturalLess);
+
+  Burst burst;
+  burst.fps = fps;
+  burst.frames.reserve(images.size());
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const std::string path = (fs::path(dir) / images[i]).string();
+    cv::Mat img;
+    try {
+      img = cv::imread(path, cv::IMREAD_UNCHANGED);
+    } catch (const cv::Exception&) {
+      img.release();
+    }
+    if (img.empty())
+      return fail("cannot decode " + path + " as an image: the file is damaged or not really " +
+                  lower(fs::path(path).extension().string()) +
+                  "; replace it or move it out of the folder");
+    Result<cv::Mat> grey = toGrey(std::move(img), path);
+    if (!grey) return grey.error();
+    if (!burst.frames.empty()) {
+      const Frame& first = burst.frames.front();
+      const std::string first_path = (fs::path(dir) / images[0]).string();
+      if (grey->size() != first.image.size())
+        return fail(path + " is " + sizeText(*grey) + " pixels but the first frame " + first_path +
+                    " is " + sizeText(first.image) +
+                    ": all frames of a shot must be the same size; remove the odd file");
+      if (grey->depth() != first.image.depth())
+        return fail(path + " is " + std::to_string(bitsOf(*grey)) + "-bit but the first frame " +
+                    first_path + " is " + std::to_string(bitsOf(first.image)) +
+                    "-bit: all frames of a shot must have the same bit depth");
+    }
+    Frame f;
+    f.id = static_cast<std::int64_t>(i);
+    f.timestamp_ns = timestampNs(i, fps);
+    f.image = std::move(*grey);
+    burst.frames.push_back(std::move(f));
+  }
+  burst.format = formatOf(burst.frames);
+  burst.stats.completed = burst.frames.size();
+  if (!skipped.empty())
+    burst.note = "skipped " + std::to_string(skipped.size()) +
+                 " entries that are not images: " + listSome(skipped);
+  return burst;
+}
+
+Result<Burst> loadVideo(const std::string& path, double fps_or_0) {
+  if (!(fps_or_0 >= 0) || !std::isfinite(fps_or_0))
+    return fail("frame rate " + std::to_string(fps_or_0) + " for " + path +
+                " must be > 0, or 0 to use the rate recorded in the file");
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    return fail("video file " + path + " does not exist (or is not a file): check the path");
+  // FFmpeg decodes nearly everything; OpenCV's own reader covers MJPEG AVI
+  // without it. Not CAP_ANY: on an undecodable file that also tries the
+  // GStreamer and image-sequence backends, which print errors to stderr.
+  cv::VideoCapture cap;
+  for (const int api : {cv::CAP_FFMPEG, cv::CAP_OPENCV_MJPEG}) {
+    try {
+      if (cap.open(path, api)) break;
+    } catch (const cv::Exception&) {
+      cap.release();
+    }
+  }
+  const std::string convert = ": convert it to PNG frames (e.g. ffmpeg -i " + path +
+                              " frame_%05d.png) and load the folder instead";
+  if (!cap.isOpened())
+    return fail("cannot open " + path +
+                " as a video (damaged file, or a format this OpenCV build cannot decode)" +
+                convert);
+  double fps = fps_or_0;
+  if (fps == 0) {
+    fps = cap.get(cv::CAP_PROP_FPS);
+    if (!(fps > 0) || !std::isfinite(fps))
+      return fail(path + " does not record its frame rate: give the frames/s explicitly");
+  }
+
+  Burst burst;
+  burst.fps = fps;
+  cv::Mat img;
+  try {
+    while (cap.read(img)) {
+      Result<cv::Mat> grey =
+          toGrey(img.clone(), path + " frame " + std::to_string(burst.frames.size()));
+      if (!grey) return grey.error();
+      if (!burst.frames.empty() && grey->size() != burst.frames.front().image.size())
+        return fail(path + " changes frame size at frame " + std::to_string(burst.frames.size()) +
+                    convert);
+      Frame f;
+      f.id = static_cast<std::int64_t>(burst.frames.size());
+      f.timestamp_ns = timestampNs(burst.frames.size(), fps);
+      f.image = std::move(*grey);
+      burst.frames.push_back(std::move(f));
+    }
+  } catch (const cv::Exception& e) {
+    return fail("decoding " + path + " failed at frame " + std::to_string(burst.frames.size()) +
+                " (" + e.what() + ")" + convert);
+  }
+  if (burst.frames.empty()) return fail("no frames could be decoded from " + path + convert);
+  burst.format = formatOf(burst.frames);
+  burst.stats.completed = burst.frames.size();
+  return burst;
+}
+
+Status writeFramePng(const Frame& frame, const std::string& path) {
+  if (frame.image.empty())
+    return fail("frame " + std::to_string(frame.id) + " has no image; nothing to write to " + path);
+  if (frame.image.type() != CV_8UC1 && frame.image.type() != CV_16UC1)
+    return fail("frame " + std::to_string(frame.id) + " has " +
+                cv::typeToString(frame.image.type()) +
+                " pixels; only 8- or 16-bit grey can be "
+                "written to " +
+                path);
+  if (lower(fs::path(path).extension().string()) != ".png")
+    return fail(path + " does not end in .png: frames are written as PNG files");
+  const fs::path parent = fs::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty() && !fs::is_directory(parent, ec))
+    return fail("cannot write " + path + ": folder " + parent.string() + " does not exist");
+  bool written = false;
+  try {
+    written = cv::imwrite(path, frame.image);
+  } catch (const cv::Exception&) {
+    written = false;
+  }
+  if (!written) return fail("cannot write " + path + ": check permissions and free disk space");
+  return Ok{};
+}
+
+Status exportBurstPng(const Burst& burst, const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir, ec))
+    return fail("cannot create export folder " + dir + ": check the path and permissions");
+
+  int digits = 4;
+  std::set<std::int64_t> ids;
+  for (const Frame& f : burst.frames) {
+    digits = std::max(digits, digitsOf(magnitude(f.id)));
+    if (!ids.insert(f.id).second)
+      return fail("the burst has two frames with id " + std::to_string(f.id) +
+                  "; nothing was written to " + dir);
+  }
+  std::set<std::string> names;
+  for (const Frame& f : burst.frames) names.insert(frameFileName(f.id, digits));
+
+  // Frames left by an earlier export would be read back as part of this one.
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (isExportedFrameName(name) && names.count(name) == 0)
+      return fail(dir + " already holds frames from another export (" + name +
+                  "): choose an empty folder or delete them");
+  }
+
+  for (const Frame& f : burst.frames) {
+    const Status s = writeFramePng(f, (fs::path(dir) / frameFileName(f.id, digits)).string());
+    if (!s) return s;
+  }
+  return Ok{};
+}
+
+}  // namespace collide::vision

@@ -1,0 +1,53 @@
+#pragma once
+// Footage recorded elsewhere (a folder of images, or a video file) read into a
+// Burst, and bursts written out as PNG files, so recorded shots go through the
+// same vision and analysis code as live or simulated ones.
+//
+// Exported file names: frame_<id>.png, the trigger-relative id written so that
+// plain name order (ls, file dialogs, ImageJ, loadFrameFolder) is frame order:
+//   id >= 0:  'p' + id zero-padded           0 -> frame_p0000.png, 12 -> frame_p0012.png
+//   id <  0:  'm' + (10^digits + id) padded  -1 -> frame_m9999.png, -5 -> frame_m9995.png
+// ('m' sorts before 'p'; among negatives the complement puts -5 before -1).
+// digits is 4, or more when some |id| needs them; one burst uses one width.
+#include <cstdint>
+#include <string>
+
+#include "analysis/result.hpp"
+#include "vision/frame.hpp"
+
+namespace collide::vision {
+
+/// Loads the images in `dir` (PNG, TIFF; also PGM/PPM/PNM, BMP, JPEG), sorted by
+/// name in natural order (frame2 before frame10), as frames 0..N-1 with
+/// timestamps i / fps. Grey 8-bit images give Mono8; 16-bit ones give Mono12 if
+/// no pixel in the burst exceeds 4095, else Mono16; colour images are converted
+/// to grey. Files with other extensions (and subfolders) are skipped and named
+/// in Burst::note. Errors: fps <= 0; `dir` missing, not a folder, or without
+/// images; an image file that cannot be decoded or has an unsupported pixel
+/// type; frames of different sizes or bit depths. Any thread.
+Result<Burst> loadFrameFolder(const std::string& dir, double fps);
+
+/// Decodes every frame of a video file with OpenCV (FFmpeg, or OpenCV's own
+/// MJPEG reader), converting to grey. fps_or_0 = 0 takes the frame rate
+/// recorded in the file. Frames are numbered 0..N-1. Errors: missing file, file
+/// OpenCV cannot open or decode, no frames, fps_or_0 < 0, or no frame rate in
+/// the file when fps_or_0 = 0. Any thread.
+Result<Burst> loadVideo(const std::string& path, double fps_or_0);
+
+/// Writes one frame as a PNG: 8-bit for CV_8UC1, 16-bit for CV_16UC1 (Mono12
+/// values stay 0..4095, not rescaled). Errors: empty or unsupported image,
+/// file cannot be written (missing folder, permissions, disk full).
+Status writeFramePng(const Frame& frame, const std::string& path);
+
+/// Writes every frame of the burst into `dir` (created if missing) as
+/// frame_<id>.png, named as described at the top of this file.
+Status exportBurstPng(const Burst& burst, const std::string& dir);
+
+/// The file name exportBurstPng gives frame `id`, with `digits` >= 1 digits.
+std::string frameFileName(std::int64_t id, int digits = 4);
+
+/// Natural order of names: runs of digits compare as numbers ("frame2" <
+/// "frame10"), everything else byte by byte.
+bool naturalLess(const std::string& a, const std::string& b);
+
+}  // namespace collide::vision
