@@ -52,6 +52,7 @@ bool BurstRecorder::push(std::uint64_t sequence, vision::Frame frame) {
   std::lock_guard lock(mutex_);
   if (complete_ || ended_) return false;
   if (!ring_.empty() && sequence <= ring_.newest().sequence) return true;
+  if (!first_sequence_) first_sequence_ = sequence;
   if (trigger_ns_ && !frame_zero_ && frame.timestamp_ns >= *trigger_ns_)
     resolveFrameZero(sequence, frame.timestamp_ns, ring_.empty() ? nullptr : &ring_.newest());
   if (frame_zero_ && idOf(sequence) >= layout_.post_trigger_frames) {
@@ -141,12 +142,14 @@ vision::Burst BurstRecorder::take() {
         ++burst.stats.failed;
       burst.frames.push_back(std::move(e.frame));
     }
-    // Ids missing between the first frame received and the last one expected
-    // (or received, if the stream stopped early) were lost in transport.
+    // Ids missing after the first frame pushed and up to the last one
+    // expected (or received, if the stream stopped early) were lost in transport.
+    const std::int64_t first_expected =
+        first_sequence_ ? std::max<std::int64_t>(-pre, idOf(*first_sequence_)) : 0;
     if (!present.empty()) {
       const std::int64_t last_expected = complete_ ? post - 1 : present.back();
       std::size_t k = 0;
-      for (std::int64_t id = present.front(); id <= last_expected; ++id) {
+      for (std::int64_t id = first_expected; id <= last_expected; ++id) {
         if (k < present.size() && present[k] == id)
           ++k;
         else
@@ -164,16 +167,16 @@ vision::Burst BurstRecorder::take() {
                    ": " + std::to_string(received_post) + " of " + std::to_string(post) +
                    " post-trigger frames arrived";
     }
-    const std::int64_t first_id = present.empty() ? 0 : present.front();
-    if (pre > 0 && first_id > -pre) {
+    if (pre > 0 && first_expected > -pre) {
       if (!burst.note.empty()) burst.note += "; ";
-      burst.note += "only " + std::to_string(std::max<std::int64_t>(0, -first_id)) + " of " +
+      burst.note += "only " + std::to_string(std::max<std::int64_t>(0, -first_expected)) + " of " +
                     std::to_string(pre) +
                     " pre-trigger frames (the camera started too close to the trigger)";
     }
   }
   trigger_ns_.reset();
   frame_zero_.reset();
+  first_sequence_.reset();
   complete_ = false;
   ended_ = false;
   end_reason_.clear();

@@ -65,8 +65,9 @@ class BurstRecorder {
   bool complete() const;
   /// The burst as it stands: frames with ids in [-pre, post) in id order,
   /// their statistics (completed = good frames, failed = frames the camera
-  /// marked failed/incomplete, dropped/missing_ids = ids missing between the
-  /// first frame received and the last one expected), complete, and a note
+  /// marked failed/incomplete, dropped/missing_ids = ids of the window missing
+  /// after the first frame pushed and up to the last one expected, or the
+  /// last one received if the stream stopped early), complete, and a note
   /// saying what is missing and why. format/fps/exposure are left for the
   /// camera to fill. Empties the recorder.
   vision::Burst take();
@@ -92,6 +93,9 @@ class BurstRecorder {
   RingBuffer<Entry> ring_;
   std::optional<std::int64_t> trigger_ns_;
   std::optional<std::uint64_t> frame_zero_;  // sequence number of frame 0
+  // The first frame pushed since arming: ids after it that never arrived were
+  // lost, ids before it were never exposed while armed.
+  std::optional<std::uint64_t> first_sequence_;
   bool complete_ = false;
   bool ended_ = false;
   std::string end_reason_;

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 
 #include "hw/backend_registry.hpp"
 #include "hw/clock.hpp"
 #include "hw/format.hpp"
 #include "hw/rig.hpp"
 #include "hw/try.hpp"
+#include "vision/frame_io.hpp"
 
 namespace collide::hw {
 
@@ -130,16 +132,33 @@ void CameraReplay::run() {
 
 namespace {
 
+// Without a loader from the caller, footage hw can read itself: a folder of
+// images or a video file (vision/frame_io.hpp), numbered from trigger_frame.
+Result<vision::Burst> loadFootage(const std::string& source, double fps,
+                                  std::int64_t trigger_frame) {
+  std::error_code ec;
+  Result<vision::Burst> burst = std::filesystem::is_directory(source, ec)
+                                    ? vision::loadFrameFolder(source, fps)
+                                    : vision::loadVideo(source, fps);
+  if (!burst) return burst;
+  const std::int64_t shift = trigger_frame * std::llround(1e9 / fps);
+  for (vision::Frame& f : burst->frames) {
+    f.id -= trigger_frame;
+    f.timestamp_ns -= shift;
+  }
+  return burst;
+}
+
 Result<std::unique_ptr<Camera>> makeReplay(BackendContext& ctx) {
   SettingsReader r = ctx.device.backendSettings();
   COLLIDE_ASSIGN_OR_RETURN(const std::string source, r.text("source"));
   COLLIDE_ASSIGN_OR_RETURN(const bool realtime, r.boolean("realtime", true));
+  COLLIDE_ASSIGN_OR_RETURN(const std::int64_t trigger_frame,
+                           r.integer("trigger_frame", 0, {.ge = 0}));
   COLLIDE_RETURN_IF_ERROR(r.finish("the replay camera backend"));
-  if (!ctx.hooks.load_burst)
-    return r.invalid("source",
-                     "the replay camera needs a burst loader (RigHooks::load_burst); "
-                     "replay through the collide program, which reads shot files");
-  Result<vision::Burst> burst = ctx.hooks.load_burst(source);
+  Result<vision::Burst> burst =
+      ctx.hooks.load_burst ? ctx.hooks.load_burst(source)
+                           : loadFootage(source, ctx.profile.camera_config.fps, trigger_frame);
   if (!burst) return r.invalid("source", burst.error().message);
   if (burst->frames.empty()) return r.invalid("source", "the burst holds no frames");
   return std::unique_ptr<Camera>(

@@ -3,9 +3,12 @@
 // trigger it streams the burst's frames so that the stored frame 0 lands on
 // the trigger instant, keeping their original spacing, statuses and gaps
 // (realtime = true: at their original pace; false: as fast as it can). The
-// burst comes from RigHooks::load_burst (hw cannot read shot files).
+// burst comes from RigHooks::load_burst when the caller gives one (hw cannot
+// read shot files); otherwise `source` must be a folder of images or a video
+// file, read with vision's loaders and numbered so that frame trigger_frame
+// is frame 0.
 //
-// [camera] settings: source = "..." (handed to the loader), realtime.
+// [camera] settings: source = "...", realtime (default true), trigger_frame (default 0).
 #include <condition_variable>
 #include <memory>
 #include <mutex>

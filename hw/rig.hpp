@@ -22,7 +22,8 @@ namespace collide::hw {
 struct RigHooks {
   /// Loads the burst the replay camera plays back: `source` is [camera]
   /// source = "..." (a shot file, a folder of images: the caller decides).
-  /// hw cannot read shot files itself; without this, `backend = "replay"` is refused.
+  /// hw cannot read shot files itself; without this hook the replay camera
+  /// reads only folders of images and video files.
   std::function<Result<vision::Burst>(const std::string& source)> load_burst;
   /// The devices' and sequencer's clock; null: CLOCK_MONOTONIC. Tests inject
   /// a ManualClock (the simulated camera always runs on CLOCK_MONOTONIC).

@@ -224,8 +224,9 @@ class ShotRun {
         if (p_.launchers[i].valve != e.valve) continue;
         shot_.launchers[i].valve_open_ns = e.opened_ns;
         shot_.launchers[i].pulse_us = e.pulseUs();
-        achieved += (achieved.empty() ? "" : ", ") + name(i) + " opened " +
-                    ms(e.opened_ns - pattern[i].open_at_ns) + " late for " +
+        achieved += (achieved.empty() ? "" : ", ") + name(i) + " opened at plan " +
+                    (e.opened_ns >= pattern[i].open_at_ns ? "+" : "-") +
+                    ms(std::abs(e.opened_ns - pattern[i].open_at_ns)) + " for " +
                     std::to_string(e.pulseUs()) + " us";
       }
     }
@@ -287,9 +288,10 @@ class ShotRun {
     for (const auto& d : done) detail += (detail.empty() ? "" : "; ") + d;
     for (const auto& p : problems) {
       detail += (detail.empty() ? "" : "; ") + p;
-      shot_.failure_reason += "; while stopping safely: " + p;
+      shot_.failure_reason +=
+          p == reason ? "; stopping safely hit the same error" : "; while stopping safely: " + p;
     }
-    stamp("safe_stop", detail);
+    stamp("safe_stop", detail.empty() ? "nothing was running" : detail);
   }
 
   Rig& rig_;

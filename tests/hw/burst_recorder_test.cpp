@@ -87,6 +87,15 @@ TEST(BurstRecorder, LostFramesAreReportedAsMissingIds) {
   EXPECT_EQ(b.frames.size(), 8u);
 }
 
+TEST(BurstRecorder, LosingTheOldestFrameOfTheWindowCountsAsDropped) {
+  BurstRecorder r(BurstLayout{3, 2, kPeriod});
+  r.trigger(tsOf(20));
+  pushRange(r, 15, 21, {17});  // 17 is frame -3, the first the burst wants
+  const auto b = r.take();
+  EXPECT_EQ(b.stats.missing_ids, (std::vector<std::int64_t>{-3}));
+  EXPECT_TRUE(b.note.empty()) << b.note;
+}
+
 TEST(BurstRecorder, LostFrameZeroIsNumberedFromTheFramePeriod) {
   BurstRecorder r(BurstLayout{2, 4, kPeriod});
   r.trigger(tsOf(20) - 100);
