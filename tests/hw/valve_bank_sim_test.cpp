@@ -1,0 +1,82 @@
+// What only the simulated valve bank does: its log, launching the simulated
+// spheres, and its fault knob. The role's contract is in
+// valve_bank_conformance_test.cpp.
+#include "hw/valve_bank_sim.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+using namespace collide::hw;
+using ::testing::HasSubstr;
+
+namespace {
+
+constexpr std::int64_t kMs = 1'000'000;
+
+struct Bench {
+  std::shared_ptr<ManualClock> clock = std::make_shared<ManualClock>();
+  std::shared_ptr<SimWorld> world;
+  std::unique_ptr<ValveBankSim> valves;
+
+  explicit Bench(ValveSimSettings s) {
+    world = *SimWorld::create(*defaultRigProfile(), clock);
+    valves = std::make_unique<ValveBankSim>(world, clock, s);
+    EXPECT_TRUE(valves->open());
+    EXPECT_TRUE(valves->configure({50000}));
+    EXPECT_TRUE(valves->start());
+  }
+};
+
+}  // namespace
+
+TEST(ValveBankSim, LogsEveryOpeningAndLaunchesTheSpheresFromTheLinePressure) {
+  Bench b(ValveSimSettings{});
+  b.world->commandPressureKPa(0, 60.0);
+  b.world->commandPressureKPa(1, 30.0);
+  b.clock->advanceNs(1000 * kMs);  // lines settled
+  const std::int64_t t0 = b.clock->nowNs() + kMs;
+  const auto events = b.valves->fire({{0, t0, 15000}, {1, t0 + 2 * kMs, 15000}});
+  ASSERT_TRUE(events) << events.error().message;
+  ASSERT_EQ(b.valves->log().size(), 2u);
+  // No jitter configured: exactly as commanded.
+  EXPECT_EQ(b.valves->log()[0].opened_ns, t0);
+  EXPECT_EQ(b.valves->log()[1].opened_ns, t0 + 2 * kMs);
+  EXPECT_EQ(b.valves->log()[1].pulseUs(), 15000);
+
+  const auto launch = b.world->currentLaunch();
+  ASSERT_TRUE(launch);
+  EXPECT_TRUE(launch->launched[0] && launch->launched[1]);
+  EXPECT_NEAR(launch->pressure_kPa[0], 60.0, 1e-6);
+  EXPECT_NEAR(launch->pressure_kPa[1], 30.0, 1e-6);
+  // Each sphere leaves its tube one exit delay (8 ms) after its valve opened.
+  EXPECT_EQ(launch->launch_ns[1] - launch->launch_ns[0], 2 * kMs);
+  EXPECT_EQ(launch->launch_ns[0], t0 + 8 * kMs);
+  // Faster at the higher pressure, by the calibration (1 % scatter).
+  const auto curve = collide::LaunchCalibration::thesis();
+  EXPECT_NEAR(launch->exit_speed_m_s[0], curve.speed_m_s(60.0), 0.05 * curve.speed_m_s(60.0));
+  EXPECT_NEAR(launch->exit_speed_m_s[1], curve.speed_m_s(30.0), 0.05 * curve.speed_m_s(30.0));
+}
+
+TEST(ValveBankSim, AValveWithoutPressureLeavesItsSphereInTheTube) {
+  Bench b(ValveSimSettings{});
+  const auto events = b.valves->fire({{0, b.clock->nowNs(), 1000}});
+  ASSERT_TRUE(events);
+  const auto launch = b.world->currentLaunch();
+  ASSERT_TRUE(launch);
+  EXPECT_FALSE(launch->launched[0]);
+  EXPECT_FALSE(launch->launched[1]);
+}
+
+TEST(ValveBankSim, DriverFaultRefusesToFireAndClosesEverything) {
+  ValveSimSettings s;
+  s.fault = ValveSimSettings::Fault::Error;
+  Bench b(s);
+  const int closes_before = b.valves->closeAllCount();
+  const auto events = b.valves->fire({{0, b.clock->nowNs(), 1000}});
+  ASSERT_FALSE(events);
+  EXPECT_THAT(events.error().message, HasSubstr("valves \"sim\": the driver refused"));
+  EXPECT_THAT(events.error().message, HasSubstr("all valves closed"));
+  EXPECT_EQ(b.valves->closeAllCount(), closes_before + 1);
+  EXPECT_TRUE(b.valves->log().empty());
+  EXPECT_FALSE(b.world->currentLaunch());
+}
