@@ -8,6 +8,12 @@
 
 #include "app/atomic_file.hpp"
 
+// Shot files are read and written from several threads (GUI browser, saver,
+// analysis) with no lock of our own: that relies on HDF5's global lock.
+#ifndef H5_HAVE_THREADSAFE
+#error "collide needs a thread-safe HDF5 build (Debian's libhdf5-dev is one)"
+#endif
+
 namespace collide::app::h5 {
 
 void silenceErrorPrinting() {

@@ -24,7 +24,9 @@ struct WriteOptions {
   /// Lossless shuffle + deflate on the frames. Off by default: a burst is
   /// written while the rig waits, and uncompressed writes run at disk speed.
   bool compress = false;
-  int deflate_level = 4;  ///< 1 (fast) .. 9 (small), used when compress is set
+  /// 1 (fast) .. 9 (small), used when compress is set. Camera frames are mostly
+  /// noise around a few spheres: higher levels cost much more time for little size.
+  int deflate_level = 1;
 };
 
 /// Writes `shot` to `path` (conventionally "<dir>/<shot.id>.h5"), replacing a
