@@ -29,7 +29,7 @@ void setupExport(CLI::App& sub, std::function<int()>& run) {
       return collide::cli::kExitFailure;
     }
     std::cout << "wrote " << exported->written << " PNG files to " << *png_dir;
-    if (exported->skipped) std::cout << " (" << exported->skipped << " frames without image data)";
+    if (exported->skipped) std::cout << " (skipped " << exported->skipped << " without image data)";
     std::cout << "\n";
     return collide::cli::kExitOk;
   };

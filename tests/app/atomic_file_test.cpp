@@ -18,7 +18,7 @@ using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-TEST(IoError, SaysWhatHappenedWhereAndWhatToDo) {
+TEST(IoError, NamesTheCauseThePathAndTheRemedy) {
   EXPECT_EQ(ioError(ENOSPC, "writing", "shots/x.h5").message,
             "no space left on device writing shots/x.h5: free space or choose another folder "
             "(--out)");
