@@ -2,8 +2,8 @@
 #include <iostream>
 
 #include "app/cli/command.hpp"
-#include "app/export_png.hpp"
 #include "app/shot_file.hpp"
+#include "vision/frame_io.hpp"
 
 namespace {
 
@@ -23,7 +23,8 @@ void setupExport(CLI::App& sub, std::function<int()>& run) {
       std::cerr << "collide export: " << shot.error().message << "\n";
       return collide::cli::kExitBadInput;
     }
-    auto exported = collide::app::exportPng(shot->burst, *png_dir);
+    auto exported =
+        collide::vision::exportBurstPng(shot->burst, *png_dir, {.stretch_mono12 = true});
     if (!exported) {
       std::cerr << "collide export: " << exported.error().message << "\n";
       return collide::cli::kExitFailure;
