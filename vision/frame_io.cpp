@@ -81,19 +81,22 @@ int digitsOf(std::uint64_t n) {
   return d;
 }
 
-std::uint64_t magnitude(std::int64_t id) {
-  return id < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(id)
-                : static_cast<std::uint64_t>(id);
+bool allDigits(const std::string& s) {
+  return !s.empty() &&
+         std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
 }
 
+// frame_<digits>_id[-]<digits>.png
 bool isExportedFrameName(const std::string& name) {
-  if (name.size() < 12 || name.rfind("frame_", 0) != 0 ||
+  if (name.rfind("frame_", 0) != 0 || name.size() < 4 ||
       lower(name.substr(name.size() - 4)) != ".png")
     return false;
-  const char sign = name[6];
-  const std::string digits = name.substr(7, name.size() - 11);
-  return (sign == 'm' || sign == 'p') && !digits.empty() &&
-         std::all_of(digits.begin(), digits.end(), [](unsigned char c) { return std::isdigit(c); });
+  const std::string stem = name.substr(6, name.size() - 10);
+  const std::size_t sep = stem.find("_id");
+  if (sep == std::string::npos) return false;
+  std::string id = stem.substr(sep + 3);
+  if (!id.empty() && id[0] == '-') id.erase(0, 1);
+  return allDigits(stem.substr(0, sep)) && allDigits(id);
 }
 
 }  // namespace
@@ -127,18 +130,11 @@ bool naturalLess(const std::string& a, const std::string& b) {
   return a < b;  // equal as numbers ("frame01" vs "frame1"): any fixed order
 }
 
-std::string frameFileName(std::int64_t id, int digits) {
-  const std::uint64_t mag = magnitude(id);
-  const int width = std::max({1, digits, digitsOf(mag)});
-  std::uint64_t number = mag;
-  if (id < 0) {
-    std::uint64_t scale = 1;
-    for (int i = 0; i < width; ++i) scale *= 10;
-    number = scale - mag;  // complement: -5 sorts before -1
-  }
-  std::string text = std::to_string(number);
-  text.insert(0, static_cast<std::size_t>(width) - std::min<std::size_t>(width, text.size()), '0');
-  return std::string("frame_") + (id < 0 ? 'm' : 'p') + text + ".png";
+std::string frameFileName(std::size_t index, std::int64_t id, int digits) {
+  std::string text = std::to_string(index);
+  const std::size_t width = static_cast<std::size_t>(std::max(1, digits));
+  if (text.size() < width) text.insert(0, width - text.size(), '0');
+  return "frame_" + text + "_id" + std::to_string(id) + ".png";
 }
 
 Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
@@ -292,22 +288,23 @@ Status writeFramePng(const Frame& frame, const std::string& path) {
   return Ok{};
 }
 
-Status exportBurstPng(const Burst& burst, const std::string& dir) {
+Result<PngExportReport> exportBurstPng(const Burst& burst, const std::string& dir,
+                                       const PngExportOptions& options) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir, ec))
     return fail("cannot create export folder " + dir + ": check the path and permissions");
 
-  int digits = 4;
+  const int digits = std::max(4, digitsOf(burst.frames.empty() ? 0 : burst.frames.size() - 1));
   std::set<std::int64_t> ids;
-  for (const Frame& f : burst.frames) {
-    digits = std::max(digits, digitsOf(magnitude(f.id)));
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < burst.frames.size(); ++i) {
+    const Frame& f = burst.frames[i];
     if (!ids.insert(f.id).second)
       return fail("the burst has two frames with id " + std::to_string(f.id) +
                   "; nothing was written to " + dir);
+    names.insert(frameFileName(i, f.id, digits));
   }
-  std::set<std::string> names;
-  for (const Frame& f : burst.frames) names.insert(frameFileName(f.id, digits));
 
   // Frames left by an earlier export would be read back as part of this one.
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
@@ -317,11 +314,20 @@ Status exportBurstPng(const Burst& burst, const std::string& dir) {
                   "): choose an empty folder or delete them");
   }
 
-  for (const Frame& f : burst.frames) {
-    const Status s = writeFramePng(f, (fs::path(dir) / frameFileName(f.id, digits)).string());
-    if (!s) return s;
+  const bool stretch = options.stretch_mono12 && burst.format == PixelFormat::Mono12;
+  PngExportReport report;
+  for (std::size_t i = 0; i < burst.frames.size(); ++i) {
+    Frame f = burst.frames[i];
+    if (f.image.empty()) {
+      ++report.skipped;
+      continue;
+    }
+    if (stretch) f.image.convertTo(f.image, CV_16U, 16.0);
+    const Status s = writeFramePng(f, (fs::path(dir) / frameFileName(i, f.id, digits)).string());
+    if (!s) return s.error();
+    ++report.written;
   }
-  return Ok{};
+  return report;
 }
 
 }  // namespace collide::vision

@@ -3,12 +3,12 @@
 // Burst, and bursts written out as PNG files, so recorded shots go through the
 // same vision and analysis code as live or simulated ones.
 //
-// Exported file names: frame_<id>.png, the trigger-relative id written so that
-// plain name order (ls, file dialogs, ImageJ, loadFrameFolder) is frame order:
-//   id >= 0:  'p' + id zero-padded           0 -> frame_p0000.png, 12 -> frame_p0012.png
-//   id <  0:  'm' + (10^digits + id) padded  -1 -> frame_m9999.png, -5 -> frame_m9995.png
-// ('m' sorts before 'p'; among negatives the complement puts -5 before -1).
-// digits is 4, or more when some |id| needs them; one burst uses one width.
+// Exported file names: frame_<index>_id<id>.png, with index the frame's position
+// in the burst zero-padded (so plain name order — ls, file dialogs, ImageJ,
+// loadFrameFolder — is frame order) and id its trigger-relative id as a signed
+// number a person can read: frame_0000_id-5.png ... frame_0005_id0.png.
+// index has 4 digits, or more when the burst needs them; one burst uses one width.
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -39,12 +39,30 @@ Result<Burst> loadVideo(const std::string& path, double fps_or_0);
 /// file cannot be written (missing folder, permissions, disk full).
 Status writeFramePng(const Frame& frame, const std::string& path);
 
-/// Writes every frame of the burst into `dir` (created if missing) as
-/// frame_<id>.png, named as described at the top of this file.
-Status exportBurstPng(const Burst& burst, const std::string& dir);
+struct PngExportOptions {
+  /// Scale Mono12 values by 16 (0..4095 -> 0..65520) so image viewers show the
+  /// real contrast. Such files no longer load back as Mono12: leave it off for
+  /// a round trip through loadFrameFolder.
+  bool stretch_mono12 = false;
+};
 
-/// The file name exportBurstPng gives frame `id`, with `digits` >= 1 digits.
-std::string frameFileName(std::int64_t id, int digits = 4);
+struct PngExportReport {
+  std::size_t written = 0;
+  std::size_t skipped = 0;  ///< frames without image data (failed in transport)
+};
+
+/// Writes every frame of the burst that has image data into `dir` (created if
+/// missing), named as described at the top of this file; frames without image
+/// data are skipped and counted (their index is not reused, so gaps show).
+/// Errors: the folder cannot be created; two frames share an id; `dir` already
+/// holds frames of another export (they would be read back with these); a
+/// file cannot be written. Any thread.
+Result<PngExportReport> exportBurstPng(const Burst& burst, const std::string& dir,
+                                       const PngExportOptions& options = {});
+
+/// The file name exportBurstPng gives the frame at position `index` with id
+/// `id`, with the index padded to `digits` >= 1 digits.
+std::string frameFileName(std::size_t index, std::int64_t id, int digits = 4);
 
 /// Natural order of names: runs of digits compare as numbers ("frame2" <
 /// "frame10"), everything else byte by byte.

@@ -68,15 +68,11 @@ void expectSameImagesInOrder(const Burst& loaded, const Burst& original, double 
 }
 
 TEST(FrameFileName, NameOrderIsFrameOrder) {
-  EXPECT_EQ(frameFileName(0), "frame_p0000.png");
-  EXPECT_EQ(frameFileName(12), "frame_p0012.png");
-  EXPECT_EQ(frameFileName(-1), "frame_m9999.png");
-  EXPECT_EQ(frameFileName(-5), "frame_m9995.png");
-  EXPECT_EQ(frameFileName(-12345, 4), "frame_m87655.png");  // widened to fit
-  std::vector<std::int64_t> ids;
-  for (std::int64_t id = -120; id <= 120; ++id) ids.push_back(id);
+  EXPECT_EQ(frameFileName(0, -5), "frame_0000_id-5.png");
+  EXPECT_EQ(frameFileName(12, 7), "frame_0012_id7.png");
+  EXPECT_EQ(frameFileName(12345, 0, 4), "frame_12345_id0.png");  // widened to fit
   std::vector<std::string> names;
-  for (auto id : ids) names.push_back(frameFileName(id));
+  for (std::int64_t id = -120; id <= 120; ++id) names.push_back(frameFileName(id + 120, id));
   EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));  // plain byte order
   EXPECT_TRUE(std::is_sorted(names.begin(), names.end(), naturalLess));
 }
@@ -95,8 +91,8 @@ TEST(NaturalLess, DigitRunsCompareAsNumbers) {
 TEST_F(FrameIo, RoundTrip8Bit) {
   const Burst b = randomBurst(PixelFormat::Mono8, 255, -3, 8);
   ASSERT_TRUE(exportBurstPng(b, dir_.string()));
-  EXPECT_TRUE(fs::exists(path("frame_m9997.png")));  // id -3
-  EXPECT_TRUE(fs::exists(path("frame_p0004.png")));
+  EXPECT_TRUE(fs::exists(path("frame_0000_id-3.png")));
+  EXPECT_TRUE(fs::exists(path("frame_0007_id4.png")));
   const Result<Burst> loaded = loadFrameFolder(dir_.string(), 500.0);
   ASSERT_TRUE(loaded) << loaded.error().message;
   expectSameImagesInOrder(*loaded, b, 500.0);
@@ -226,10 +222,11 @@ TEST_F(FrameIo, ExportRefusesToMixWithAnotherExport) {
   ASSERT_TRUE(exportBurstPng(randomBurst(PixelFormat::Mono8, 255, -2, 4), dir_.string()));
   // The same burst again overwrites its own files...
   EXPECT_TRUE(exportBurstPng(randomBurst(PixelFormat::Mono8, 255, -2, 4), dir_.string()));
-  // ...but a different one would leave frame_m9998.png behind to be read back.
-  const Status s = exportBurstPng(randomBurst(PixelFormat::Mono8, 255, 0, 4), dir_.string());
+  // ...but a different one (ids 0..3) would leave the files of ids -2..1 behind
+  // to be read back; the message names one of them.
+  const auto s = exportBurstPng(randomBurst(PixelFormat::Mono8, 255, 0, 4), dir_.string());
   ASSERT_FALSE(s);
-  EXPECT_THAT(s.error().message, HasSubstr("frame_m999"));
+  EXPECT_THAT(s.error().message, HasSubstr("already holds frames from another export (frame_000"));
   Burst dup = randomBurst(PixelFormat::Mono8, 255, 0, 2);
   dup.frames[1].id = 0;
   EXPECT_FALSE(exportBurstPng(dup, path("dup")));

@@ -1,0 +1,158 @@
+#include "app/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <vector>
+
+namespace collide::app {
+
+namespace {
+
+/// The folder holding `path` ("." for a bare file name), for fsync'ing the rename.
+std::string folderOf(const std::string& path) {
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  return parent.empty() ? "." : parent.string();
+}
+
+/// fsync a file or folder by name. Linux flushes the inode's dirty pages
+/// whichever descriptor asks, so a fresh read-only descriptor is enough.
+int syncPath(const std::string& path, int flags) {
+  const int fd = ::open(path.c_str(), flags | O_CLOEXEC);
+  if (fd < 0) return errno;
+  int err = 0;
+  if (::fsync(fd) != 0) err = errno;
+  ::close(fd);
+  return err;
+}
+
+/// Copies `from` into the open, empty `to_fd`. copy_file_range lets the
+/// kernel copy (or share extents on XFS/btrfs) without a trip through user
+/// space; read/write is the fallback across filesystems. Returns 0 or errno.
+/// (std::filesystem::copy_file reports a short copy as a bare EIO, losing the
+/// "disk full" a user needs to see.)
+int copyInto(int from_fd, int to_fd) {
+  bool kernel_copy = true;
+  std::vector<char> buf;
+  for (;;) {
+    ssize_t n;
+    if (kernel_copy) {
+      n = ::copy_file_range(from_fd, nullptr, to_fd, nullptr, 1 << 30, 0);
+      if (n < 0 && (errno == EXDEV || errno == ENOSYS || errno == EINVAL || errno == EOPNOTSUPP)) {
+        kernel_copy = false;
+        buf.resize(1 << 20);
+        continue;
+      }
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) return errno;
+      if (n == 0) return 0;
+      continue;
+    }
+    n = ::read(from_fd, buf.data(), buf.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return errno;
+    if (n == 0) return 0;
+    for (ssize_t done = 0; done < n;) {
+      const ssize_t w = ::write(to_fd, buf.data() + done, static_cast<std::size_t>(n - done));
+      if (w < 0 && errno == EINTR) continue;
+      if (w < 0) return errno;
+      done += w;
+    }
+  }
+}
+
+}  // namespace
+
+Error ioError(int errno_value, const std::string& action, const std::string& path) {
+  const std::string where = " " + action + " " + path;
+  switch (errno_value) {
+    case ENOSPC:
+      return fail("no space left on device" + where +
+                  ": free space or choose another folder (--out)");
+    case EDQUOT:
+      return fail("disk quota exceeded" + where + ": free space or choose another folder (--out)");
+    case EFBIG:
+      return fail("file too large (file size limit reached)" + where +
+                  ": raise the limit (ulimit -f) or choose another folder (--out)");
+    case EACCES:
+    case EPERM:
+      return fail("permission denied" + where +
+                  ": check the folder's permissions or choose another folder (--out)");
+    case EROFS: return fail("read-only file system" + where + ": choose another folder (--out)");
+    case ENOENT: return fail("no such file or folder" + where + ": check the path");
+    case EIO:
+      return fail("input/output error" + where + ": the disk may be failing; check it (dmesg)");
+    default: return fail(std::string(std::strerror(errno_value)) + where);
+  }
+}
+
+Result<AtomicFile> AtomicFile::create(const std::string& final_path) {
+  const std::filesystem::path final_fs(final_path);
+  // O_EXCL with our own random suffix rather than mkstemp: mkstemp creates
+  // mode 0600, while shot files should get the user's umask like any file.
+  std::random_device seed;
+  std::mt19937_64 rng(seed());
+  static constexpr char kAlphabet[] = "abcdefghijklmnopqrstuvwxyz0123456789";
+  std::string hidden_name = ".";
+  hidden_name += final_fs.filename().string();
+  const std::string prefix = (final_fs.parent_path() / hidden_name).string();
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::string temp = prefix;
+    temp.append(".tmp-");
+    for (int i = 0; i < 6; ++i) temp.push_back(kAlphabet[rng() % (sizeof kAlphabet - 1)]);
+    const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+      ::close(fd);
+      return AtomicFile(final_path, temp);
+    }
+    if (errno != EEXIST) return ioError(errno, "creating", final_path);
+  }
+  return fail("cannot create a temporary file next to " + final_path +
+              ": 100 random names were all taken; remove the .tmp- files in that folder");
+}
+
+Result<AtomicFile> AtomicFile::createCopyOf(const std::string& source,
+                                            const std::string& final_path) {
+  auto temp = create(final_path);
+  if (!temp) return temp.error();
+  const int from = ::open(source.c_str(), O_RDONLY | O_CLOEXEC);
+  if (from < 0) return ioError(errno, "reading", source);
+  const int to = ::open(temp->tempPath().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  if (to < 0) {
+    const int err = errno;
+    ::close(from);
+    return ioError(err, "writing", final_path);
+  }
+  const int err = copyInto(from, to);
+  ::close(from);
+  const int close_err = ::close(to) != 0 ? errno : 0;
+  if (err != 0 || close_err != 0) return ioError(err ? err : close_err, "copying", final_path);
+  return temp;
+}
+
+AtomicFile::AtomicFile(AtomicFile&& other) noexcept
+    : final_path_(std::move(other.final_path_)), temp_path_(std::move(other.temp_path_)) {
+  other.temp_path_.clear();
+}
+
+AtomicFile::~AtomicFile() {
+  if (!temp_path_.empty()) ::unlink(temp_path_.c_str());
+}
+
+Status AtomicFile::commit() {
+  if (int err = syncPath(temp_path_, O_RDONLY)) return ioError(err, "writing", final_path_);
+  if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0)
+    return ioError(errno, "renaming a temporary file to", final_path_);
+  temp_path_.clear();
+  // The data is safe under its name already; failing to sync the folder only
+  // risks the rename itself after a power cut, which is still worth reporting.
+  if (int err = syncPath(folderOf(final_path_), O_RDONLY | O_DIRECTORY))
+    return ioError(err, "syncing the folder of", final_path_);
+  return Ok{};
+}
+
+}  // namespace collide::app

@@ -1,0 +1,53 @@
+#pragma once
+// Files that appear under their real name only once complete: written to a
+// temporary name in the same folder, flushed to disk, then renamed. A crash or
+// a full disk never leaves a half-written file under the real name.
+#include <string>
+
+#include "analysis/result.hpp"
+
+namespace collide::app {
+
+/// One line for the user from an errno value: what went wrong while `action`
+/// ("writing", "reading", ...) `path`, and what to do. For example
+/// ioError(ENOSPC, "writing", "shots/x.h5") gives
+/// "no space left on device writing shots/x.h5: free space or choose another folder (--out)".
+Error ioError(int errno_value, const std::string& action, const std::string& path);
+
+/// A temporary file next to `finalPath()` that becomes `finalPath()` on
+/// commit(). Until then it is hidden (".name.tmp-XXXXXX") and the destructor
+/// removes it. Move-only; one thread at a time.
+class AtomicFile {
+ public:
+  /// Creates the (empty) temporary file. Errors: the folder is missing or not
+  /// writable, the disk is full.
+  static Result<AtomicFile> create(const std::string& final_path);
+  /// Creates the temporary file as a copy of `source` (usually the final path
+  /// itself, to update a file without touching it until commit()).
+  static Result<AtomicFile> createCopyOf(const std::string& source, const std::string& final_path);
+
+  AtomicFile(AtomicFile&& other) noexcept;
+  AtomicFile& operator=(AtomicFile&&) = delete;
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+  ~AtomicFile();
+
+  const std::string& tempPath() const { return temp_path_; }
+  const std::string& finalPath() const { return final_path_; }
+
+  /// fsync's the temporary file (the caller has closed its own handles), renames
+  /// it to the final name, and fsync's the folder so the rename survives a
+  /// power cut. Errors (e.g. a delayed-allocation ENOSPC reported by fsync)
+  /// name the final path; on error the temporary file is still removed by the
+  /// destructor.
+  Status commit();
+
+ private:
+  AtomicFile(std::string final_path, std::string temp_path)
+      : final_path_(std::move(final_path)), temp_path_(std::move(temp_path)) {}
+
+  std::string final_path_;
+  std::string temp_path_;  ///< empty once committed or moved from
+};
+
+}  // namespace collide::app

@@ -1,0 +1,457 @@
+#include "app/h5.hpp"
+
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <optional>
+#include <sstream>
+
+#include "app/atomic_file.hpp"
+
+// Shot files are read and written from several threads (GUI browser, saver,
+// analysis) with no lock of our own: that relies on HDF5's global lock.
+#ifndef H5_HAVE_THREADSAFE
+#error "collide needs a thread-safe HDF5 build (Debian's libhdf5-dev is one)"
+#endif
+
+namespace collide::app::h5 {
+
+void silenceErrorPrinting() {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
+
+Cause lastCause() {
+  struct Walk {
+    Cause cause;
+    bool first = true;
+  } walk;
+  // Upward = innermost (where the failure started) first: its message is the
+  // most specific ("truncated file: eof = ..."), and the operating system's
+  // errno, when there is one, is reported down there too.
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_UPWARD,
+      [](unsigned, const H5E_error2_t* e, void* data) -> herr_t {
+        auto& w = *static_cast<Walk*>(data);
+        std::string desc = e->desc ? e->desc : "";
+        if (desc.empty()) {
+          char buf[256] = {};
+          H5Eget_msg(e->min_num, nullptr, buf, sizeof buf);
+          desc = buf;
+        }
+        if (w.first) {
+          w.cause.text = desc;
+          w.first = false;
+        }
+        if (w.cause.errno_value == 0) {
+          const auto at = desc.find("errno = ");
+          if (at != std::string::npos) w.cause.errno_value = std::atoi(desc.c_str() + at + 8);
+        }
+        return 0;
+      },
+      &walk);
+  H5Eclear2(H5E_DEFAULT);
+  if (walk.cause.text.empty()) walk.cause.text = "unknown HDF5 error";
+  return walk.cause;
+}
+
+Handle& Handle::operator=(Handle&& o) noexcept {
+  if (this != &o) {
+    close();
+    id_ = o.id_;
+    closer_ = o.closer_;
+    o.id_ = H5I_INVALID_HID;
+  }
+  return *this;
+}
+
+herr_t Handle::close() {
+  herr_t status = 0;
+  if (id_ >= 0 && closer_) status = closer_(id_);
+  id_ = H5I_INVALID_HID;
+  return status;
+}
+
+Handle stringType() {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type.get(), H5T_VARIABLE);
+  H5Tset_cset(type.get(), H5T_CSET_UTF8);
+  return type;
+}
+
+template <>
+hid_t nativeType<double>() {
+  return H5T_NATIVE_DOUBLE;
+}
+template <>
+hid_t nativeType<std::int32_t>() {
+  return H5T_NATIVE_INT32;
+}
+template <>
+hid_t nativeType<std::int64_t>() {
+  return H5T_NATIVE_INT64;
+}
+template <>
+hid_t nativeType<std::uint64_t>() {
+  return H5T_NATIVE_UINT64;
+}
+template <>
+hid_t nativeType<std::uint8_t>() {
+  return H5T_NATIVE_UINT8;
+}
+template <>
+hid_t nativeType<std::uint16_t>() {
+  return H5T_NATIVE_UINT16;
+}
+
+namespace {
+
+std::string shapeText(const std::vector<hsize_t>& dims) {
+  std::ostringstream s;
+  s << '[';
+  for (std::size_t i = 0; i < dims.size(); ++i) {
+    if (i) s << ", ";
+    if (dims[i] == kAnySize)
+      s << "any";
+    else
+      s << dims[i];
+  }
+  s << ']';
+  return s.str();
+}
+
+Handle dataspace(const std::vector<hsize_t>& dims) {
+  if (dims.empty()) return Handle(H5Screate(H5S_SCALAR), H5Sclose);
+  return Handle(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+}
+
+hsize_t elementCount(const std::vector<hsize_t>& dims) {
+  hsize_t n = 1;
+  for (hsize_t d : dims) n *= d;
+  return n;
+}
+
+/// Reads `count` strings stored with `file_type` (variable or fixed length)
+/// through `read(memory_type, buffer)`, which wraps H5Aread or H5Dread.
+/// Returns the cause on failure, taken before closing the memory type (every
+/// HDF5 call, H5Tclose included, clears the error stack).
+std::optional<Cause> readStringsOfType(hid_t file_type, hid_t space, std::size_t count,
+                                       const std::function<herr_t(hid_t, void*)>& read,
+                                       std::vector<std::string>& out) {
+  out.assign(count, {});
+  if (count == 0) return std::nullopt;
+  if (H5Tis_variable_str(file_type) > 0) {
+    Handle mem = stringType();
+    std::vector<char*> ptrs(count, nullptr);
+    if (read(mem.get(), ptrs.data()) < 0) return lastCause();
+    for (std::size_t i = 0; i < count; ++i) out[i] = ptrs[i] ? ptrs[i] : "";
+    H5Dvlen_reclaim(mem.get(), space, H5P_DEFAULT, ptrs.data());
+    return std::nullopt;
+  }
+  // Fixed-length strings (what MATLAB's h5writeatt writes): NUL-padded.
+  const std::size_t size = H5Tget_size(file_type);
+  Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(mem.get(), size);
+  std::vector<char> buf(size * count);
+  if (read(mem.get(), buf.data()) < 0) return lastCause();
+  for (std::size_t i = 0; i < count; ++i) {
+    const char* s = buf.data() + i * size;
+    out[i].assign(s, strnlen(s, size));
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- Writer
+
+void Writer::failHdf5(const std::string& what) {
+  const Cause cause = lastCause();
+  if (!ok_) return;
+  if (cause.errno_value != 0)
+    fail(ioError(cause.errno_value, "writing", display_path_));
+  else
+    fail(collide::fail("cannot write " + display_path_ + ": HDF5 failed " + what + " (" +
+                       cause.text + ")"));
+}
+
+void Writer::fail(Error error) {
+  if (!ok_) return;
+  ok_ = false;
+  error_ = std::move(error);
+}
+
+void Writer::group(const std::string& path) {
+  if (!ok_) return;
+  Handle g(H5Gcreate2(file_, path.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!g.valid()) failHdf5("creating group " + path);
+}
+
+void Writer::attributeOn(hid_t object, const std::string& object_path, const char* name,
+                         const std::string& value) {
+  if (!ok_) return;
+  Handle type = stringType();
+  Handle space = dataspace({});
+  Handle attr(H5Acreate2(object, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+              H5Aclose);
+  const char* p = value.c_str();
+  if (!attr.valid() || H5Awrite(attr.get(), type.get(), &p) < 0)
+    failHdf5("writing attribute " + std::string(name) + " of " + object_path);
+}
+
+void Writer::attribute(const std::string& object, const char* name, const std::string& value) {
+  if (!ok_) return;
+  Handle obj(H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose);
+  if (!obj.valid()) return failHdf5("opening " + object);
+  attributeOn(obj.get(), object, name, value);
+}
+
+void Writer::attribute(const std::string& object, const char* name, std::int32_t value) {
+  if (!ok_) return;
+  Handle space = dataspace({});
+  Handle attr(H5Acreate_by_name(file_, object.c_str(), name, H5T_STD_I32LE, space.get(),
+                                H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+              H5Aclose);
+  if (!attr.valid() || H5Awrite(attr.get(), H5T_NATIVE_INT32, &value) < 0)
+    failHdf5("writing attribute " + std::string(name) + " of " + object);
+}
+
+Handle Writer::createDataset(const std::string& path, hid_t type, const std::vector<hsize_t>& dims,
+                             hid_t dcpl) {
+  if (!ok_) return {};
+  Handle space = dataspace(dims);
+  Handle d(H5Dcreate2(file_, path.c_str(), type, space.get(), H5P_DEFAULT, dcpl, H5P_DEFAULT),
+           H5Dclose);
+  if (!d.valid()) failHdf5("creating " + path);
+  return d;
+}
+
+template <class T>
+void Writer::dataset(const std::string& path, const T* data, const std::vector<hsize_t>& dims,
+                     const char* units) {
+  Handle d = createDataset(path, nativeType<T>(), dims);
+  if (!ok_) return;
+  if (elementCount(dims) > 0 &&
+      H5Dwrite(d.get(), nativeType<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    return failHdf5("writing " + path);
+  attributeOn(d.get(), path, "units", units);
+}
+
+void Writer::text(const std::string& path, const std::string& value, const char* media_type) {
+  Handle type = stringType();
+  Handle d = createDataset(path, type.get(), {});
+  if (!ok_) return;
+  const char* p = value.c_str();
+  if (H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, &p) < 0)
+    return failHdf5("writing " + path);
+  attributeOn(d.get(), path, "units", "");
+  attributeOn(d.get(), path, "media_type", media_type);
+}
+
+void Writer::strings(const std::string& path, const std::vector<std::string>& values) {
+  Handle type = stringType();
+  Handle d = createDataset(path, type.get(), {values.size()});
+  if (!ok_) return;
+  std::vector<const char*> ptrs;
+  ptrs.reserve(values.size());
+  for (const auto& v : values) ptrs.push_back(v.c_str());
+  if (!ptrs.empty() &&
+      H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, ptrs.data()) < 0)
+    return failHdf5("writing " + path);
+  attributeOn(d.get(), path, "units", "");
+}
+
+template void Writer::dataset(const std::string&, const double*, const std::vector<hsize_t>&,
+                              const char*);
+template void Writer::dataset(const std::string&, const std::int32_t*, const std::vector<hsize_t>&,
+                              const char*);
+template void Writer::dataset(const std::string&, const std::int64_t*, const std::vector<hsize_t>&,
+                              const char*);
+template void Writer::dataset(const std::string&, const std::uint64_t*, const std::vector<hsize_t>&,
+                              const char*);
+template void Writer::dataset(const std::string&, const std::uint8_t*, const std::vector<hsize_t>&,
+                              const char*);
+
+// ---------------------------------------------------------------- Reader
+
+void Reader::failHdf5(const std::string& what) {
+  failHdf5(what, lastCause());
+}
+
+void Reader::failHdf5(const std::string& what, const Cause& cause) {
+  if (!ok_) return;
+  if (cause.errno_value != 0)
+    fail(ioError(cause.errno_value, "reading", display_path_));
+  else
+    fail(collide::fail("cannot read " + display_path_ + ": HDF5 failed " + what + " (" +
+                       cause.text + "); the file may be corrupt"));
+}
+
+void Reader::fail(Error error) {
+  if (!ok_) return;
+  ok_ = false;
+  error_ = std::move(error);
+}
+
+bool Reader::exists(const std::string& path) {
+  if (!ok_) return false;
+  // H5Lexists fails (rather than answering no) when a parent is missing, so
+  // walk down one component at a time.
+  std::string prefix;
+  std::size_t start = 1;
+  while (start <= path.size()) {
+    const std::size_t end = std::min(path.find('/', start), path.size());
+    prefix = path.substr(0, end);
+    if (H5Lexists(file_, prefix.c_str(), H5P_DEFAULT) <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      return false;
+    }
+    start = end + 1;
+  }
+  return true;
+}
+
+Handle Reader::openDataset(const std::string& path, hid_t dapl) {
+  if (!ok_) return {};
+  if (!exists(path)) {
+    fail(collide::fail("shot file " + display_path_ + " lacks dataset " + path +
+                       ": the file is incomplete or was not written by collide"));
+    return {};
+  }
+  Handle d(H5Dopen2(file_, path.c_str(), dapl), H5Dclose);
+  if (!d.valid()) failHdf5("opening " + path);
+  return d;
+}
+
+std::string Reader::stringAttribute(const std::string& object, const char* name) {
+  if (!ok_) return {};
+  if (H5Aexists_by_name(file_, object.c_str(), name, H5P_DEFAULT) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    fail(collide::fail("shot file " + display_path_ + " lacks attribute '" + name + "' of " +
+                       object + ": the file is incomplete or was not written by collide"));
+    return {};
+  }
+  Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  Handle type(attr.valid() ? H5Aget_type(attr.get()) : H5I_INVALID_HID, H5Tclose);
+  Handle space(attr.valid() ? H5Aget_space(attr.get()) : H5I_INVALID_HID, H5Sclose);
+  std::vector<std::string> out;
+  const std::string what = "reading attribute " + std::string(name) + " of " + object;
+  if (!type.valid() || !space.valid()) {
+    failHdf5(what);
+    return {};
+  }
+  if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) {
+    fail(collide::fail("shot file " + display_path_ + ": attribute '" + name + "' of " + object +
+                       " should be one string; the file is corrupt or from another program"));
+    return {};
+  }
+  if (auto cause = readStringsOfType(
+          type.get(), space.get(), 1,
+          [&](hid_t mem, void* buf) { return H5Aread(attr.get(), mem, buf); }, out)) {
+    failHdf5(what, *cause);
+    return {};
+  }
+  return out.front();
+}
+
+std::int32_t Reader::intAttribute(const std::string& object, const char* name) {
+  if (!ok_) return 0;
+  if (H5Aexists_by_name(file_, object.c_str(), name, H5P_DEFAULT) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    fail(collide::fail("shot file " + display_path_ + " lacks attribute '" + name + "' of " +
+                       object + ": the file is incomplete or was not written by collide"));
+    return 0;
+  }
+  std::int32_t value = 0;
+  Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attr.valid() || H5Aread(attr.get(), H5T_NATIVE_INT32, &value) < 0)
+    failHdf5("reading attribute " + std::string(name) + " of " + object);
+  return value;
+}
+
+template <class T>
+std::vector<T> Reader::dataset(const std::string& path, const std::vector<hsize_t>& expected,
+                               std::vector<hsize_t>* dims_out) {
+  Handle d = openDataset(path);
+  if (!ok_) return {};
+  Handle space(H5Dget_space(d.get()), H5Sclose);
+  Handle type(H5Dget_type(d.get()), H5Tclose);
+  if (!space.valid() || !type.valid()) {
+    failHdf5("inspecting " + path);
+    return {};
+  }
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  std::vector<hsize_t> dims(rank > 0 ? rank : 0);
+  if (rank > 0) H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+  bool shape_ok = dims.size() == expected.size();
+  for (std::size_t i = 0; shape_ok && i < dims.size(); ++i)
+    shape_ok = expected[i] == kAnySize || expected[i] == dims[i];
+  const H5T_class_t cls = H5Tget_class(type.get());
+  if (!shape_ok || (cls != H5T_INTEGER && cls != H5T_FLOAT)) {
+    fail(collide::fail(
+        "shot file " + display_path_ + ": dataset " + path + " should hold " +
+        (expected.empty() ? std::string("one number") : "numbers of shape " + shapeText(expected)) +
+        " but holds " + (cls == H5T_INTEGER || cls == H5T_FLOAT ? "numbers" : "other data") +
+        " of shape " + shapeText(dims) + "; the file is corrupt or was not written by collide"));
+    return {};
+  }
+  std::vector<T> values(elementCount(dims));
+  if (!values.empty() &&
+      H5Dread(d.get(), nativeType<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
+    failHdf5("reading " + path);
+    return {};
+  }
+  if (dims_out) *dims_out = dims;
+  return values;
+}
+
+std::vector<std::string> Reader::readStrings(const std::string& path, int expected_rank) {
+  Handle d = openDataset(path);
+  if (!ok_) return {};
+  Handle space(H5Dget_space(d.get()), H5Sclose);
+  Handle type(H5Dget_type(d.get()), H5Tclose);
+  if (!space.valid() || !type.valid()) {
+    failHdf5("inspecting " + path);
+    return {};
+  }
+  if (H5Tget_class(type.get()) != H5T_STRING ||
+      H5Sget_simple_extent_ndims(space.get()) != expected_rank) {
+    fail(collide::fail("shot file " + display_path_ + ": dataset " + path + " should hold " +
+                       (expected_rank == 0 ? "one string" : "a list of strings") +
+                       "; the file is corrupt or was not written by collide"));
+    return {};
+  }
+  std::vector<std::string> out;
+  const auto count = static_cast<std::size_t>(H5Sget_simple_extent_npoints(space.get()));
+  if (auto cause = readStringsOfType(
+          type.get(), space.get(), count,
+          [&](hid_t mem, void* buf) {
+            return H5Dread(d.get(), mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
+          },
+          out)) {
+    failHdf5("reading " + path, *cause);
+    return {};
+  }
+  return out;
+}
+
+std::string Reader::text(const std::string& path) {
+  std::vector<std::string> v = readStrings(path, 0);
+  return v.empty() ? std::string() : v.front();
+}
+
+std::vector<std::string> Reader::strings(const std::string& path) {
+  return readStrings(path, 1);
+}
+
+template std::vector<double> Reader::dataset(const std::string&, const std::vector<hsize_t>&,
+                                             std::vector<hsize_t>*);
+template std::vector<std::int32_t> Reader::dataset(const std::string&, const std::vector<hsize_t>&,
+                                                   std::vector<hsize_t>*);
+template std::vector<std::int64_t> Reader::dataset(const std::string&, const std::vector<hsize_t>&,
+                                                   std::vector<hsize_t>*);
+template std::vector<std::uint64_t> Reader::dataset(const std::string&, const std::vector<hsize_t>&,
+                                                    std::vector<hsize_t>*);
+template std::vector<std::uint8_t> Reader::dataset(const std::string&, const std::vector<hsize_t>&,
+                                                   std::vector<hsize_t>*);
+
+}  // namespace collide::app::h5

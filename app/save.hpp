@@ -1,0 +1,27 @@
+#pragma once
+// Saving a shot into a shot folder: the HDF5 file first, then its catalog row,
+// so a save that fails leaves neither a file under the real name nor a row
+// (a row always points at a complete file).
+#include <string>
+
+#include "analysis/result.hpp"
+#include "app/shot_file.hpp"
+#include "hw/shot.hpp"
+
+namespace collide::app {
+
+/// "<id>.h5": the file name of shot `id` in its folder.
+std::string shotFileName(const std::string& id);
+
+/// Writes `shot` to `dir`/<id>.h5 (creating `dir` if needed), then adds or
+/// replaces its row in `dir`/catalog.sqlite. Errors: an id that cannot be a
+/// file name, the folder cannot be created, any writeShot error (nothing is
+/// left behind), the catalog cannot be updated (the file is then complete and
+/// the message says to run `collide catalog rebuild DIR`).
+Status saveShot(const std::string& dir, const hw::Shot& shot, const WriteOptions& options = {});
+
+/// Stores the analysis results of shot `id` (in `dir`/<id>.h5, see
+/// storeResults), then updates its catalog row. Same error rules as saveShot.
+Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json);
+
+}  // namespace collide::app

@@ -1,0 +1,64 @@
+#pragma once
+// One HDF5 file per shot, in the layout documented in docs/shot-format.md:
+// frames as one N x H x W dataset (one frame per chunk), per-frame ids,
+// timestamps and status, everything the rig did, the ground truth of a
+// simulated shot, and the analysis results once there are some.
+//
+// Files appear under their real name only once complete (temporary name,
+// fsync, rename): a crash or a full disk never leaves a half file behind.
+// All functions may be called from any thread (HDF5 is built thread-safe and
+// serialises its calls); two writers must not target the same path at once.
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "analysis/result.hpp"
+#include "hw/shot.hpp"
+
+namespace collide::app {
+
+/// Format written by this version; readShot accepts this and older ones.
+inline constexpr int kShotFormatVersion = 1;
+
+struct WriteOptions {
+  /// Lossless shuffle + deflate on the frames. Off by default: a burst is
+  /// written while the rig waits, and uncompressed writes run at disk speed.
+  bool compress = false;
+  /// 1 (fast) .. 9 (small), used when compress is set. Camera frames are mostly
+  /// noise around a few spheres: higher levels cost much more time for little size.
+  int deflate_level = 1;
+};
+
+/// Writes `shot` to `path` (conventionally "<dir>/<shot.id>.h5"), replacing a
+/// previous file of that name only once the new one is complete.
+/// Errors (one line naming `path`): folder missing or read-only, disk full
+/// ("no space left on device writing shots/x.h5: free space or ..."), frames
+/// of different sizes or of a type that does not match the pixel format,
+/// truth arrays of different lengths, results that are not JSON. On error
+/// nothing is left under `path` or in a temporary file.
+Status writeShot(const std::string& path, const hw::Shot& shot, const WriteOptions& options = {});
+
+struct ReadOptions {
+  /// Read the images. Without them every frame's id, timestamp and status are
+  /// still read and Frame::image stays empty: enough for listing and
+  /// cataloguing, and fast (only metadata is touched).
+  bool frames = true;
+};
+
+/// Reads a shot file. Errors (one line naming `path`): no such file, not an
+/// HDF5 file, an HDF5 file that is not a shot file, a newer format, a
+/// truncated or corrupt file, a required dataset missing (named).
+Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options = {});
+
+/// Replaces the analysis results stored in the shot file at `path` (empty
+/// `results_json` removes them). The recorded data is never at risk: the file
+/// is copied to a temporary name, the copy updated, then renamed over the
+/// original (see the comment in shot_file.cpp for why not in place).
+/// Errors: the file is not a readable shot file, the results are not JSON,
+/// disk full while copying.
+Status storeResults(const std::string& path, const std::string& results_json);
+
+/// "ok" / "failed" (hw::toString's inverse); nullopt for anything else.
+std::optional<hw::ShotStatus> parseShotStatus(std::string_view text);
+
+}  // namespace collide::app

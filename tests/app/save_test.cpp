@@ -1,0 +1,136 @@
+#include "app/save.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "app/catalog.hpp"
+#include "tests/app/shot_fixtures.hpp"
+
+namespace {
+
+using collide::app::Catalog;
+using collide::app::saveShot;
+using namespace collide::testing;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+std::size_t catalogRows(const std::string& dir) {
+  auto catalog = Catalog::open(dir);
+  EXPECT_TRUE(catalog.ok()) << catalog.error().message;
+  auto rows = catalog->query();
+  EXPECT_TRUE(rows.ok());
+  return rows->size();
+}
+
+ShotSpec bigShot(const std::string& id) {
+  ShotSpec spec;
+  spec.id = id;
+  spec.width = 320;
+  spec.height = 240;
+  spec.frames = 10;  // ~600 kB of frames
+  return spec;
+}
+
+TEST(SaveShot, WritesTheFileThenItsRow) {
+  ScratchDir dir;
+  const auto shot = makeShot();
+  const std::string folder = dir.file("new/shots");  // created on demand
+  const auto s = saveShot(folder, shot);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_TRUE(std::filesystem::is_regular_file(folder + "/" + shot.id + ".h5"));
+  auto rows = Catalog::open(folder)->query();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 1u);
+  EXPECT_EQ((*rows)[0].id, shot.id);
+  EXPECT_EQ((*rows)[0].file, shot.id + ".h5");
+}
+
+TEST(SaveShot, DiskFillingUpGivesAClearErrorAndLeavesNoFileNorRow) {
+  ScratchDir dir;
+  // One shot saved before the disk fills: it must come through untouched.
+  const auto earlier = makeShot();
+  ASSERT_TRUE(saveShot(dir.path(), earlier).ok());
+  const auto before = dir.entries();
+
+  const auto shot = makeShot(bigShot("20260314-101501-0002"));
+  const std::string path = dir.file(shot.id + ".h5");
+  // The first ~200 kB fit, then writes fail with EFBIG, as on a full disk.
+  const std::string message = runWithFileSizeLimit(200 * 1024, [&] {
+    const auto s = saveShot(dir.path(), shot);
+    return s.ok() ? std::string("saved") : s.error().message;
+  });
+  EXPECT_THAT(message, AllOf(HasSubstr("file too large"), HasSubstr("writing " + path),
+                             HasSubstr("choose another folder")));
+  EXPECT_EQ(message.find('\n'), std::string::npos) << "one line: " << message;
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_EQ(dir.entries(), before) << "no temporary file left either";
+  EXPECT_EQ(catalogRows(dir.path()), 1u);
+  const auto still = collide::app::readShot(dir.file(earlier.id + ".h5"));
+  ASSERT_TRUE(still.ok()) << still.error().message;
+  expectSameShot(earlier, *still);
+}
+
+TEST(SaveShot, DiskFullBeforeAnyCatalogLeavesNothing) {
+  ScratchDir dir;
+  const auto shot = makeShot(bigShot("20260314-101501-0003"));
+  const std::string message = runWithFileSizeLimit(64 * 1024, [&] {
+    const auto s = saveShot(dir.path(), shot);
+    return s.ok() ? std::string("saved") : s.error().message;
+  });
+  EXPECT_THAT(message, AllOf(HasSubstr("file too large"), HasSubstr(shot.id + ".h5")));
+  EXPECT_TRUE(dir.entries().empty()) << ::testing::PrintToString(dir.entries());
+}
+
+TEST(SaveShot, AnIdThatIsNotAFileNameIsRefused) {
+  ScratchDir dir;
+  auto shot = makeShot();
+  shot.id = "../escape";
+  const auto s = saveShot(dir.path(), shot);
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.error().message, HasSubstr("cannot name a file"));
+  EXPECT_TRUE(dir.entries().empty());
+}
+
+TEST(SaveShot, CatalogFailureAfterTheFileSaysHowToRecover) {
+  ScratchDir dir;
+  // A folder where the catalog file should be: SQLite cannot open it.
+  std::filesystem::create_directory(dir.file("catalog.sqlite"));
+  const auto shot = makeShot();
+  const auto s = saveShot(dir.path(), shot);
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.error().message, AllOf(HasSubstr("saved " + dir.file(shot.id + ".h5")),
+                                       HasSubstr("collide catalog rebuild " + dir.path())));
+  // The file is complete: rebuilding from it is the way back.
+  EXPECT_TRUE(collide::app::readShot(dir.file(shot.id + ".h5")).ok());
+}
+
+TEST(SaveResults, UpdatesTheFileAndTheRow) {
+  ScratchDir dir;
+  ShotSpec spec;
+  spec.results = false;
+  const auto shot = makeShot(spec);
+  ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+  const std::string json = R"({"e": 0.91, "gamma_deg": 150.0})";
+  const auto s = collide::app::saveResults(dir.path(), shot.id, json);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  const auto read = collide::app::readShot(dir.file(shot.id + ".h5"), {.frames = false});
+  ASSERT_TRUE(read.ok());
+  EXPECT_EQ(read->results_json, json);
+  auto rows = Catalog::open(dir.path())->query();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 1u);
+  EXPECT_TRUE((*rows)[0].analysed);
+  EXPECT_EQ((*rows)[0].results.e, 0.91);
+  EXPECT_EQ((*rows)[0].results.gamma_deg, 150.0);
+}
+
+TEST(SaveResults, UnknownShotIsNamed) {
+  ScratchDir dir;
+  const auto s = collide::app::saveResults(dir.path(), "20260101-000000-0000", R"({"e": 1})");
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.error().message, HasSubstr("20260101-000000-0000.h5"));
+}
+
+}  // namespace
