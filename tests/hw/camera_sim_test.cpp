@@ -1,0 +1,158 @@
+// The simulated camera shows what the ground truth says: each sphere's image
+// sits at its true centre projected through the profile's geometry, at the
+// configured bit depth and noise, and the truth's clock matches the frames.
+#include "hw/camera_sim.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "hw/sequencer.hpp"
+#include "profile_text.hpp"
+
+using namespace collide::hw;
+using collide::hw::testing::simProfileText;
+using collide::hw::testing::withKey;
+
+namespace {
+
+Shot shoot(const std::string& text, double v1 = 2.0, double v2 = 2.0) {
+  auto profile = parseRigProfile(text, "sim.toml");
+  if (!profile) throw std::runtime_error(profile.error().message);
+  auto rig = makeRig(*profile);
+  if (!rig) throw std::runtime_error(rig.error().message);
+  return Sequencer(*rig).fire(ShotRequest::atSpeeds(v1, v2));
+}
+
+// Projection written out independently of the camera: world y up, image v down.
+cv::Point2d project(const RigProfile& p, const collide::Vec3& w) {
+  return {p.geometry.origin_u_px + w.x() / p.geometry.pixel_size_m,
+          p.geometry.origin_v_px - w.y() / p.geometry.pixel_size_m};
+}
+
+double backgroundSd(const cv::Mat& image) {
+  cv::Scalar mean, sd;
+  cv::meanStdDev(image(cv::Rect(0, 0, 40, 40)), mean, sd);  // a corner no sphere reaches
+  return sd[0];
+}
+
+}  // namespace
+
+TEST(CameraSim, EachSphereAppearsAtItsTrueProjectedCentre) {
+  const std::string text = simProfileText();
+  const RigProfile profile = *parseRigProfile(text, "sim.toml");
+  const Shot shot = shoot(text);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  ASSERT_TRUE(shot.truth.has_value());
+  const TruthRecord& truth = *shot.truth;
+  const double radius_px = 0.5 * profile.spheres.diameter_m[0] / profile.geometry.pixel_size_m;
+
+  int spheres_checked = 0;
+  for (std::size_t k = 0; k < shot.burst.frames.size(); ++k) {
+    const auto& frame = shot.burst.frames[k];
+    ASSERT_EQ(truth.frame_id[k], frame.id);
+    // The truth's clock: frame k's mid-exposure, seconds after frame 0's.
+    EXPECT_NEAR(truth.t_s[k], frame.id / profile.camera_config.fps, 1e-9);
+    std::array<cv::Point2d, 2> centre;
+    bool inside = true;
+    for (int i = 0; i < 2; ++i) {
+      centre[i] = project(profile, truth.states[k][i].position_m);
+      inside = inside && centre[i].x > radius_px + 4 && centre[i].y > radius_px + 4 &&
+               centre[i].x < frame.image.cols - radius_px - 5 &&
+               centre[i].y < frame.image.rows - radius_px - 5;
+    }
+    // Only frames where both spheres are wholly in view and clearly apart.
+    if (!inside || cv::norm(centre[0] - centre[1]) < 2 * radius_px + 6) continue;
+
+    cv::Mat mask, labels, stats, centroids;
+    cv::threshold(frame.image, mask, 60, 255, cv::THRESH_BINARY);
+    const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids);
+    for (int i = 0; i < 2; ++i) {
+      int best = -1;
+      double best_d = 1e9;
+      for (int c = 1; c < n; ++c) {
+        if (stats.at<int>(c, cv::CC_STAT_AREA) < 500) continue;
+        const double d = cv::norm(
+            cv::Point2d(centroids.at<double>(c, 0), centroids.at<double>(c, 1)) - centre[i]);
+        if (d < best_d) best = c, best_d = d;
+      }
+      ASSERT_GE(best, 0) << "no sphere found in frame " << frame.id;
+      const int x = stats.at<int>(best, cv::CC_STAT_LEFT), y = stats.at<int>(best, cv::CC_STAT_TOP);
+      const int w = stats.at<int>(best, cv::CC_STAT_WIDTH),
+                h = stats.at<int>(best, cv::CC_STAT_HEIGHT);
+      // The outline is untouched by the dark dots inside it: its box centre
+      // is the disc's centre (blur smears it symmetrically about mid-exposure).
+      EXPECT_NEAR(x + 0.5 * (w - 1), centre[i].x, 1.0) << "frame " << frame.id << " sphere " << i;
+      EXPECT_NEAR(y + 0.5 * (h - 1), centre[i].y, 1.0) << "frame " << frame.id << " sphere " << i;
+      EXPECT_NEAR(0.5 * h, radius_px, 1.5) << "frame " << frame.id;
+      // The intensity centroid as well, within what the dots can pull it.
+      EXPECT_NEAR(centroids.at<double>(best, 0), centre[i].x, 2.5);
+      EXPECT_NEAR(centroids.at<double>(best, 1), centre[i].y, 2.5);
+      ++spheres_checked;
+    }
+  }
+  EXPECT_GE(spheres_checked, 20);  // the test must have looked at something
+}
+
+TEST(CameraSim, SpheresTouchAtTheTruthsCollisionInstant) {
+  const std::string text = simProfileText();
+  const RigProfile profile = *parseRigProfile(text, "sim.toml");
+  const Shot shot = shoot(text);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  const TruthRecord& truth = *shot.truth;
+  // The frame nearest the collision: centres one diameter apart, to within
+  // the motion during half a frame period.
+  std::size_t nearest = 0;
+  for (std::size_t k = 0; k < truth.t_s.size(); ++k)
+    if (std::abs(truth.t_s[k] - truth.t_collision_s) <
+        std::abs(truth.t_s[nearest] - truth.t_collision_s))
+      nearest = k;
+  const double gap_m =
+      (truth.states[nearest][0].position_m - truth.states[nearest][1].position_m).norm();
+  EXPECT_NEAR(gap_m, profile.spheres.diameter_m[0], 2 * 2.0 * 0.5e-3 + 1e-4);
+}
+
+TEST(CameraSim, Mono12FramesUseTwelveBitsAndNoiseHasTheConfiguredSpread) {
+  std::string text = withKey(simProfileText(), "camera", "format", "\"Mono12\"");
+  text = withKey(text, "camera", "noise_grey", "8.0");
+  const Shot shot = shoot(text);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  double brightest = 0;
+  for (const auto& f : shot.burst.frames) {
+    ASSERT_EQ(f.image.type(), CV_16UC1);
+    double lo, hi;
+    cv::minMaxLoc(f.image, &lo, &hi);
+    brightest = std::max(brightest, hi);
+  }
+  EXPECT_LE(brightest, 4095.0);
+  EXPECT_GT(brightest, 0.7 * 4095);  // a sphere's centre is at 85 % of full scale
+  EXPECT_NEAR(backgroundSd(shot.burst.frames.front().image), 8.0, 1.5);
+}
+
+TEST(CameraSim, NoiselessBackgroundIsFlat) {
+  const std::string text = withKey(simProfileText(), "camera", "noise_grey", "0");
+  const Shot shot = shoot(text);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  EXPECT_LT(backgroundSd(shot.burst.frames.front().image), 0.5);
+}
+
+TEST(CameraSim, RealtimeDeliveryGivesTheSameKindOfBurst) {
+  const std::string text = withKey(simProfileText(), "camera", "realtime", "true");
+  const Shot shot = shoot(text);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  EXPECT_TRUE(shot.burst.complete);
+  ASSERT_TRUE(shot.truth.has_value());
+  EXPECT_LT(std::abs(shot.truth->t_collision_s), 0.003);
+}
+
+TEST(CameraSim, ThesisProfileShootsAtItsSmallResolution) {
+  const std::string text =
+      collide::hw::testing::readFile(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-thesis.toml");
+  const Shot shot = shoot(text);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  EXPECT_EQ(shot.burst.width(), 240);
+  EXPECT_EQ(shot.burst.height(), 192);
+  ASSERT_TRUE(shot.truth.has_value());
+  EXPECT_LT(std::abs(shot.truth->t_collision_s), 0.003);
+}
