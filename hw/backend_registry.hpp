@@ -94,8 +94,9 @@ Status checkBackendKnown(const DeviceProfile& device) {
   std::string known;
   for (const auto& n : BackendRegistry<RoleT>::instance().names())
     known += (known.empty() ? "\"" : ", \"") + n + "\"";
-  SettingsReader r(device.table);
-  return r.invalid("backend", "unknown backend (known: " + (known.empty() ? "none" : known) + ")");
+  // The value in use, which a profile edited by code may have changed since it was read.
+  return fail(SettingsReader(device.table).where("backend") + " = \"" + device.backend +
+              "\": unknown backend (known: " + (known.empty() ? "none" : known) + ")");
 }
 
 }  // namespace collide::hw
