@@ -1,0 +1,169 @@
+#include "app/campaign.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <numeric>
+#include <random>
+#include <regex>
+
+#include "app/rig_setup.hpp"
+#include "app/save.hpp"
+#include "app/shot_id.hpp"
+#include "app/version.hpp"
+#include "hw/launch_plan.hpp"
+#include "hw/sequencer.hpp"
+
+namespace collide::app {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Signed angle (rad) between the line of centres and the approach direction at
+// the planned contact: 0 head-on, +-pi/2 grazing; the sign says which side.
+Result<double> plannedIncidence(const hw::RigProfile& p, const std::array<double, 2>& v) {
+  auto plan = hw::planLaunch(p, v);
+  if (!plan) return plan.error();
+  const Vec3 n = plan->contact_normal;
+  const Vec3 approach = -plan->relative_velocity_m_s.normalized();  // v_n < 0: n . v_rel < 0
+  return std::atan2(n.cross(approach).z(), n.dot(approach));
+}
+
+// The profile text with the second launcher's exit_m moved up by dy (m).
+Result<std::string> withSlideOffset(const std::string& text, double dy_m) {
+  static const std::regex exit_re(R"(exit_m\s*=\s*\[\s*([^,\]]+),\s*([^,\]]+),\s*([^,\]]+)\])");
+  auto it = std::sregex_iterator(text.begin(), text.end(), exit_re);
+  if (it == std::sregex_iterator() || ++it == std::sregex_iterator())
+    return fail("the rig profile has no second launcher exit_m = [x, y, z] to move");
+  const std::smatch& m = *it;
+  char replacement[160];
+  std::snprintf(replacement, sizeof replacement, "exit_m = [%s, %.9g, %s]", m[1].str().c_str(),
+                std::stod(m[2].str()) + dy_m, m[3].str().c_str());
+  return text.substr(0, m.position(0)) + replacement + text.substr(m.position(0) + m.length(0));
+}
+
+Result<hw::RigProfile> profileWithOffset(const hw::RigProfile& p, double dy_m) {
+  auto text = withSlideOffset(p.text, dy_m);
+  if (!text) return text.error();
+  return hw::parseRigProfile(*text, p.source);
+}
+
+}  // namespace
+
+Result<hw::RigProfile> aimForIncidence(const hw::RigProfile& profile, double incidence_deg,
+                                       const std::array<double, 2>& speed_m_s,
+                                       double* slide_offset_m) {
+  const double target = incidence_deg * kPi / 180.0;
+  const double sigma = 0.5 * (profile.spheres.diameter_m[0] + profile.spheres.diameter_m[1]);
+  auto angleAt = [&](double dy) -> Result<double> {
+    auto p = profileWithOffset(profile, dy);
+    if (!p) return p.error();
+    return plannedIncidence(*p, speed_m_s);
+  };
+  // The angle moves monotonically with the slide from one grazing side through
+  // head-on to the other; walk out from 0 on each side until it passes the
+  // target, then bisect.
+  for (double side : {1.0, -1.0}) {
+    const int steps = 24;
+    double lo = 0.0;
+    auto a_lo = angleAt(lo);
+    if (!a_lo) return a_lo.error();
+    for (int k = 1; k <= steps; ++k) {
+      const double hi = side * sigma * 1.1 * k / steps;
+      auto a_hi = angleAt(hi);
+      if (!a_hi) break;  // missed each other or left the image
+      const double f_lo = std::abs(*a_lo) - target, f_hi = std::abs(*a_hi) - target;
+      if (f_lo <= 0 && f_hi >= 0 && std::abs(*a_hi) >= std::abs(*a_lo)) {
+        double a = lo, b = hi;
+        for (int i = 0; i < 50; ++i) {
+          const double mid = 0.5 * (a + b);
+          auto am = angleAt(mid);
+          if (!am) return am.error();
+          (std::abs(*am) < target ? a : b) = mid;
+        }
+        if (slide_offset_m) *slide_offset_m = 0.5 * (a + b);
+        return profileWithOffset(profile, 0.5 * (a + b));
+      }
+      lo = hi;
+      a_lo = a_hi;
+    }
+  }
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "no position of launcher 2's vertical slide gives an incidence of %.1f deg at "
+                "%.2f and %.2f m/s inside the image: choose a smaller angle or other speeds",
+                incidence_deg, speed_m_s[0], speed_m_s[1]);
+  return fail(buf);
+}
+
+std::vector<PlannedShot> planCampaign(const CampaignOptions& o) {
+  std::vector<PlannedShot> shots(static_cast<std::size_t>(std::max(0, o.shots)));
+  std::mt19937_64 rng(o.seed);
+  std::uniform_real_distribution<double> speed(o.speed_min_m_s, o.speed_max_m_s);
+  const std::size_t n = shots.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    // Evenly spaced angles (cell centres) so every part of the range is covered.
+    const double u = n == 1 ? 0.5 : (i + 0.5) / n;
+    shots[i].incidence_deg = o.angle_min_deg + u * (o.angle_max_deg - o.angle_min_deg);
+    shots[i].speed_m_s = {speed(rng), speed(rng)};
+  }
+  // Fire them in random order so a drift in the rig does not masquerade as a
+  // dependence on the angle.
+  std::shuffle(shots.begin(), shots.end(), rng);
+  return shots;
+}
+
+Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const CampaignOptions& o,
+                                   const CampaignProgress& progress, std::stop_token cancel) {
+  if (o.shots < 1) return fail("--shots must be at least 1");
+  if (!(o.angle_min_deg >= 0 && o.angle_min_deg <= o.angle_max_deg && o.angle_max_deg < 90))
+    return fail("incidence angles must satisfy 0 <= min <= max < 90 degrees");
+  if (!(o.speed_min_m_s > 0 && o.speed_min_m_s <= o.speed_max_m_s))
+    return fail("exit speeds must satisfy 0 < min <= max (m/s)");
+  std::error_code ec;
+  std::filesystem::create_directories(o.out_dir, ec);
+  if (ec) return fail("cannot create " + o.out_dir + ": " + ec.message());
+
+  CampaignReport report;
+  const std::vector<PlannedShot> plan = planCampaign(o);
+  for (std::size_t i = 0; i < plan.size(); ++i) {
+    if (cancel.stop_requested()) {
+      report.cancelled = true;
+      break;
+    }
+    const PlannedShot& planned = plan[i];
+    const std::string id = makeShotId(wallTimeUnixNs(), static_cast<int>(i));
+    auto aimed = aimForIncidence(profile, planned.incidence_deg, planned.speed_m_s);
+    if (!aimed) {
+      ++report.failed;
+      report.failures.push_back(id + ": " + aimed.error().message);
+      continue;
+    }
+    // A different simulation seed per shot: dots, spins and scatter differ.
+    aimed->simulation.seed = o.seed * 1000003ULL + i;
+    auto rig = buildRig(*aimed);
+    if (!rig) return fail("shot " + std::to_string(i + 1) + ": " + rig.error().message);
+    hw::Sequencer sequencer(*rig);
+    hw::Shot shot = sequencer.fire(
+        hw::ShotRequest::atSpeeds(planned.speed_m_s[0], planned.speed_m_s[1]), {}, cancel);
+    (void)hw::shutDown(*rig);
+    shot.id = id;
+    shot.program_version = kVersion;
+    ++report.fired;
+    if (Status saved = saveShot(o.out_dir, shot); !saved)
+      return fail(saved.error().message + " (" + std::to_string(report.files.size()) +
+                  " shots saved in " + o.out_dir + " before this one are intact)");
+    report.files.push_back((std::filesystem::path(o.out_dir) / shotFileName(shot.id)).string());
+    if (shot.status == hw::ShotStatus::Ok) {
+      ++report.ok;
+    } else {
+      ++report.failed;
+      report.failures.push_back(shot.id + ": " + shot.failure_reason);
+    }
+    if (progress) progress(static_cast<int>(i + 1), static_cast<int>(plan.size()), shot);
+  }
+  return report;
+}
+
+}  // namespace collide::app

@@ -1,0 +1,73 @@
+#pragma once
+// A campaign: many shots of one material, sweeping the launch conditions so the
+// incidence angles span a wide range (the thesis' Figs. 5.9-5.13 need shots
+// from near head-on to grazing) and |v_n| varies. Each shot is fired through
+// the ordinary sequencer and saved (HDF5 file + catalog row) as it completes,
+// so stopping half-way loses nothing already fired.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <stop_token>
+#include <string>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "hw/rig_profile.hpp"
+#include "hw/shot.hpp"
+
+namespace collide::app {
+
+struct CampaignOptions {
+  int shots = 20;
+  std::string out_dir;
+  std::uint64_t seed = 1;
+  /// Incidence angle: between the line of centres and the relative velocity at
+  /// contact, degrees (0 = head-on). Swept evenly over the shots, then shuffled.
+  double angle_min_deg = 10.0;
+  double angle_max_deg = 80.0;
+  /// Exit speeds, m/s, drawn uniformly per shot and launcher.
+  double speed_min_m_s = 1.6;
+  double speed_max_m_s = 2.6;
+};
+
+/// The launch conditions chosen for one shot.
+struct PlannedShot {
+  double incidence_deg = 0.0;
+  std::array<double, 2> speed_m_s{0.0, 0.0};
+  /// Vertical slide offset of launcher 2 (m) that gives the incidence angle.
+  double slide_offset_m = 0.0;
+};
+
+struct CampaignReport {
+  int fired = 0;
+  int ok = 0;
+  int failed = 0;
+  std::vector<std::string> files;     ///< shot files written, in firing order
+  std::vector<std::string> failures;  ///< "<shot id>: <reason>" per failed shot
+  bool cancelled = false;
+};
+
+/// Called after each shot is saved: shots done so far, total, the shot.
+using CampaignProgress = std::function<void(int done, int total, const hw::Shot& shot)>;
+
+/// The profile with launcher 2's vertical slide moved so that, at these exit
+/// speeds, the spheres meet at `incidence_deg` (spin and scatter aside). The
+/// returned profile's text is the edited TOML, so the shot records the
+/// geometry it was really fired with. Errors: the profile text has no second
+/// `exit_m`, or no slide position gives the angle inside the image.
+Result<hw::RigProfile> aimForIncidence(const hw::RigProfile& profile, double incidence_deg,
+                                       const std::array<double, 2>& speed_m_s,
+                                       double* slide_offset_m = nullptr);
+
+/// The sweep: `options.shots` launch conditions, reproducible from the seed.
+std::vector<PlannedShot> planCampaign(const CampaignOptions& options);
+
+/// Fires and saves the campaign into options.out_dir (created if missing).
+/// Failed shots are saved too (status failed, with the reason) and the
+/// campaign goes on. Errors (before any shot): bad options, an out_dir that
+/// cannot be created, a rig that cannot be built. Blocks; call from a worker.
+Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const CampaignOptions& options,
+                                   const CampaignProgress& progress = {},
+                                   std::stop_token cancel = {});
+
+}  // namespace collide::app

@@ -1,0 +1,36 @@
+#include "app/rig_setup.hpp"
+
+#include <filesystem>
+
+#include "app/shot_file.hpp"
+#include "vision/frame_io.hpp"
+
+namespace collide::app {
+
+Result<vision::Burst> loadReplaySource(const std::string& source) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_directory(source, ec)) {
+    // A folder of imported frames has no frame rate of its own: the replay
+    // camera's configured fps applies; 1000 frames/s is only the timestamps' scale.
+    return vision::loadFrameFolder(source, 1000.0);
+  }
+  if (fs::path(source).extension() == ".h5") {
+    auto shot = readShot(source);
+    if (!shot) return shot.error();
+    return std::move(shot->burst);
+  }
+  return vision::loadVideo(source, 0.0);
+}
+
+hw::RigHooks standardRigHooks() {
+  hw::RigHooks hooks;
+  hooks.load_burst = loadReplaySource;
+  return hooks;
+}
+
+Result<hw::Rig> buildRig(const hw::RigProfile& profile) {
+  return hw::makeRig(profile, standardRigHooks());
+}
+
+}  // namespace collide::app
