@@ -1,0 +1,111 @@
+#pragma once
+// From a burst to a shot's kinematics and collision properties (SPEC.md steps
+// 1-6): spheres and dots in every frame, tracks, trajectory fits, the
+// collision instant from both sides, spins, then analysis/'s inverse Walton
+// operator. This header is the contract between vision (which implements it)
+// and its users (collide analyze, the GUI, the benchmarks).
+//
+// Coordinates. Image pixels: u right, v down, origin at the top-left pixel's
+// centre. World (metres): x right, y up, z towards the camera; the world
+// position of pixel (u, v) is ((u - origin_u) s, -(v - origin_v) s) for pixel
+// size s. Times are seconds from the first analysed frame's timestamp.
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "analysis/trajectory.hpp"
+#include "analysis/types.hpp"
+#include "analysis/walton.hpp"
+#include "vision/frame.hpp"
+
+namespace collide::vision {
+
+struct AnalysisSettings {
+  /// Metres per pixel in the object plane. 0: derived from the measured sphere
+  /// radii and diameter_m (the --frames path).
+  double pixel_size_m = 0.0;
+  std::array<double, 2> diameter_m{0.0254, 0.0254};  ///< [left, right] sphere, m
+  /// Masses, kg; 0 = homogeneous spheres of equal density (only ratios matter
+  /// for e, beta, f).
+  std::array<double, 2> mass_kg{0.0, 0.0};
+  /// Image position of the world origin (pixels). Only shifts positions.
+  double origin_u_px = 0.0, origin_v_px = 0.0;
+  /// Direction of gravity in the image (u, v), unit; default: down the image.
+  std::array<double, 2> gravity_dir_image{0.0, 1.0};
+  /// Fix the trajectory fits' acceleration to g along gravity_dir_image.
+  bool fix_gravity = true;
+  /// Frame rate used when frames carry no usable timestamps (frames/s).
+  double fps = 0.0;
+  /// Optional progress callback (frames processed, total); may be empty.
+  std::function<void(int, int)> progress;
+};
+
+/// One sphere found in one frame (pixels).
+struct SphereDetection {
+  double u_px = 0, v_px = 0, radius_px = 0;
+  double sigma_px = 0;        ///< standard uncertainty of the centre, per axis
+  bool cut_by_border = false;
+  bool touching = false;      ///< outline merged with the other sphere's
+};
+
+/// One dot found on one sphere in one frame.
+struct DotDetection {
+  double u_px = 0, v_px = 0;  ///< image position
+  Vec3 on_sphere = Vec3::Zero();  ///< unit vector from the sphere centre (camera axes)
+};
+
+struct FrameDetections {
+  std::int64_t frame_id = 0;
+  double t_s = 0.0;
+  /// [0] = sphere 1 (left before impact), [1] = sphere 2; empty when not found.
+  std::array<std::optional<SphereDetection>, 2> sphere;
+  std::array<std::vector<DotDetection>, 2> dots;
+  std::vector<std::string> notes;  ///< e.g. "third blob ignored", "saturated"
+};
+
+/// A value with its standard uncertainty, in the unit its field name says.
+struct Measured {
+  double value = 0;
+  double sigma = 0;
+};
+
+struct SphereKinematics {
+  Estimate3 velocity_before_m_s, velocity_after_m_s;  ///< at the collision instant
+  Estimate3 spin_before_rad_s, spin_after_rad_s;
+  int frames_before = 0, frames_after = 0;  ///< frames used by the fits
+};
+
+struct CollisionProperties {
+  Measured e, beta, beta_from_impulse, f, gamma_deg;
+  Measured vn_m_s;        ///< normal contact velocity before, < 0 on approach
+  Measured vs_m_s;        ///< tangential contact speed before, >= 0
+  Measured vs_after_m_s;  ///< v_s' . t (signed along the pre-impact tangent)
+  Measured t_collision_s; ///< from the first analysed frame
+  /// The two collision-instant estimates (pre- and post-impact fits), s.
+  double t_collision_before_s = 0, t_collision_after_s = 0;
+};
+
+struct ShotAnalysis {
+  double pixel_size_m = 0;  ///< used (given or derived)
+  std::vector<FrameDetections> frames;
+  /// Fits in world metres on the same clock as the frames: [sphere][0 before, 1 after].
+  std::array<std::array<std::optional<TrajectoryFit>, 2>, 2> trajectory;
+  std::array<SphereKinematics, 2> sphere;
+  CollisionProperties collision;
+  /// Machine-readable reasons to distrust the shot, e.g. "few_frames_before",
+  /// "few_frames_after", "collision_instant_disagree", "large_residuals",
+  /// "e_untrustworthy_geometry", "beta_untrustworthy_geometry", "no_spin_before".
+  std::vector<std::string> quality_flags;
+};
+
+/// Analyses one burst. Bad frames (status not Good) are skipped and counted.
+/// Errors (the message says what was wrong and what to do): no good frames, fewer
+/// than two spheres in too many frames, no collision in the burst, frames of
+/// different sizes, impossible geometry (e.g. wrong diameter).
+Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& settings);
+
+}  // namespace collide::vision
