@@ -8,7 +8,7 @@
 #   ./collide.sh build   install and build only
 #
 # Environment: BUILD_DIR (default ./build), JOBS (default: number of cores),
-# COLLIDE_OUT (where `run` writes shots, default ./shots).
+# COLLIDE_OUT (where `run` writes shots, default ./shots), COLLIDE_SHOTS (default 20).
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -54,13 +54,18 @@ build() {
 }
 
 run_main_job() {
-  local out="${COLLIDE_OUT:-$here/shots}"
-  say "Firing a short simulated campaign (config/sim.toml) into $out"
-  "$BUILD_DIR/app/collide" campaign --rig "$here/config/sim.toml" --shots 6 --out "$out" --seed 1
-  say "Analysing the campaign"
+  local out="${COLLIDE_OUT:-$here/shots}" shots="${COLLIDE_SHOTS:-20}"
+  if [ -e "$out" ] && [ -n "$(ls -A "$out" 2>/dev/null)" ]; then
+    out="$out/$(date +%Y%m%d-%H%M%S)"  # never mix with (or overwrite) an earlier run
+  fi
+  say "Firing a simulated campaign of $shots shots (config/sim.toml) into $out"
+  "$BUILD_DIR/app/collide" campaign --rig "$here/config/sim.toml" --shots "$shots" --out "$out" --seed 1
+  say "Analysing every shot"
   "$BUILD_DIR/app/collide" analyze "$out"
   "$BUILD_DIR/app/collide" shots "$out"
-  say "Done. Shot files (HDF5) and catalog.sqlite are in $out"
+  say "Fitting the campaign (mu, beta_0, e)"
+  "$BUILD_DIR/app/collide" fit "$out"
+  say "Done. Shot files (HDF5), catalog.sqlite and fit/ (fit.json, plots) are in $out"
 }
 
 cmd="${1:-}"
