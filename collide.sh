@@ -23,8 +23,11 @@ PACKAGES=(
   libhdf5-dev libsqlite3-dev libtomlplusplus-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev libgpiod-dev gpiod libmodbus-dev libv4l-dev
-  qt6-base-dev qt6-charts-dev libqt6opengl6-dev libgl-dev
+  qt6-base-dev qt6-charts-dev qt6-svg-dev libqt6opengl6-dev libgl-dev
   socat mbpoll python3-h5py hdf5-tools sqlite3 xvfb xauth
+  # The kernel-driver tests (ctest -L vm, tests/vm): Debian's own kernel and
+  # the headers to build tests/vm/gpio-sim-collide against, booted under qemu.
+  qemu-system-x86 busybox-static cpio kmod linux-image-amd64 linux-headers-amd64
 )
 
 say() { printf '\033[1m==> %s\033[0m\n' "$*"; }
@@ -44,6 +47,13 @@ ensure_packages() {
   say "Installing ${#missing[@]} missing Debian packages: ${missing[*]}"
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -q
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+# Builds the VM image the kernel-driver tests boot (idempotent, quick when up
+# to date). Without qemu or the kernel packages the vm tests skip and say why.
+prepare_vm() {
+  say "Preparing the test VM (tests/vm/prepare.sh)"
+  "$here/tests/vm/prepare.sh" "$BUILD_DIR/vm-image" || [ $? -eq 77 ]
 }
 
 build() {
@@ -77,6 +87,7 @@ case "$cmd" in
     ;;
   test)
     ensure_packages
+    prepare_vm
     build
     say "Running the test suite"
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
@@ -88,6 +99,7 @@ case "$cmd" in
     ;;
   bench)
     ensure_packages
+    prepare_vm
     build
     for b in "$BUILD_DIR"/bench/*_bench; do say "$(basename "$b")"; "$b"; done
     ;;

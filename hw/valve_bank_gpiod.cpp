@@ -159,7 +159,7 @@ Status ValveBankGpiod::onClose() {
   return s;
 }
 
-Result<std::int64_t> ValveBankGpiod::drive(int line, bool active) {
+Result<ValveBankGpiod::Edge> ValveBankGpiod::drive(int line, bool active) {
   std::lock_guard edge(*line_mutex_[static_cast<std::size_t>(line)]);
   const std::int64_t t0 = monotonicNowNs();
   if (active) {
@@ -175,7 +175,7 @@ Result<std::int64_t> ValveBankGpiod::drive(int line, bool active) {
     active_since_[static_cast<std::size_t>(line)] = std::nullopt;
   }
   if (!s) return s.error();
-  return t0 + (t1 - t0) / 2;
+  return Edge{t0 + (t1 - t0) / 2, t1};
 }
 
 void ValveBankGpiod::watchdogLoop() {
@@ -233,14 +233,19 @@ Result<std::vector<ValveEvent>> ValveBankGpiod::onFire(const std::vector<ValvePu
   std::vector<Slot> slots;
   for (const ValvePulse& p : pattern) slots.push_back({p, {}, {}, {}});
 
+  // The first opening anchors the pattern: if it comes late (a busy machine,
+  // an instant already past), every later opening moves with it, so the
+  // delays between valves, which decide where the spheres meet, hold.
+  std::optional<std::int64_t> shift;
   for (;;) {
     // The next edge: the earliest unopened opening or pending closing.
     std::int64_t next = std::numeric_limits<std::int64_t>::max();
     Slot* which = nullptr;
     for (Slot& s : slots) {
-      const std::optional<std::int64_t> t = !s.opened   ? std::optional(s.pulse.open_at_ns)
-                                            : !s.closed ? s.close_at
-                                                        : std::nullopt;
+      const std::optional<std::int64_t> t =
+          !s.opened   ? std::optional(s.pulse.open_at_ns + shift.value_or(0))
+          : !s.closed ? s.close_at
+                      : std::nullopt;
       if (t && *t < next) {
         next = *t;
         which = &s;
@@ -254,7 +259,7 @@ Result<std::vector<ValveEvent>> ValveBankGpiod::onFire(const std::vector<ValvePu
                   "inactive");
     Slot& s = *which;
     if (!s.opened) {
-      COLLIDE_ASSIGN_OR_RETURN(const std::int64_t t, drive(s.pulse.valve, true));
+      COLLIDE_ASSIGN_OR_RETURN(const Edge e, drive(s.pulse.valve, true));
       // A signal between the check above and the edge: undo at once.
       if (const int sig = valveSafetySignal()) {
         (void)drive(s.pulse.valve, false);
@@ -262,10 +267,15 @@ Result<std::vector<ValveEvent>> ValveBankGpiod::onFire(const std::vector<ValvePu
                     " stopped the firing; every valve line was driven "
                     "inactive");
       }
-      s.opened = t;
-      s.close_at = t + s.pulse.pulse_us * 1000;
+      s.opened = e.mid_ns;
+      // Timed from when the call returned, by which time the line had surely
+      // switched: a pulse is never shorter than asked, even when the driver
+      // call is slow.
+      s.close_at = e.after_ns + s.pulse.pulse_us * 1000;
+      if (!shift) shift = std::max<std::int64_t>(0, e.mid_ns - s.pulse.open_at_ns);
     } else {
-      COLLIDE_ASSIGN_OR_RETURN(s.closed, drive(s.pulse.valve, false));
+      COLLIDE_ASSIGN_OR_RETURN(const Edge e, drive(s.pulse.valve, false));
+      s.closed = e.mid_ns;
     }
   }
 

@@ -3,9 +3,13 @@
 // libgpiod 1.6). The lines are requested on open() (inactive) and held until
 // close(); every edge of a firing pattern is timed by sleeping with
 // clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) up to it. Each valve's
-// closing edge is scheduled from when its opening edge actually happened, so
-// a late opening delays the pulse instead of shortening it; the delay between
-// two valves is the difference of their programmed opening instants.
+// closing edge is scheduled from when its opening edge actually happened (the
+// end of the driver call), so a late or slow opening delays the pulse and
+// never shortens it. The first opening
+// anchors the pattern: when it comes late (a loaded machine, an instant
+// already past), every later opening moves by as much, so the delays between
+// valves (which decide where the spheres meet) hold; the events report when
+// each edge really happened.
 //
 // Safety, in layers:
 //  - fire() refuses pulses longer than safety.max_valve_pulse_us (ValveBank);
@@ -79,9 +83,14 @@ class ValveBankGpiod final : public ValveBank {
   Status onCloseAll() override;
 
  private:
-  // Drives `line` and returns the CLOCK_MONOTONIC instant of the edge (the
-  // middle of the driver call). Keeps the watchdog informed.
-  Result<std::int64_t> drive(int line, bool active);
+  // When an edge happened: the middle of the driver call (the best estimate,
+  // reported) and its end (by when the line had surely switched).
+  struct Edge {
+    std::int64_t mid_ns = 0;
+    std::int64_t after_ns = 0;
+  };
+  // Drives `line` (CLOCK_MONOTONIC times). Keeps the watchdog informed.
+  Result<Edge> drive(int line, bool active);
   void watchdogLoop();
   void stopWatchdog();
 
