@@ -1,5 +1,6 @@
 #include "hw/valve_bank_gpiod.hpp"
 
+#include <sys/prctl.h>
 #include <time.h>
 
 #include <algorithm>
@@ -226,6 +227,15 @@ Result<std::vector<ValveEvent>> ValveBankGpiod::onFire(const std::vector<ValvePu
     std::lock_guard lock(wd_mutex_);
     tripped_at_.clear();
   }
+  // Sleep to each edge without the kernel's default 50 us timer slack (it
+  // may otherwise wake this thread that much late, on purpose); restored after.
+  struct SlackGuard {
+    int previous = prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0);
+    SlackGuard() { prctl(PR_SET_TIMERSLACK, 1, 0, 0, 0); }
+    ~SlackGuard() {
+      if (previous > 0) prctl(PR_SET_TIMERSLACK, previous, 0, 0, 0);
+    }
+  } slack;
   struct Slot {
     ValvePulse pulse;
     std::optional<std::int64_t> opened, close_at, closed;
