@@ -23,7 +23,7 @@ PACKAGES=(
   libhdf5-dev libsqlite3-dev libtomlplusplus-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev libgpiod-dev gpiod libmodbus-dev libv4l-dev
-  qt6-base-dev qt6-charts-dev libqt6opengl6-dev libgl-dev
+  qt6-base-dev qt6-charts-dev qt6-svg-dev libqt6opengl6-dev libgl-dev
   socat mbpoll python3-h5py hdf5-tools sqlite3 xvfb xauth
   # The kernel-driver tests (ctest -L vm, tests/vm): Debian's own kernel and
   # the headers to build tests/vm/gpio-sim-collide against, booted under qemu.
