@@ -1,5 +1,5 @@
-// config/lab-v4l2-gpiod.toml, the example lab profile with a V4L2 camera and
-// GPIO valves: it parses, builds its devices (without opening them: there is
+// config/lab-v4l2-gpiod.toml, the example lab profile with a V4L2 camera, GPIO
+// valves and a Modbus regulator: it parses, builds its devices (without opening them: there is
 // no such hardware here), and documents every field.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -26,6 +26,7 @@ TEST(LabProfile, ParsesWithTheV4l2CameraAndGpiodValves) {
   EXPECT_EQ(p->camera.device, "/dev/video0");
   EXPECT_EQ(p->valves.backend, "gpiod");
   EXPECT_EQ(p->valves.device, "gpiochip0");
+  EXPECT_EQ(p->regulator.backend, "modbus");
   EXPECT_EQ(p->camera_config.width, 640);
   EXPECT_EQ(p->camera_config.format, collide::vision::PixelFormat::Mono8);
   EXPECT_DOUBLE_EQ(p->camera_config.fps, 60.0);
@@ -38,6 +39,7 @@ TEST(LabProfile, ParsesWithTheV4l2CameraAndGpiodValves) {
   EXPECT_EQ(rig->valves->info().backend, "gpiod");
   EXPECT_EQ(rig->valves->info().valves, 2);
   EXPECT_EQ(rig->valves->info().device, "gpiochip0");
+  EXPECT_EQ(rig->regulator->info().backend, "modbus");
 
   SettingsReader r = p->camera.backendSettings();
   const auto cam = CameraV4l2Settings::read(r, p->camera_config);

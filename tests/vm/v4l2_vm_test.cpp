@@ -298,3 +298,57 @@ TEST_F(V4l2Vm, GainComesFromTheProfile) {
   ASSERT_TRUE(autogain);
   EXPECT_EQ(*cam.device()->getControl(*autogain), 0);
 }
+
+TEST_F(V4l2Vm, ABufferTheDriverFlagsAsErroneousBecomesAFailedFrame) {
+  CameraV4l2 cam(vividSettings("GREY"));
+  ASSERT_TRUE(cam.open());
+  ASSERT_TRUE(cam.configure(vividConfig(PixelFormat::Mono8)));
+  ASSERT_TRUE(cam.start());
+  // vivid's button: the next buffer it fills comes back with V4L2_BUF_FLAG_ERROR.
+  const auto inject = cam.device()->control(std::string("inject_v4l2_buf_flag_error"));
+  ASSERT_TRUE(inject);
+  ASSERT_TRUE(cam.arm(0, 12));
+  const std::int64_t trigger = monotonicNowNs() + 300 * kMs;
+  ASSERT_TRUE(cam.trigger(trigger));
+  usleep(static_cast<useconds_t>((trigger - monotonicNowNs()) / 1000 + 50'000));
+  const auto pressed = cam.device()->setControl(*inject, 1);
+  ASSERT_TRUE(pressed) << pressed.error().message;
+  const auto done = cam.waitBurst(monotonicNowNs() + 60'000 * kMs);
+  ASSERT_TRUE(done && *done);
+  const auto b = cam.takeBurst();
+  ASSERT_TRUE(b) << b.error().message;
+  const auto failed = std::count_if(b->frames.begin(), b->frames.end(), [](const auto& f) {
+    return f.status == collide::vision::FrameStatus::Failed;
+  });
+  std::printf("flagged buffer: %ld failed frame(s), stats.failed = %llu\n",
+              static_cast<long>(failed), static_cast<unsigned long long>(b->stats.failed));
+  EXPECT_EQ(failed, 1);
+  EXPECT_EQ(b->stats.failed, 1u);
+  EXPECT_EQ(b->stats.completed + b->stats.failed, b->frames.size());
+}
+
+// Last in this program: vivid's "disconnect" removes /dev/video0 for good.
+TEST_F(V4l2Vm, ADeviceThatGoesAwayEndsTheBurstWithAReason) {
+  CameraV4l2 cam(vividSettings("GREY"));
+  ASSERT_TRUE(cam.open());
+  ASSERT_TRUE(cam.configure(vividConfig(PixelFormat::Mono8)));
+  ASSERT_TRUE(cam.start());
+  const auto disconnect = cam.device()->control(std::string("disconnect"));
+  ASSERT_TRUE(disconnect);
+  ASSERT_TRUE(cam.arm(2, 100000));
+  ASSERT_TRUE(cam.trigger(monotonicNowNs() + 100 * kMs));
+  usleep(400'000);
+  const auto pressed = cam.device()->setControl(*disconnect, 1);
+  ASSERT_TRUE(pressed) << pressed.error().message;
+  const auto done = cam.waitBurst(monotonicNowNs() + 30'000 * kMs);
+  ASSERT_TRUE(done);
+  EXPECT_TRUE(*done) << "the burst did not end when the device went away";
+  const auto b = cam.takeBurst();
+  ASSERT_TRUE(b) << b.error().message;
+  std::printf("device gone: %s\n", b->note.c_str());
+  EXPECT_FALSE(b->complete);
+  EXPECT_FALSE(b->frames.empty());
+  EXPECT_THAT(b->note, HasSubstr("/dev/video0"));
+  EXPECT_THAT(b->note, HasSubstr("went away"));
+  (void)cam.close();
+}
