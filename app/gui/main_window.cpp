@@ -129,7 +129,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
                                   .arg(total)
                                   .arg(qs(shot->id)));
     }
-    if (shot->status == hw::ShotStatus::Ok) runner_->analyze(shot, "campaign");
+    // Analysed from its file (saved before this signal), so a campaign that
+    // fires faster than the analysis keeps file names waiting, not bursts.
+    if (shot->status == hw::ShotStatus::Ok)
+      runner_->analyzeFile(QDir(shots_dir_).filePath(qs(app::shotFileName(shot->id))), "campaign");
     shot_browser_->refresh();
   });
   connect(worker_, &RigWorker::campaignFinished, this, [this](QString summary, bool) {

@@ -263,12 +263,17 @@ TEST(MainWindowGui, RunASmallCampaign) {
   const int shots = 6;
   child<QSpinBox>(view, "campaign_shots")->setValue(shots);
   QSignalSpy finished(w.rigWorker(), &RigWorker::campaignFinished);
+  QSignalSpy stored(&w, &MainWindow::resultsStored);
   QTest::mouseClick(child<QPushButton>(view, "run_campaign"), Qt::LeftButton);
   ASSERT_TRUE(QTest::qWaitFor([&] { return finished.count() == 1; }, 240000));
   // Every shot is in the folder's catalog.
   ASSERT_TRUE(
       QTest::qWaitFor([&] { return w.shotBrowser()->rows().size() == std::size_t(shots); }, 10000));
-  // Wait for the analyses and the plots to catch up.
+  // Wait for the analyses, their results in the files, and the plots to catch up.
+  int fired_ok = 0;
+  for (const auto& row : w.shotBrowser()->rows()) fired_ok += row.status == hw::ShotStatus::Ok;
+  if (analysisAvailable())
+    ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= fired_ok; }, 240000));
   ASSERT_TRUE(QTest::qWaitFor(
       [&] { return w.analysisRunner()->pending() == 0 && !view->refreshing(); }, 240000));
   view->refresh();
