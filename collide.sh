@@ -8,7 +8,7 @@
 #   ./collide.sh build   install and build only
 #
 # Environment: BUILD_DIR (default ./build), JOBS (default: number of cores),
-# COLLIDE_OUT (where `run` writes shots, default ./shots).
+# COLLIDE_OUT (where `run` writes shots, default ./shots), COLLIDE_SHOTS (default 20).
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -23,8 +23,11 @@ PACKAGES=(
   libhdf5-dev libsqlite3-dev libtomlplusplus-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev libgpiod-dev gpiod libmodbus-dev libv4l-dev
-  qt6-base-dev qt6-charts-dev libqt6opengl6-dev libgl-dev
+  qt6-base-dev qt6-charts-dev qt6-svg-dev libqt6opengl6-dev libgl-dev
   socat mbpoll python3-h5py hdf5-tools sqlite3 xvfb xauth
+  # The kernel-driver tests (ctest -L vm, tests/vm): Debian's own kernel and
+  # the headers to build tests/vm/gpio-sim-collide against, booted under qemu.
+  qemu-system-x86 busybox-static cpio kmod linux-image-amd64 linux-headers-amd64
 )
 
 say() { printf '\033[1m==> %s\033[0m\n' "$*"; }
@@ -46,6 +49,13 @@ ensure_packages() {
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
 }
 
+# Builds the VM image the kernel-driver tests boot (idempotent, quick when up
+# to date). Without qemu or the kernel packages the vm tests skip and say why.
+prepare_vm() {
+  say "Preparing the test VM (tests/vm/prepare.sh)"
+  "$here/tests/vm/prepare.sh" "$BUILD_DIR/vm-image" || [ $? -eq 77 ]
+}
+
 build() {
   say "Configuring and building in $BUILD_DIR (Release, Ninja${CCACHE_DIR:+, ccache})"
   export CCACHE_BASEDIR="$here"
@@ -54,13 +64,18 @@ build() {
 }
 
 run_main_job() {
-  local out="${COLLIDE_OUT:-$here/shots}"
-  say "Firing a short simulated campaign (config/sim.toml) into $out"
-  "$BUILD_DIR/app/collide" campaign --rig "$here/config/sim.toml" --shots 6 --out "$out" --seed 1
-  say "Analysing the campaign"
+  local out="${COLLIDE_OUT:-$here/shots}" shots="${COLLIDE_SHOTS:-20}"
+  if [ -e "$out" ] && [ -n "$(ls -A "$out" 2>/dev/null)" ]; then
+    out="$out/$(date +%Y%m%d-%H%M%S)"  # never mix with (or overwrite) an earlier run
+  fi
+  say "Firing a simulated campaign of $shots shots (config/sim.toml) into $out"
+  "$BUILD_DIR/app/collide" campaign --rig "$here/config/sim.toml" --shots "$shots" --out "$out" --seed 1
+  say "Analysing every shot"
   "$BUILD_DIR/app/collide" analyze "$out"
   "$BUILD_DIR/app/collide" shots "$out"
-  say "Done. Shot files (HDF5) and catalog.sqlite are in $out"
+  say "Fitting the campaign (mu, beta_0, e)"
+  "$BUILD_DIR/app/collide" fit "$out"
+  say "Done. Shot files (HDF5), catalog.sqlite and fit/ (fit.json, plots) are in $out"
 }
 
 cmd="${1:-}"
@@ -72,6 +87,7 @@ case "$cmd" in
     ;;
   test)
     ensure_packages
+    prepare_vm
     build
     say "Running the test suite"
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
@@ -83,6 +99,7 @@ case "$cmd" in
     ;;
   bench)
     ensure_packages
+    prepare_vm
     build
     for b in "$BUILD_DIR"/bench/*_bench; do say "$(basename "$b")"; "$b"; done
     ;;

@@ -142,14 +142,10 @@ Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const Campaign
     }
     // A different simulation seed per shot: dots, spins and scatter differ.
     aimed->simulation.seed = o.seed * 1000003ULL + i;
-    auto rig = buildRig(*aimed);
-    if (!rig) return fail("shot " + std::to_string(i + 1) + ": " + rig.error().message);
-    hw::Sequencer sequencer(*rig);
-    hw::Shot shot = sequencer.fire(
-        hw::ShotRequest::atSpeeds(planned.speed_m_s[0], planned.speed_m_s[1]), {}, cancel);
-    (void)hw::shutDown(*rig);
-    shot.id = id;
-    shot.program_version = kVersion;
+    auto fired = fireShot(
+        *aimed, hw::ShotRequest::atSpeeds(planned.speed_m_s[0], planned.speed_m_s[1]), id, cancel);
+    if (!fired) return fail("shot " + std::to_string(i + 1) + ": " + fired.error().message);
+    hw::Shot& shot = *fired;
     ++report.fired;
     if (Status saved = saveShot(o.out_dir, shot); !saved)
       return fail(saved.error().message + " (" + std::to_string(report.files.size()) +

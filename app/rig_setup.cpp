@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "app/shot_file.hpp"
+#include "app/version.hpp"
 #include "vision/frame_io.hpp"
 
 namespace collide::app {
@@ -31,6 +32,17 @@ hw::RigHooks standardRigHooks() {
 
 Result<hw::Rig> buildRig(const hw::RigProfile& profile) {
   return hw::makeRig(profile, standardRigHooks());
+}
+
+Result<hw::Shot> fireShot(const hw::RigProfile& profile, const hw::ShotRequest& request,
+                          const std::string& id, std::stop_token cancel) {
+  auto rig = buildRig(profile);
+  if (!rig) return rig.error();
+  hw::Shot shot = hw::Sequencer(*rig).fire(request, {}, cancel);
+  (void)hw::shutDown(*rig);  // the shot already records any device error
+  shot.id = id;
+  shot.program_version = kVersion;
+  return shot;
 }
 
 }  // namespace collide::app

@@ -2,10 +2,12 @@
 // Building a rig from a profile the way every program does it: the backends
 // the profile names, plus what app lends them (the replay camera reads shot
 // files through app's reader; hw cannot).
+#include <stop_token>
 #include <string>
 
 #include "analysis/result.hpp"
 #include "hw/rig.hpp"
+#include "hw/sequencer.hpp"
 #include "vision/frame.hpp"
 
 namespace collide::app {
@@ -19,5 +21,11 @@ hw::RigHooks standardRigHooks();
 
 /// makeRig with the standard hooks; devices closed.
 Result<hw::Rig> buildRig(const hw::RigProfile& profile);
+/// One shot on a rig built from `profile` for it (then shut down): the
+/// sequencer's record with `id` and this program's version filled in. A shot
+/// that fails on the rig comes back with status Failed and the reason; the
+/// error is only for a rig that cannot be built (the message says why).
+Result<hw::Shot> fireShot(const hw::RigProfile& profile, const hw::ShotRequest& request,
+                          const std::string& id, std::stop_token cancel = {});
 
 }  // namespace collide::app

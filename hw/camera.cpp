@@ -70,6 +70,22 @@ std::shared_ptr<BurstRecorder> Camera::recorder() const {
   return recorder_;
 }
 
+void Camera::publishFrame(const vision::Frame& frame) {
+  if (!live_view_.load()) return;
+  auto shared = std::make_shared<const vision::Frame>(frame);
+  {
+    std::lock_guard lock(latest_mutex_);
+    latest_.swap(shared);
+  }
+  published_.fetch_add(1);
+  // `shared` (the previous frame) is released here, outside the lock.
+}
+
+std::shared_ptr<const vision::Frame> Camera::latestFrame() const {
+  std::lock_guard lock(latest_mutex_);
+  return latest_;
+}
+
 Status Camera::arm(int pre_trigger_frames, int post_trigger_frames) {
   if (Status s = lifecycle_.require("arm()", {DeviceState::Running}); !s) return s;
   if (pre_trigger_frames < 0 || post_trigger_frames < 1)

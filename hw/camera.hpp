@@ -3,8 +3,8 @@
 // backends plug in underneath). While running it streams frames into a
 // pre-trigger ring (BurstRecorder); a shot arms the ring, triggers it, and
 // takes the burst of pre- and post-trigger frames with its stream statistics.
-// Backends: CameraSim ("sim"), CameraReplay ("replay"), CameraAravis
-// ("aravis": GigE Vision / USB3 Vision through Aravis); later CameraV4l2.
+// Backends: CameraSim ("sim"), CameraReplay ("replay"), CameraV4l2 ("v4l2"),
+// CameraAravis ("aravis": GigE Vision / USB3 Vision through Aravis).
 //
 // Threads: lifecycle calls, arm/trigger/waitBurst/takeBurst from the rig's
 // control thread, one at a time; state() from any thread. Each backend owns
@@ -12,6 +12,7 @@
 // (recorder()); it never calls back into the control side.
 // Errors: wrong lifecycle state, settings the device cannot do, and device
 // failures come back as Error values naming the device and what to do.
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -91,6 +92,24 @@ class Camera {
   /// configured, and armed.
   Result<vision::Burst> takeBurst();
 
+  // ---- live view ----------------------------------------------------------
+  /// Asks the backend to publish frames for a live view (off by default, so a
+  /// camera nobody watches does no extra work). While on, every frame the
+  /// stream delivers is published, and a backend that only produces frames
+  /// when armed (the simulator) also publishes an idle frame about 25 times a
+  /// second. Any thread.
+  void setLiveView(bool on) {
+    live_view_.store(on);
+    onLiveView(on);
+  }
+  bool liveView() const { return live_view_.load(); }
+  /// The newest published frame, or null. Any thread. The acquisition thread
+  /// only swaps a pointer under a mutex to publish, so a viewer that polls this
+  /// at screen rate never stalls acquisition; the frame is shared, read-only.
+  std::shared_ptr<const vision::Frame> latestFrame() const;
+  /// How many frames have been published (to tell a new one from the last seen).
+  std::uint64_t publishedFrames() const { return published_.load(); }
+
  protected:
   explicit Camera(std::string label) : lifecycle_(std::move(label)) {}
 
@@ -108,10 +127,16 @@ class Camera {
   /// The burst was taken (control thread): a backend adds what only it knows,
   /// e.g. its transport's packet counters. Default: nothing.
   virtual void onTakeBurst(vision::Burst& burst) {}
+  /// Live view switched on or off (any thread). Default: nothing.
+  virtual void onLiveView(bool on) {}
 
   /// The armed recorder, or null: what the acquisition thread pushes into.
   /// Any thread.
   std::shared_ptr<BurstRecorder> recorder() const;
+  /// Acquisition thread: `frame` is the newest one (for the live view). Does
+  /// nothing unless liveView() is on. Shares the image, does not copy it: the
+  /// frame must not be written to afterwards.
+  void publishFrame(const vision::Frame& frame);
 
  private:
   Result<std::shared_ptr<BurstRecorder>> armed(const char* call) const;
@@ -120,6 +145,10 @@ class Camera {
   CameraConfig config_;
   mutable std::mutex recorder_mutex_;
   std::shared_ptr<BurstRecorder> recorder_;
+  std::atomic<bool> live_view_{false};
+  std::atomic<std::uint64_t> published_{0};
+  mutable std::mutex latest_mutex_;
+  std::shared_ptr<const vision::Frame> latest_;
 };
 
 }  // namespace collide::hw

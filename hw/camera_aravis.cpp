@@ -765,7 +765,8 @@ void CameraAravis::Impl::run() {
     // pulses expose at no steady rate).
     std::shared_ptr<BurstRecorder> rec = owner.recorder();
     if (rec == finished) rec.reset();
-    if (good && rec) {
+    const bool live = owner.liveView();
+    if (good && (rec || live)) {
       std::size_t size = 0;
       const auto* data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(b, &size));
       const std::size_t row = static_cast<std::size_t>(w) * bpp;
@@ -801,6 +802,7 @@ void CameraAravis::Impl::run() {
                     static_cast<int>(status));
     // A failed frame is handed on without an image, marked, so the burst
     // counts it where it belongs; vision never sees it as good.
+    if (live && good) owner.publishFrame(frame);  // shares the image; nobody writes it again
     if (rec && !rec->push(*seq, std::move(frame))) finished = rec;
   }
 }

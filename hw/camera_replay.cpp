@@ -119,6 +119,7 @@ void CameraReplay::run() {
           if (stop_) return;
         }
         const std::uint64_t sequence = static_cast<std::uint64_t>(kSequenceBase + stored.id);
+        publishFrame(f);
         if (!rec->push(sequence, std::move(f))) break;
       }
       rec->endOfStream("the replayed burst " + source_ + " ends at frame " +

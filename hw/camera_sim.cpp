@@ -174,7 +174,9 @@ void CameraSim::run() {
   std::uint64_t seq = 0;  // the camera's running frame counter
   std::shared_ptr<BurstRecorder> current;
   std::int64_t post_delivered = 0;
-  bool stalled = false;  // fault: the stream stopped for this burst
+  bool stalled = false;                                  // fault: the stream stopped for this burst
+  constexpr std::int64_t kPreviewPeriodNs = 40'000'000;  // idle live-view frames: 25 per second
+  std::int64_t next_preview_ns = 0;
   for (;;) {
     std::uint64_t generation = 0;
     {
@@ -217,13 +219,27 @@ void CameraSim::run() {
             stalled = true;
             continue;
           }
-          current->push(seq, renderFrame(ts, seq));
+          vision::Frame frame = renderFrame(ts, seq);
+          publishFrame(frame);
+          current->push(seq, std::move(frame));
           if (post) ++post_delivered;
           ++seq;
           continue;
         }
         sleep_until = ready;
       }
+    }
+    if (liveView() && sleep_until == std::numeric_limits<std::int64_t>::max()) {
+      // Nothing to record: render what the camera sees now, at a viewer's rate
+      // (a real camera streams all the time; the simulator only on demand).
+      const std::int64_t now = monotonicNowNs();
+      if (now >= next_preview_ns) {
+        seq = std::max(seq, firstFrom(now));
+        publishFrame(renderFrame(startOf(seq), seq));
+        ++seq;
+        next_preview_ns = now + kPreviewPeriodNs;
+      }
+      sleep_until = next_preview_ns;
     }
     std::unique_lock lock(signal_->mutex);
     const auto deadline =

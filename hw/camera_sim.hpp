@@ -67,6 +67,7 @@ class CameraSim final : public Camera {
   Status onClose() override { return Ok{}; }
   void onArm() override;
   void onTrigger(std::int64_t at_ns) override;
+  void onLiveView(bool) override { wake(); }
 
  private:
   // The acquisition thread and what wakes it (arm, trigger, a launch, stop).

@@ -21,6 +21,11 @@ Result<RegulatorSimSettings> RegulatorSimSettings::read(SettingsReader& r) {
   return s;
 }
 
+LineModel RegulatorSimSettings::lineModel() const {
+  // A leak lets the line reach only part of any rise: it never settles.
+  return {time_constant_s, fault == Fault::NeverSettles ? kLeakReach : 1.0};
+}
+
 PressureRegulatorSim::PressureRegulatorSim(std::shared_ptr<SimWorld> world,
                                            RegulatorSimSettings settings, std::string device)
     : PressureRegulator("regulator \"" + device + "\""),
@@ -38,10 +43,7 @@ Status PressureRegulatorSim::onOpen() {
 }
 
 Status PressureRegulatorSim::onConfigure(const RegulatorConfig&) {
-  // A leak lets the line reach only 80 % of any rise: it never settles.
-  const LineModel model{settings_.time_constant_s,
-                        settings_.fault == RegulatorSimSettings::Fault::NeverSettles ? 0.8 : 1.0};
-  for (int ch = 0; ch < settings_.channels; ++ch) world_->setLineModel(ch, model);
+  for (int ch = 0; ch < settings_.channels; ++ch) world_->setLineModel(ch, settings_.lineModel());
   return Ok{};
 }
 

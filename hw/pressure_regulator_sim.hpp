@@ -5,6 +5,7 @@
 // never lets the pressure settle, and a link that fails after the first setpoint.
 #include <memory>
 
+#include "hw/pressure_line.hpp"
 #include "hw/pressure_regulator.hpp"
 #include "hw/settings.hpp"
 #include "hw/sim_world.hpp"
@@ -24,6 +25,8 @@ struct RegulatorSimSettings {
   /// From the [regulator] table (channels, time_constant_ms, noise_kpa, fault);
   /// refuses unknown keys.
   static Result<RegulatorSimSettings> read(SettingsReader& r);
+  /// How each line answers a setpoint (the leak of NeverSettles included).
+  LineModel lineModel() const;
 };
 
 class PressureRegulatorSim final : public PressureRegulator {

@@ -44,34 +44,18 @@ SimWorld::SimWorld(const RigProfile& profile, std::shared_ptr<Clock> clock, Laun
 
 void SimWorld::setLineModel(int channel, LineModel model) {
   std::lock_guard lock(mutex_);
-  Line& line = lines_[channel];
-  const std::int64_t now = clock_->nowNs();
-  line.start_kPa = pressureLocked(line, now);
-  line.since_ns = now;
-  line.model = model;
-}
-
-double SimWorld::pressureLocked(const Line& line, std::int64_t t_ns) const {
-  const double dt = std::max<std::int64_t>(0, t_ns - line.since_ns) * 1e-9;
-  // A leaking line reaches only part of a rise; falls (venting) always complete.
-  const double rise = line.target_kPa - line.start_kPa;
-  const double goal = rise > 0 ? line.start_kPa + line.model.reach * rise : line.target_kPa;
-  return goal + (line.start_kPa - goal) * std::exp(-dt / line.model.time_constant_s);
+  lines_[channel].setModel(model, clock_->nowNs());
 }
 
 void SimWorld::commandPressureKPa(int channel, double kPa) {
   std::lock_guard lock(mutex_);
-  Line& line = lines_[channel];
-  const std::int64_t now = clock_->nowNs();
-  line.start_kPa = pressureLocked(line, now);  // continuous: the line does not jump
-  line.since_ns = now;
-  line.target_kPa = kPa;
+  lines_[channel].command(kPa, clock_->nowNs());
 }
 
 double SimWorld::linePressureKPa(int channel, std::int64_t t_ns) const {
   std::lock_guard lock(mutex_);
   const auto it = lines_.find(channel);
-  return it == lines_.end() ? 0.0 : pressureLocked(it->second, t_ns);
+  return it == lines_.end() ? 0.0 : it->second.pressureKPa(t_ns);
 }
 
 double SimWorld::gaussian(double sigma) {
@@ -127,8 +111,7 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
                                       [&](const ValveEvent& e) { return e.valve == l.valve; });
       if (fired == events.end()) continue;
       const auto line = lines_.find(l.regulator_channel);
-      const double p_kPa =
-          line == lines_.end() ? 0.0 : pressureLocked(line->second, fired->opened_ns);
+      const double p_kPa = line == lines_.end() ? 0.0 : line->second.pressureKPa(fired->opened_ns);
       const double v = curve_.speed_m_s(p_kPa) * (1.0 + sim.speed_scatter * unit(rng_));
       shot->pressure_kPa[i] = p_kPa;
       // Without pressure behind it the sphere stays in the tube.

@@ -22,20 +22,13 @@
 #include "analysis/calibration.hpp"
 #include "analysis/flight.hpp"
 #include "hw/clock.hpp"
+#include "hw/pressure_line.hpp"
 #include "hw/rig_profile.hpp"
 #include "hw/truth_source.hpp"
 #include "hw/valve_bank.hpp"
 #include "vision/render.hpp"
 
 namespace collide::hw {
-
-/// How one simulated air line answers its regulator.
-struct LineModel {
-  double time_constant_s = 0.01;  ///< first-order response to a new setpoint, > 0
-  /// Fraction of a pressure rise the line actually reaches: 1 for a sound
-  /// line, < 1 for a leak (the pressure stalls short of the setpoint).
-  double reach = 1.0;
-};
 
 /// One launch: both spheres' flight from the instant the valves opened.
 struct SimLaunch {
@@ -100,13 +93,6 @@ class SimWorld : public TruthSource {
  private:
   SimWorld(const RigProfile& profile, std::shared_ptr<Clock> clock, LaunchCalibration curve);
 
-  struct Line {
-    LineModel model;
-    double start_kPa = 0.0;   // pressure when the setpoint last changed
-    double target_kPa = 0.0;  // where it is heading
-    std::int64_t since_ns = 0;
-  };
-  double pressureLocked(const Line& line, std::int64_t t_ns) const;
   std::function<double(double)> restitutionLaw() const;
 
   const RigProfile profile_;
@@ -114,7 +100,7 @@ class SimWorld : public TruthSource {
   const LaunchCalibration curve_;
   mutable std::mutex mutex_;
   std::mt19937_64 rng_;
-  std::map<int, Line> lines_;
+  std::map<int, PressureLine> lines_;
   std::shared_ptr<const SimLaunch> launch_;
   bool launched_in_burst_ = false;
   std::vector<std::function<void()>> launch_callbacks_;

@@ -47,14 +47,14 @@ struct AnalysisSettings {
 /// One sphere found in one frame (pixels).
 struct SphereDetection {
   double u_px = 0, v_px = 0, radius_px = 0;
-  double sigma_px = 0;        ///< standard uncertainty of the centre, per axis
+  double sigma_px = 0;  ///< standard uncertainty of the centre, per axis
   bool cut_by_border = false;
-  bool touching = false;      ///< outline merged with the other sphere's
+  bool touching = false;  ///< outline merged with the other sphere's
 };
 
 /// One dot found on one sphere in one frame.
 struct DotDetection {
-  double u_px = 0, v_px = 0;  ///< image position
+  double u_px = 0, v_px = 0;      ///< image position
   Vec3 on_sphere = Vec3::Zero();  ///< unit vector from the sphere centre (camera axes)
 };
 
@@ -81,10 +81,10 @@ struct SphereKinematics {
 
 struct CollisionProperties {
   Measured e, beta, beta_from_impulse, f, gamma_deg;
-  Measured vn_m_s;        ///< normal contact velocity before, < 0 on approach
-  Measured vs_m_s;        ///< tangential contact speed before, >= 0
-  Measured vs_after_m_s;  ///< v_s' . t (signed along the pre-impact tangent)
-  Measured t_collision_s; ///< from the first analysed frame
+  Measured vn_m_s;         ///< normal contact velocity before, < 0 on approach
+  Measured vs_m_s;         ///< tangential contact speed before, >= 0
+  Measured vs_after_m_s;   ///< v_s' . t (signed along the pre-impact tangent)
+  Measured t_collision_s;  ///< from the first analysed frame
   /// The two collision-instant estimates (pre- and post-impact fits), s.
   double t_collision_before_s = 0, t_collision_after_s = 0;
 };

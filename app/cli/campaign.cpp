@@ -2,19 +2,13 @@
 // angle and store them as shot files plus a catalog.
 #include "app/campaign.hpp"
 
-#include <csignal>
 #include <iostream>
-#include <stop_token>
 
 #include "app/cli/command.hpp"
+#include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
 
 namespace {
-
-std::stop_source* g_stop = nullptr;
-extern "C" void onInterrupt(int) {
-  if (g_stop) g_stop->request_stop();  // async-signal-safe: an atomic store
-}
 
 void setupCampaign(CLI::App& sub, std::function<int()>& run) {
   auto rig = std::make_shared<std::string>();
@@ -39,10 +33,7 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
       std::cerr << "collide campaign: " << profile.error().message << "\n";
       return collide::cli::kExitBadInput;
     }
-    std::stop_source stop;
-    g_stop = &stop;
-    std::signal(SIGINT, onInterrupt);
-    std::signal(SIGTERM, onInterrupt);
+    collide::cli::StopOnInterrupt stop;
     collide::cli::ProgressBar bar("campaign", o->shots);
     auto report = collide::app::runCampaign(
         *profile, *o,
@@ -50,8 +41,7 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
           bar.update(done,
                      shot.id + (shot.status == collide::hw::ShotStatus::Ok ? " ok" : " FAILED"));
         },
-        stop.get_token());
-    g_stop = nullptr;
+        stop.token());
     if (!report) {
       std::cerr << "collide campaign: " << report.error().message << "\n";
       return collide::cli::kExitFailure;

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "app/save.hpp"
+#include "tests/app/cli_run.hpp"
 #include "tests/app/shot_fixtures.hpp"
 
 namespace {
@@ -17,33 +18,6 @@ using namespace collide::testing;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-struct CommandRun {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-/// Runs `collide ARGS` through the shell; `args` are already quoted.
-CommandRun collide(const std::string& args, const ScratchDir& scratch) {
-  const std::string err_file = scratch.file("stderr.txt");
-  const std::string command =
-      std::string(COLLIDE_BINARY_DIR) + "/app/collide " + args + " 2>'" + err_file + "'";
-  CommandRun run;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return run;
-  char buf[4096];
-  std::size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) run.out.append(buf, n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  run.err = readAll(err_file);
-  std::filesystem::remove(err_file);
-  return run;
-}
-
-std::string q(const std::string& s) {
-  return "'" + s + "'";
-}
 
 std::size_t lineCount(const std::string& s) {
   return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
@@ -76,7 +50,7 @@ class CliStorage : public ::testing::Test {
 };
 
 TEST_F(CliStorage, ShotsListsTheCatalogAsATable) {
-  const CommandRun run = collide("shots " + q(folder()), scratch);
+  const CommandRun run = runCollide("shots " + q(folder()), scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_THAT(run.out, AllOf(HasSubstr(shots[0].id), HasSubstr(shots[1].id), HasSubstr(shots[2].id),
                              HasSubstr("3 shots")));
@@ -88,18 +62,18 @@ TEST_F(CliStorage, ShotsListsTheCatalogAsATable) {
 }
 
 TEST_F(CliStorage, ShotsFiltersByMaterialAndStatus) {
-  CommandRun run = collide("shots " + q(folder()) + " --material teflon", scratch);
+  CommandRun run = runCollide("shots " + q(folder()) + " --material teflon", scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_THAT(run.out, AllOf(HasSubstr(shots[1].id), Not(HasSubstr(shots[0].id)),
                              Not(HasSubstr(shots[2].id)), HasSubstr("1 shot\n")));
-  run = collide("shots " + q(folder()) + " --status failed", scratch);
+  run = runCollide("shots " + q(folder()) + " --status failed", scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_THAT(run.out, AllOf(HasSubstr(shots[2].id), Not(HasSubstr(shots[0].id)),
                              Not(HasSubstr(shots[1].id))));
 }
 
 TEST_F(CliStorage, ShotsAsJsonCarriesEveryColumn) {
-  const CommandRun run = collide("shots " + q(folder()) + " --json --status ok", scratch);
+  const CommandRun run = runCollide("shots " + q(folder()) + " --json --status ok", scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto j = nlohmann::json::parse(run.out);
   ASSERT_EQ(j.size(), 2u);
@@ -121,16 +95,16 @@ TEST_F(CliStorage, ShotsAsJsonCarriesEveryColumn) {
 }
 
 TEST_F(CliStorage, ShotsErrorsAreOneLineAndExit2) {
-  CommandRun run = collide("shots " + q(scratch.file("elsewhere")), scratch);
+  CommandRun run = runCollide("shots " + q(scratch.file("elsewhere")), scratch);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr(scratch.file("elsewhere")));
   EXPECT_EQ(lineCount(run.err), 1u) << run.err;
   std::filesystem::create_directory(scratch.file("empty"));
-  run = collide("shots " + q(scratch.file("empty")), scratch);
+  run = runCollide("shots " + q(scratch.file("empty")), scratch);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr("collide catalog rebuild " + scratch.file("empty")));
   EXPECT_EQ(lineCount(run.err), 1u) << run.err;
-  run = collide("shots " + q(folder()) + " --status maybe", scratch);
+  run = runCollide("shots " + q(folder()) + " --status maybe", scratch);
   EXPECT_EQ(run.exit_code, 2);
 }
 
@@ -144,7 +118,7 @@ TEST_P(CliExport, WritesOnePngPerFrameWithTheFramesPixels) {
   const std::string path = scratch.file(shot.id + ".h5");
   ASSERT_TRUE(collide::app::writeShot(path, shot).ok());
   const std::string png = scratch.file("png");
-  const CommandRun run = collide("export " + q(path) + " --png " + q(png), scratch);
+  const CommandRun run = runCollide("export " + q(path) + " --png " + q(png), scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   // Frame 1 failed in transport and has no image: 5 of 6 frames.
   EXPECT_THAT(run.out,
@@ -177,14 +151,14 @@ INSTANTIATE_TEST_SUITE_P(Formats, CliExport,
 
 TEST(CliExportErrors, BadShotFilesAreNamedAndExit2) {
   ScratchDir scratch;
-  CommandRun run =
-      collide("export " + q(scratch.file("none.h5")) + " --png " + q(scratch.file("png")), scratch);
+  CommandRun run = runCollide(
+      "export " + q(scratch.file("none.h5")) + " --png " + q(scratch.file("png")), scratch);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr("no such shot file: " + scratch.file("none.h5")));
   EXPECT_EQ(lineCount(run.err), 1u) << run.err;
   writeAll(scratch.file("text.h5"), "hello");
-  run =
-      collide("export " + q(scratch.file("text.h5")) + " --png " + q(scratch.file("png")), scratch);
+  run = runCollide("export " + q(scratch.file("text.h5")) + " --png " + q(scratch.file("png")),
+                   scratch);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, AllOf(HasSubstr(scratch.file("text.h5")), HasSubstr("not an HDF5 file")));
   EXPECT_EQ(lineCount(run.err), 1u) << run.err;
@@ -194,11 +168,11 @@ TEST(CliExportErrors, BadShotFilesAreNamedAndExit2) {
 TEST_F(CliStorage, CatalogRebuildRecreatesTheCatalogFromTheFiles) {
   for (const char* suffix : {"", "-wal", "-shm"})
     std::filesystem::remove(folder() + "/catalog.sqlite" + suffix);
-  CommandRun run = collide("catalog rebuild " + q(folder()), scratch);
+  CommandRun run = runCollide("catalog rebuild " + q(folder()), scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_THAT(run.out, HasSubstr("3 shots"));
   EXPECT_EQ(run.err, "");
-  run = collide("shots " + q(folder()) + " --json", scratch);
+  run = runCollide("shots " + q(folder()) + " --json", scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto j = nlohmann::json::parse(run.out);
   ASSERT_EQ(j.size(), 3u);
@@ -208,7 +182,7 @@ TEST_F(CliStorage, CatalogRebuildRecreatesTheCatalogFromTheFiles) {
 
 TEST_F(CliStorage, CatalogRebuildReportsUnreadableFilesAndExits1) {
   writeAll(folder() + "/junk.h5", "not a shot");
-  const CommandRun run = collide("catalog rebuild " + q(folder()), scratch);
+  const CommandRun run = runCollide("catalog rebuild " + q(folder()), scratch);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_THAT(run.out, AllOf(HasSubstr("3 shots"), HasSubstr("1 unreadable file")));
   EXPECT_THAT(run.err, AllOf(HasSubstr("skipped junk.h5"), HasSubstr("not an HDF5 file")));
@@ -217,7 +191,7 @@ TEST_F(CliStorage, CatalogRebuildReportsUnreadableFilesAndExits1) {
 
 TEST(CliCatalogErrors, MissingFolderExits2) {
   ScratchDir scratch;
-  const CommandRun run = collide("catalog rebuild " + q(scratch.file("gone")), scratch);
+  const CommandRun run = runCollide("catalog rebuild " + q(scratch.file("gone")), scratch);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr(scratch.file("gone")));
   EXPECT_EQ(lineCount(run.err), 1u) << run.err;

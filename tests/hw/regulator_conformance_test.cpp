@@ -1,33 +1,14 @@
-// Conformance suite for the PressureRegulator role: every backend must pass
-// it. A backend joins by adding a bench maker to the INSTANTIATE line (a real
-// one, e.g. Modbus against a loopback server, supplies its own clock and skips
-// when its peer is missing).
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
+// The PressureRegulator conformance suite (regulator_conformance.hpp) over
+// the simulated backend.
+#include "regulator_conformance.hpp"
 
-#include <functional>
-#include <memory>
-
-#include "hw/clock.hpp"
-#include "hw/pressure_regulator.hpp"
 #include "hw/pressure_regulator_sim.hpp"
 #include "hw/sim_world.hpp"
 
 using namespace collide::hw;
-using ::testing::HasSubstr;
+using namespace collide::hw::testing;
 
 namespace {
-
-struct RegulatorBench {
-  std::shared_ptr<Clock> clock;  // the clock the device runs on
-  std::shared_ptr<void> keep_alive;
-  std::unique_ptr<PressureRegulator> regulator;
-};
-
-struct RegulatorBackend {
-  std::string name;
-  std::function<RegulatorBench()> make;
-};
 
 RegulatorBench simBench() {
   auto clock = std::make_shared<ManualClock>();
@@ -36,123 +17,10 @@ RegulatorBench simBench() {
   RegulatorSimSettings settings;
   settings.noise_kPa = 0.05;
   settings.time_constant_s = 0.01;
-  return {clock, *world, std::make_unique<PressureRegulatorSim>(*world, settings)};
+  return {clock, *world, std::make_unique<PressureRegulatorSim>(*world, settings), {}};
 }
-
-class RegulatorConformance : public ::testing::TestWithParam<RegulatorBackend> {
- protected:
-  void SetUp() override { bench_ = GetParam().make(); }
-
-  PressureRegulator& reg() { return *bench_.regulator; }
-  Clock& clock() { return *bench_.clock; }
-
-  void bringUp(double min_kPa = 0.0, double max_kPa = 200.0) {
-    ASSERT_TRUE(reg().open());
-    ASSERT_TRUE(reg().configure({min_kPa, max_kPa}));
-    ASSERT_TRUE(reg().start());
-  }
-
-  // Polls settled() every millisecond of the device's clock for up to 10 s.
-  bool waitSettled(int channel, double tolerance_kPa) {
-    const std::int64_t start = clock().nowNs();
-    while (clock().nowNs() - start < 10'000'000'000) {
-      auto s = reg().settled(channel, tolerance_kPa);
-      if (!s) ADD_FAILURE() << s.error().message;
-      if (!s || *s) return s && *s;
-      clock().sleepUntilNs(clock().nowNs() + 1'000'000);
-    }
-    return false;
-  }
-
-  RegulatorBench bench_;
-};
 
 }  // namespace
-
-TEST_P(RegulatorConformance, StartsClosedAndRefusesPressureCallsUntilRunning) {
-  EXPECT_EQ(reg().state(), DeviceState::Closed);
-  const auto set = reg().setPressureKPa(0, 10.0);
-  ASSERT_FALSE(set);
-  EXPECT_THAT(set.error().message, HasSubstr("setPressureKPa() refused: the device is closed; "
-                                             "call open() first"));
-  EXPECT_FALSE(reg().readPressureKPa(0));
-  EXPECT_FALSE(reg().vent());
-  ASSERT_TRUE(reg().open());
-  ASSERT_TRUE(reg().configure({0.0, 100.0}));
-  EXPECT_THAT(reg().readPressureKPa(0).error().message, HasSubstr("call start() first"));
-}
-
-TEST_P(RegulatorConformance, WalksTheLifecycle) {
-  ASSERT_TRUE(reg().open());
-  EXPECT_EQ(reg().state(), DeviceState::Open);
-  EXPECT_THAT(reg().start().error().message, HasSubstr("call configure() first"));
-  ASSERT_TRUE(reg().configure({0.0, 150.0}));
-  EXPECT_EQ(reg().state(), DeviceState::Configured);
-  ASSERT_TRUE(reg().start());
-  EXPECT_EQ(reg().state(), DeviceState::Running);
-  EXPECT_THAT(reg().configure({0.0, 100.0}).error().message, HasSubstr("call stop() first"));
-  ASSERT_TRUE(reg().stop());
-  EXPECT_EQ(reg().state(), DeviceState::Configured);
-  ASSERT_TRUE(reg().start());
-  ASSERT_TRUE(reg().close());
-  EXPECT_EQ(reg().state(), DeviceState::Closed);
-  EXPECT_FALSE(reg().readPressureKPa(0));
-}
-
-TEST_P(RegulatorConformance, ConfigureRefusesLimitsOutsideTheDeviceRange) {
-  ASSERT_TRUE(reg().open());
-  const RegulatorInfo info = reg().info();
-  ASSERT_GE(info.channels, 2) << "a launcher rig needs two channels";
-  const auto above = reg().configure({info.device_min_kPa, info.device_max_kPa + 1.0});
-  ASSERT_FALSE(above);
-  EXPECT_THAT(above.error().message, HasSubstr("exceed the device's range"));
-  EXPECT_FALSE(reg().configure({50.0, 40.0}));
-  EXPECT_EQ(reg().state(), DeviceState::Open);
-}
-
-TEST_P(RegulatorConformance, RefusesSetpointsOutsideTheLimitsAndUnknownChannels) {
-  bringUp(0.0, 120.0);
-  const auto high = reg().setPressureKPa(0, 150.0);
-  ASSERT_FALSE(high);
-  EXPECT_THAT(high.error().message, HasSubstr("150 kPa on channel 0 is outside the limits 0..120"));
-  EXPECT_FALSE(reg().setPressureKPa(1, -5.0));
-  const int channels = reg().info().channels;
-  const auto none = reg().setPressureKPa(channels, 10.0);
-  ASSERT_FALSE(none);
-  EXPECT_THAT(none.error().message, HasSubstr("no channel " + std::to_string(channels)));
-  EXPECT_FALSE(reg().readPressureKPa(-1));
-  EXPECT_EQ(*reg().setpointKPa(0), 0.0);  // refused setpoints are not remembered
-}
-
-TEST_P(RegulatorConformance, EachChannelSettlesAtItsOwnSetpoint) {
-  bringUp();
-  ASSERT_TRUE(reg().setPressureKPa(0, 40.0));
-  ASSERT_TRUE(reg().setPressureKPa(1, 90.0));
-  EXPECT_EQ(*reg().setpointKPa(0), 40.0);
-  EXPECT_EQ(*reg().setpointKPa(1), 90.0);
-  ASSERT_TRUE(waitSettled(0, 0.5));
-  ASSERT_TRUE(waitSettled(1, 0.5));
-  EXPECT_NEAR(*reg().readPressureKPa(0), 40.0, 0.5);
-  EXPECT_NEAR(*reg().readPressureKPa(1), 90.0, 0.5);
-}
-
-TEST_P(RegulatorConformance, VentTakesEveryChannelToZero) {
-  bringUp();
-  ASSERT_TRUE(reg().setPressureKPa(0, 80.0));
-  ASSERT_TRUE(reg().setPressureKPa(1, 60.0));
-  ASSERT_TRUE(waitSettled(0, 0.5));
-  ASSERT_TRUE(reg().vent());
-  EXPECT_EQ(*reg().setpointKPa(0), 0.0);
-  EXPECT_EQ(*reg().setpointKPa(1), 0.0);
-  ASSERT_TRUE(waitSettled(0, 0.5));
-  ASSERT_TRUE(waitSettled(1, 0.5));
-  EXPECT_NEAR(*reg().readPressureKPa(1), 0.0, 0.5);
-}
-
-TEST_P(RegulatorConformance, VentIsAllowedBeforeStart) {
-  ASSERT_TRUE(reg().open());
-  EXPECT_TRUE(reg().vent());
-}
 
 INSTANTIATE_TEST_SUITE_P(Backends, RegulatorConformance,
                          ::testing::Values(RegulatorBackend{"sim", &simBench}),

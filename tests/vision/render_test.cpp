@@ -360,8 +360,8 @@ TEST(Render, SphereCutByBorderMatchesWholeSphere) {
   big.width = 400;
   big.height = 350;
   const DotPattern p = DotPattern::random(5);
-  for (const Eigen::Vector2d c : {Eigen::Vector2d(5.3, 140.6), Eigen::Vector2d(-20.4, 70.2),
-                                  Eigen::Vector2d(190.7, -15.1), Eigen::Vector2d(210.0, 160.5)}) {
+  for (const Eigen::Vector2d& c : {Eigen::Vector2d(5.3, 140.6), Eigen::Vector2d(-20.4, 70.2),
+                                   Eigen::Vector2d(190.7, -15.1), Eigen::Vector2d(210.0, 160.5)}) {
     SphereView s;
     s.radius_px = 37.4;
     s.centre_px = c;
@@ -379,8 +379,8 @@ TEST(Render, SphereCutByBorderMatchesWholeSphere) {
               cv::sum(whole)[0] - bgGrey(big) * whole.total());
   }
   // Entirely outside, absurdly far, or not finite: background only.
-  for (const Eigen::Vector2d c : {Eigen::Vector2d(-30, 50), Eigen::Vector2d(1e15, -1e15),
-                                  Eigen::Vector2d(std::nan(""), 50)}) {
+  for (const Eigen::Vector2d& c : {Eigen::Vector2d(-30, 50), Eigen::Vector2d(1e15, -1e15),
+                                   Eigen::Vector2d(std::nan(""), 50)}) {
     SphereView away;
     away.radius_px = 20;
     away.centre_px = c;

@@ -1,0 +1,316 @@
+#include "app/campaign_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "app/shot_file.hpp"
+
+namespace collide::app {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const std::vector<std::string>& excludingFlags() {
+  static const std::vector<std::string> flags = {"analysis_failed", "few_frames_before",
+                                                 "few_frames_after", "collision_instant_disagree",
+                                                 "large_residuals"};
+  return flags;
+}
+
+Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool include_flagged) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return fail(dir + ": no such folder");
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && e.path().extension() == ".h5") files.push_back(e.path().string());
+  if (files.empty()) return fail(dir + ": no shot files (*.h5) in this folder");
+  std::sort(files.begin(), files.end());
+
+  std::vector<CampaignEntry> entries;
+  for (const auto& file : files) {
+    CampaignEntry entry;
+    entry.file = file;
+    auto shot = readShot(file, ReadOptions{.frames = false});
+    if (!shot) {
+      entry.excluded_because = shot.error().message;
+      entries.push_back(std::move(entry));
+      continue;
+    }
+    entry.id = shot->id;
+    if (shot->status == hw::ShotStatus::Failed) {
+      entry.excluded_because = "failed shot: " + shot->failure_reason;
+    } else if (shot->results_json.empty()) {
+      entry.excluded_because = "not analysed (run `collide analyze " + dir + "`)";
+    } else if (auto r = parseResultsJson(shot->results_json); !r) {
+      entry.excluded_because = r.error().message;
+    } else {
+      entry.results = *r;
+      std::string bad_flag;
+      for (const auto& f : r->quality_flags)
+        if (std::find(excludingFlags().begin(), excludingFlags().end(), f) !=
+            excludingFlags().end())
+          bad_flag = f;
+      if (!bad_flag.empty() && !include_flagged) {
+        entry.excluded_because = "quality flag " + bad_flag + " (--include-flagged keeps it)";
+      } else if (auto cs = toCampaignShot(*r); !cs) {
+        entry.excluded_because = cs.error().message;
+      } else {
+        entry.shot = *cs;
+      }
+    }
+    entries.push_back(std::move(entry));
+  }
+  return entries;
+}
+
+std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries) {
+  std::vector<CampaignShot> out;
+  for (const auto& e : entries)
+    if (e.shot) out.push_back(*e.shot);
+  return out;
+}
+
+Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries, int resamples,
+                                         std::uint64_t seed) {
+  const auto shots = usableShots(entries);
+  auto fit = fitCampaign(shots);
+  if (!fit) return fit.error();
+  CampaignFitReport report{*fit, std::nullopt, ""};
+  if (resamples > 0) {
+    // Head-on shots have no beta: the friction bootstrap takes the others.
+    std::vector<CampaignShot> oblique;
+    for (const auto& s : shots)
+      if (s.v_s_m_s > 0) oblique.push_back(s);
+    auto boot = bootstrapFriction(oblique, resamples, seed);
+    if (boot) {
+      report.bootstrap = *boot;
+    } else {
+      report.bootstrap_error = boot.error().message;
+    }
+  }
+  return report;
+}
+
+namespace {
+
+// Evenly spaced abscissae over [lo, hi] for model curves.
+std::vector<double> linspace(double lo, double hi, int n = 200) {
+  std::vector<double> x(n);
+  for (int i = 0; i < n; ++i) x[i] = lo + (hi - lo) * i / (n - 1);
+  return x;
+}
+
+Series curve(const std::string& label, const std::vector<double>& x,
+             const std::function<double(double)>& f, int colour) {
+  Series s{label, Series::Style::Line, x, {}, {}, colour};
+  for (double v : x) s.y.push_back(f(v));
+  return s;
+}
+
+double maxOr(const std::vector<double>& v, double fallback) {
+  return v.empty() ? fallback : *std::max_element(v.begin(), v.end());
+}
+
+}  // namespace
+
+std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
+                                     const CampaignFitReport* report) {
+  Series beta{"shots", Series::Style::Points, {}, {}, {}, 0};
+  Series tangent = beta, f = beta, e_tan = beta, e_vn = beta;
+  for (const auto& entry : entries) {
+    if (!entry.shot) continue;
+    const CampaignShot& s = *entry.shot;
+    if (s.v_s_m_s > 0 && std::isfinite(s.beta)) {
+      beta.x.push_back(s.cotIncidence());
+      beta.y.push_back(s.beta);
+      beta.y_err.push_back(s.beta_sigma);
+    }
+    const double t = s.tanIncidence();
+    const auto& c = entry.results->collision;
+    if (std::isfinite(c.vs_after_m_s.value)) {
+      // y = -v_s'/v_n with v_s' signed along the pre-impact tangent.
+      const double y = -c.vs_after_m_s.value / s.v_n_m_s;
+      const double sy =
+          std::hypot(c.vs_after_m_s.sigma / s.v_n_m_s, y * s.v_n_sigma_m_s / s.v_n_m_s);
+      tangent.x.push_back(t);
+      tangent.y.push_back(y);
+      tangent.y_err.push_back(std::isfinite(sy) ? sy : 0.0);
+    }
+    if (std::isfinite(s.f)) {
+      f.x.push_back(t);
+      f.y.push_back(s.f);
+      f.y_err.push_back(s.f_sigma);
+    }
+    e_tan.x.push_back(t);
+    e_tan.y.push_back(s.e);
+    e_tan.y_err.push_back(s.e_sigma);
+    e_vn.x.push_back(-s.v_n_m_s);
+    e_vn.y.push_back(s.e);
+    e_vn.y_err.push_back(s.e_sigma);
+  }
+
+  std::vector<NamedPlot> plots;
+  PlotSpec p1{"Tangential restitution against incidence (thesis Fig. 5.9)",
+              "-v_n / v_s",
+              "beta",
+              {beta},
+              0.0,
+              std::nullopt,
+              -1.0,
+              1.0};
+  PlotSpec p2{"Tangent form (thesis Fig. 3.4)",
+              "-v_s / v_n",
+              "-v_s' / v_n",
+              {tangent},
+              0.0,
+              std::nullopt,
+              std::nullopt,
+              std::nullopt};
+  PlotSpec p3{"Impulse ratio (thesis Fig. 5.11)",
+              "tan psi = -v_s / v_n",
+              "f = |dP_t| / |dP_n|",
+              {f},
+              0.0,
+              std::nullopt,
+              0.0,
+              std::nullopt};
+  PlotSpec p4{"Normal restitution against incidence",
+              "tan psi = -v_s / v_n",
+              "e",
+              {e_tan},
+              0.0,
+              std::nullopt,
+              std::nullopt,
+              std::nullopt};
+  PlotSpec p5{"Normal restitution against impact speed (thesis Figs. 5.12, 5.13)",
+              "|v_n| (m/s)",
+              "e",
+              {e_vn},
+              0.0,
+              std::nullopt,
+              std::nullopt,
+              std::nullopt};
+  if (report) {
+    const Material m = report->fit.friction.material();
+    const double K = report->fit.friction.inertia_factor_K;
+    char label[160];
+    std::snprintf(label, sizeof label, "Walton: mu %.3f, beta0 %.3f, e %.3f", m.mu, m.beta0, m.e);
+    const double x_hi = std::max(1.0, 1.1 * maxOr(beta.x, 1.0));
+    p1.series.push_back(curve(
+        label, linspace(0, x_hi), [&](double x) { return campaignBetaCurve(x, m, K); }, 1));
+    const double t_hi = std::max(0.5, 1.1 * maxOr(tangent.x, 0.5));
+    p2.series.push_back(curve(
+        label, linspace(0, t_hi), [&](double t) { return campaignTangentFormCurve(t, m, K); }, 1));
+    const double tf_hi = std::max(0.5, 1.1 * maxOr(f.x, 0.5));
+    p3.series.push_back(curve(
+        label, linspace(0, tf_hi), [&](double t) { return campaignImpulseRatioCurve(t, m, K); },
+        1));
+    const auto& mean = report->fit.restitution.e;
+    std::snprintf(label, sizeof label, "mean e = %.4f +- %.4f", mean.value, mean.sigma);
+    const double te_hi = std::max(0.5, 1.1 * maxOr(e_tan.x, 0.5));
+    p4.series.push_back(curve(
+        label, linspace(0, te_hi), [&](double) { return mean.value; }, 1));
+    if (report->fit.laws) {
+      const auto& laws = *report->fit.laws;
+      const auto& law = laws.fit(laws.preferred);
+      const double v_hi = 1.1 * maxOr(e_vn.x, 1.0);
+      p5.series.push_back(curve(
+          law.formula + " (preferred, " + evidenceName(laws.evidence) + ")",
+          linspace(v_hi / 200, v_hi), [&](double v) { return law.restitutionAt(v); }, 1));
+    }
+  }
+  plots.push_back({"beta_vs_cot", p1});
+  plots.push_back({"tangent_form", p2});
+  plots.push_back({"f_vs_tan", p3});
+  plots.push_back({"e_vs_tan", p4});
+  plots.push_back({"e_vs_vn", p5});
+  return plots;
+}
+
+namespace {
+json fitted(const FittedValue& v) {
+  return {{"value", v.value}, {"sigma", v.sigma}};
+}
+}  // namespace
+
+std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
+                               const CampaignFitReport& report) {
+  const auto& fr = report.fit.friction;
+  const auto& em = report.fit.restitution;
+  json j;
+  j["schema"] = "collide.campaign-fit/1";
+  j["material"] = {{"mu", fitted(fr.mu)},
+                   {"beta0", fitted(fr.beta0)},
+                   {"e", fitted(em.e)},
+                   {"switch_angle_deg", fitted(fr.switch_angle_deg)},
+                   {"switch_cot", fitted(fr.switch_cot)}};
+  j["friction_fit"] = {{"slope", fitted(fr.slope)},
+                       {"chi2", fr.chi2},
+                       {"dof", fr.dof},
+                       {"scale_factor", fr.scale_factor},
+                       {"sliding_shots", fr.sliding_count},
+                       {"rolling_shots", fr.rolling_count},
+                       {"inertia_factor_K", fr.inertia_factor_K}};
+  j["restitution_mean"] = {
+      {"e", fitted(em.e)}, {"scatter", em.scatter},           {"chi2", em.chi2},
+      {"dof", em.dof},     {"scale_factor", em.scale_factor}, {"shots", em.count}};
+  if (report.fit.laws) {
+    const auto& laws = *report.fit.laws;
+    json list = json::array();
+    for (const auto& law : laws.fits) {
+      json params = json::object();
+      for (std::size_t i = 0; i < law.parameters.size(); ++i)
+        params[law.parameter_names[i]] = fitted(law.parameters[i]);
+      list.push_back({{"law", restitutionLawName(law.law)},
+                      {"formula", law.formula},
+                      {"parameters", params},
+                      {"chi2", law.chi2},
+                      {"dof", law.dof},
+                      {"bic", law.bic},
+                      {"delta_bic", law.delta_bic}});
+    }
+    j["restitution_laws"] = {{"preferred", restitutionLawName(laws.preferred)},
+                             {"evidence", evidenceName(laws.evidence)},
+                             {"bic_margin", laws.bic_margin},
+                             {"fits", list}};
+  } else {
+    j["restitution_laws"] = {{"error", report.fit.laws.error().message}};
+  }
+  if (report.bootstrap) {
+    const auto& b = *report.bootstrap;
+    j["bootstrap"] = {{"mu_sigma", b.mu_sigma},
+                      {"beta0_sigma", b.beta0_sigma},
+                      {"e_sigma", b.e_sigma},
+                      {"slope_sigma", b.slope_sigma},
+                      {"switch_cot_sigma", b.switch_cot_sigma},
+                      {"resamples_used", b.resamples_used},
+                      {"resamples_failed", b.resamples_failed}};
+  } else {
+    j["bootstrap"] = {{"error", report.bootstrap_error}};
+  }
+  json used = json::array(), left_out = json::array();
+  std::size_t k = 0;  // index into the fitted shots (regime is per fitted shot)
+  for (const auto& e : entries) {
+    const std::string name = e.id.empty() ? fs::path(e.file).filename().string() : e.id;
+    if (e.shot) {
+      json row = {{"id", name},
+                  {"e", e.shot->e},
+                  {"beta", e.shot->beta},
+                  {"f", e.shot->f},
+                  {"vn_m_s", e.shot->v_n_m_s},
+                  {"vs_m_s", e.shot->v_s_m_s}};
+      if (k < fr.regime.size())
+        row["regime"] = fr.regime[k] == CollisionRegime::Sliding ? "sliding" : "rolling";
+      ++k;
+      used.push_back(row);
+    } else {
+      left_out.push_back({{"id", name}, {"reason", e.excluded_because}});
+    }
+  }
+  j["shots_used"] = used;
+  j["shots_left_out"] = left_out;
+  return j.dump(2);
+}
+
+}  // namespace collide::app

@@ -1,0 +1,63 @@
+#pragma once
+// A campaign folder's analysed shots fitted as one material (SPEC.md
+// "Measuring a material"): the shots read back from their results, which
+// shots the fits use and why others are left out, the fits, the thesis' five
+// plots (as PlotSpec, drawn to PNG/SVG by `collide fit` and to Qt Charts by
+// the GUI, so both show the same data) and the fit report as JSON.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/campaign.hpp"
+#include "analysis/result.hpp"
+#include "app/plot.hpp"
+#include "app/results_json.hpp"
+
+namespace collide::app {
+
+struct CampaignEntry {
+  std::string id;
+  std::string file;
+  std::optional<ShotResults> results;  ///< empty if not analysed
+  std::optional<CampaignShot> shot;    ///< set when the fits can use it
+  std::string excluded_because;        ///< why not used (empty when used)
+};
+
+/// Quality flags that leave a shot out of the fits: its numbers are not to be
+/// trusted at all. Geometry flags (eq. 5.1) do not: those shots carry their
+/// own large uncertainties, which the weighted fits take into account.
+const std::vector<std::string>& excludingFlags();
+
+/// Reads every shot file in `dir` (without frames). Errors: `dir` missing or
+/// without shot files. Unreadable files become entries with the reason.
+Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir,
+                                                bool include_flagged = false);
+/// The shots the fits use, in entry order.
+std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries);
+
+struct CampaignFitReport {
+  CampaignFit fit;
+  std::optional<FrictionBootstrap> bootstrap;  ///< cross-check of the sigmas
+  std::string bootstrap_error;                 ///< why there is none
+};
+/// Fits the usable shots (analysis/campaign.hpp fitCampaign) and bootstraps
+/// the friction fit (`resamples` >= 10, or 0 for none).
+Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
+                                         int resamples = 200, std::uint64_t seed = 1);
+
+/// The five plots, named for their files: beta_vs_cot (beta against -v_n/v_s
+/// with the fitted Walton line), tangent_form (-v_s'/v_n against -v_s/v_n),
+/// f_vs_tan (f against tan psi), e_vs_tan (e against tan psi), e_vs_vn (e
+/// against |v_n| with the preferred law). `report` may be null (points only).
+struct NamedPlot {
+  std::string name;
+  PlotSpec plot;
+};
+std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
+                                     const CampaignFitReport* report);
+
+/// The fit report: material, laws, bootstrap, and the shots used/left out.
+std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
+                               const CampaignFitReport& report);
+
+}  // namespace collide::app

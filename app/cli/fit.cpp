@@ -1,0 +1,127 @@
+// `collide fit DIR`: the campaign's material (mu, beta_0, e, gamma_0, the
+// e(|v_n|) law) as JSON, and the thesis' plots as PNG and SVG.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "app/atomic_file.hpp"
+#include "app/campaign_report.hpp"
+#include "app/cli/command.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using collide::cli::kExitBadInput;
+using collide::cli::kExitFailure;
+using collide::cli::kExitOk;
+
+struct Options {
+  std::string dir;
+  std::string out;
+  bool include_flagged = false;
+  int resamples = 200;
+  std::uint64_t seed = 1;
+};
+
+collide::Status writeText(const std::string& path, const std::string& text) {
+  auto file = collide::app::AtomicFile::create(path);
+  if (!file) return file.error();
+  {
+    std::ofstream os(file->tempPath());
+    os << text << "\n";
+    if (!os.flush()) return collide::app::ioError(ENOSPC, "writing", path);
+  }
+  return file->commit();
+}
+
+int runFit(const Options& o) {
+  if (o.resamples > 0 && o.resamples < 10) {
+    std::cerr << "collide fit: --bootstrap needs at least 10 resamples (or 0 for none)\n";
+    return kExitBadInput;
+  }
+  auto entries = collide::app::loadCampaign(o.dir, o.include_flagged);
+  if (!entries) {
+    std::cerr << "collide fit: " << entries.error().message << "\n";
+    return kExitBadInput;
+  }
+  int used = 0;
+  for (const auto& e : *entries) {
+    if (e.shot) {
+      ++used;
+    } else {
+      std::cerr << "left out " << (e.id.empty() ? e.file : e.id) << ": " << e.excluded_because
+                << "\n";
+    }
+  }
+  std::cout << used << " of " << entries->size() << " shots used\n";
+  auto report = collide::app::fitCampaignFolder(*entries, o.resamples, o.seed);
+  if (!report) {
+    std::cerr << "collide fit: " << o.dir << ": " << report.error().message << "\n";
+    return kExitFailure;
+  }
+  const std::string out = o.out.empty() ? (fs::path(o.dir) / "fit").string() : o.out;
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) {
+    std::cerr << "collide fit: cannot create " << out << ": " << ec.message() << "\n";
+    return kExitFailure;
+  }
+  const std::string json_path = (fs::path(out) / "fit.json").string();
+  if (auto st = writeText(json_path, collide::app::campaignReportJson(*entries, *report)); !st) {
+    std::cerr << "collide fit: " << st.error().message << "\n";
+    return kExitFailure;
+  }
+  for (const auto& p : collide::app::campaignPlots(*entries, &*report)) {
+    if (auto st = collide::app::savePlot(p.plot, (fs::path(out) / p.name).string()); !st) {
+      std::cerr << "collide fit: " << st.error().message << "\n";
+      return kExitFailure;
+    }
+  }
+  const auto& fr = report->fit.friction;
+  const auto& e = report->fit.restitution.e;
+  std::printf("mu       %.4f ± %.4f\n", fr.mu.value, fr.mu.sigma);
+  std::printf("beta_0   %.4f ± %.4f\n", fr.beta0.value, fr.beta0.sigma);
+  std::printf("e        %.4f ± %.4f (mean of %d shots)\n", e.value, e.sigma,
+              report->fit.restitution.count);
+  std::printf("gamma_0  %.1f ± %.1f deg (sliding below, rolling above; %d sliding, %d rolling)\n",
+              fr.switch_angle_deg.value, fr.switch_angle_deg.sigma, fr.sliding_count,
+              fr.rolling_count);
+  if (report->fit.laws) {
+    const auto& laws = *report->fit.laws;
+    std::printf("e(|v_n|) %s preferred (%s evidence, delta BIC %.1f)\n",
+                collide::restitutionLawName(laws.preferred).c_str(),
+                collide::evidenceName(laws.evidence).c_str(), laws.bic_margin);
+  } else {
+    std::printf("e(|v_n|) not fitted: %s\n", report->fit.laws.error().message.c_str());
+  }
+  if (report->bootstrap)
+    std::printf("bootstrap sigmas: mu %.4f, beta_0 %.4f (%d resamples)\n",
+                report->bootstrap->mu_sigma, report->bootstrap->beta0_sigma,
+                report->bootstrap->resamples_used);
+  std::cout << "wrote " << json_path << " and 5 plots (PNG, SVG) in " << out << "\n";
+  return kExitOk;
+}
+
+void setupFit(CLI::App& sub, std::function<int()>& run) {
+  auto o = std::make_shared<Options>();
+  sub.add_option("dir", o->dir, "Campaign folder of analysed shot files")->required();
+  sub.add_option("--out", o->out, "Folder for fit.json and the plots (default: DIR/fit)");
+  sub.add_flag("--include-flagged", o->include_flagged,
+               "Also fit shots whose quality flags say their numbers are not to be trusted");
+  sub.add_option("--bootstrap", o->resamples,
+                 "Bootstrap resamples for the sigma cross-check (0: none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub.add_option("--seed", o->seed, "Seed of the bootstrap");
+  sub.footer(
+      "Plots: beta_vs_cot, tangent_form, f_vs_tan, e_vs_tan, e_vs_vn (each .png and .svg).\n"
+      "Shots flagged few_frames_*, collision_instant_disagree, large_residuals or\n"
+      "analysis_failed are left out unless --include-flagged; every left-out shot is listed.");
+  run = [o] { return runFit(*o); };
+}
+
+}  // namespace
+
+COLLIDE_COMMAND(fit, "Fit a campaign: mu, beta_0, e and its speed law, with the thesis' plots",
+                setupFit);

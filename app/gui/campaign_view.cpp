@@ -1,0 +1,389 @@
+#include "app/gui/campaign_view.hpp"
+
+#include <QChart>
+#include <QChartView>
+#include <QDir>
+#include <QDoubleSpinBox>
+#include <QFile>
+#include <QFileDialog>
+#include <QFormLayout>
+#include <QGridLayout>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QLegendMarker>
+#include <QLineSeries>
+#include <QPainter>
+#include <QPushButton>
+#include <QScatterSeries>
+#include <QScrollArea>
+#include <QSpinBox>
+#include <QSvgGenerator>
+#include <QVBoxLayout>
+#include <QValueAxis>
+#include <QtConcurrent/QtConcurrentRun>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "app/campaign_report.hpp"
+
+namespace collide::gui {
+namespace {
+
+const QColor kPalette[] = {QColor(31, 119, 180), QColor(214, 39, 40),   QColor(44, 160, 44),
+                           QColor(255, 127, 14), QColor(148, 103, 189), QColor(140, 86, 75)};
+
+QColor paletteColour(int i) {
+  return kPalette[((i % 6) + 6) % 6];
+}
+
+// Axis range covering the data with a small margin (or the spec's fixed one).
+void setRange(QValueAxis* axis, std::optional<double> lo, std::optional<double> hi, double dmin,
+              double dmax) {
+  if (!std::isfinite(dmin) || !std::isfinite(dmax)) dmin = 0, dmax = 1;
+  if (dmax - dmin < 1e-12) dmin -= 0.5, dmax += 0.5;
+  const double pad = 0.05 * (dmax - dmin);
+  axis->setRange(lo.value_or(dmin - pad), hi.value_or(dmax + pad));
+  axis->applyNiceNumbers();
+}
+
+}  // namespace
+
+QChartView* makeChartView(const app::PlotSpec& spec) {
+  auto* chart = new QChart;
+  chart->setTitle(QString::fromStdString(spec.title));
+  auto* x = new QValueAxis;
+  auto* y = new QValueAxis;
+  x->setTitleText(QString::fromStdString(spec.x_label));
+  y->setTitleText(QString::fromStdString(spec.y_label));
+  chart->addAxis(x, Qt::AlignBottom);
+  chart->addAxis(y, Qt::AlignLeft);
+  double xmin = std::numeric_limits<double>::infinity(), xmax = -xmin, ymin = xmin, ymax = -xmin;
+  auto attach = [&](QXYSeries* s, bool in_legend) {
+    chart->addSeries(s);
+    s->attachAxis(x);
+    s->attachAxis(y);
+    if (!in_legend)
+      for (QLegendMarker* m : chart->legend()->markers(s)) m->setVisible(false);
+  };
+  for (const app::Series& series : spec.series) {
+    const QColor colour = paletteColour(series.colour);
+    QXYSeries* s = nullptr;
+    if (series.style == app::Series::Style::Points) {
+      auto* scatter = new QScatterSeries;
+      scatter->setMarkerSize(7);
+      scatter->setBorderColor(colour.darker(130));
+      s = scatter;
+    } else {
+      auto* line = new QLineSeries;
+      line->setPen(QPen(colour, 2));
+      s = line;
+    }
+    s->setName(QString::fromStdString(series.label));
+    s->setColor(colour);
+    const std::size_t n = std::min(series.x.size(), series.y.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
+      s->append(series.x[i], series.y[i]);
+      xmin = std::min(xmin, series.x[i]);
+      xmax = std::max(xmax, series.x[i]);
+      ymin = std::min(ymin, series.y[i]);
+      ymax = std::max(ymax, series.y[i]);
+    }
+    attach(s, !series.label.empty());
+    // One-sigma error bars: a short vertical line per point.
+    if (series.y_err.size() == series.y.size()) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const double e = series.y_err[i];
+        if (!std::isfinite(e) || e <= 0 || !std::isfinite(series.x[i])) continue;
+        auto* bar = new QLineSeries;
+        bar->setPen(QPen(colour, 1));
+        bar->append(series.x[i], series.y[i] - e);
+        bar->append(series.x[i], series.y[i] + e);
+        attach(bar, false);
+      }
+    }
+  }
+  setRange(x, spec.x_min, spec.x_max, xmin, xmax);
+  setRange(y, spec.y_min, spec.y_max, ymin, ymax);
+  chart->legend()->setAlignment(Qt::AlignBottom);
+  auto* view = new QChartView(chart);
+  view->setRenderHint(QPainter::Antialiasing);
+  view->setMinimumSize(360, 260);
+  return view;
+}
+
+std::string plotCsv(const app::PlotSpec& plot) {
+  std::ostringstream out;
+  out.precision(10);
+  auto quoted = [](const std::string& s) {
+    std::string q = "\"";
+    for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+  };
+  out << "series,style," << quoted(plot.x_label) << "," << quoted(plot.y_label) << ",y_sigma\n";
+  for (const app::Series& s : plot.series) {
+    const char* style = s.style == app::Series::Style::Points ? "points" : "line";
+    for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
+      out << quoted(s.label) << "," << style << "," << s.x[i] << "," << s.y[i] << ",";
+      if (i < s.y_err.size()) out << s.y_err[i];
+      out << "\n";
+    }
+  }
+  return out.str();
+}
+
+CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
+  auto* layout = new QVBoxLayout(this);
+  auto* controls = new QHBoxLayout;
+  shots_ = new QSpinBox;
+  shots_->setObjectName("campaign_shots");
+  shots_->setRange(1, 1000);
+  shots_->setValue(20);
+  shots_->setPrefix(tr("shots: "));
+  seed_ = new QSpinBox;
+  seed_->setObjectName("campaign_seed");
+  seed_->setRange(0, 1'000'000);
+  seed_->setValue(1);
+  seed_->setPrefix(tr("seed: "));
+  angle_min_ = new QDoubleSpinBox;
+  angle_max_ = new QDoubleSpinBox;
+  angle_min_->setObjectName("campaign_angle_min");
+  angle_max_->setObjectName("campaign_angle_max");
+  for (auto* a : {angle_min_, angle_max_}) {
+    a->setRange(0, 89);
+    a->setDecimals(0);
+    a->setSuffix(QString::fromUtf8("°"));
+  }
+  angle_min_->setValue(10);
+  angle_max_->setValue(80);
+  run_ = new QPushButton(tr("Run campaign"));
+  run_->setObjectName("run_campaign");
+  cancel_ = new QPushButton(tr("Cancel"));
+  cancel_->setObjectName("cancel_campaign");
+  cancel_->setEnabled(false);
+  auto* export_all = new QPushButton(tr("Export all..."));
+  export_all->setObjectName("export_all");
+  controls->addWidget(shots_);
+  controls->addWidget(seed_);
+  controls->addWidget(new QLabel(tr("incidence")));
+  controls->addWidget(angle_min_);
+  controls->addWidget(new QLabel(tr("to")));
+  controls->addWidget(angle_max_);
+  controls->addWidget(run_);
+  controls->addWidget(cancel_);
+  controls->addStretch();
+  controls->addWidget(export_all);
+  layout->addLayout(controls);
+  summary_ = new QLabel(tr("no shot folder"));
+  summary_->setObjectName("campaign_summary");
+  summary_->setWordWrap(true);
+  layout->addWidget(summary_);
+  auto* scroll = new QScrollArea;
+  scroll->setWidgetResizable(true);
+  grid_host_ = new QWidget;
+  new QGridLayout(grid_host_);
+  scroll->setWidget(grid_host_);
+  layout->addWidget(scroll, 1);
+
+  connect(run_, &QPushButton::clicked, this, [this] {
+    emit campaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
+                           angle_min_->value(), angle_max_->value());
+  });
+  connect(cancel_, &QPushButton::clicked, this, [this] { emit cancelRequested(); });
+  connect(export_all, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Export the plots into"), dir_);
+    if (dir.isEmpty()) return;
+    QString error;
+    if (!exportAll(dir, &error)) summary_->setText(error);
+  });
+  connect(&loader_, &QFutureWatcher<Loaded>::finished, this, [this] {
+    Loaded l = loader_.result();
+    setCharts(std::move(l.charts), l.summary);
+    if (refresh_again_) {
+      refresh_again_ = false;
+      refresh();
+    }
+  });
+}
+
+CampaignView::~CampaignView() {
+  loader_.waitForFinished();
+}
+
+void CampaignView::setCampaignRunning(bool running) {
+  run_->setEnabled(!running);
+  cancel_->setEnabled(running);
+}
+
+namespace {
+
+// The folder's analysed shots, fitted, as the five plots (worker thread):
+// the same entries, fits and PlotSpecs `collide fit` draws.
+CampaignView::Loaded loadFolder(const std::string& dir) {
+  CampaignView::Loaded out;
+  auto entries = app::loadCampaign(dir);
+  if (!entries) {
+    out.summary = QString::fromStdString(entries.error().message);
+    return out;
+  }
+  const std::vector<CampaignShot> usable = app::usableShots(*entries);
+  int analysed = 0;
+  for (const auto& e : *entries) analysed += e.results.has_value();
+  auto report = app::fitCampaignFolder(*entries, /*resamples=*/0);
+  for (auto& named : app::campaignPlots(*entries, report ? &*report : nullptr))
+    out.charts.push_back({named.name, std::move(named.plot)});
+  QString text = QObject::tr("%1 shots in the folder, %2 analysed, %3 used by the fits. ")
+                     .arg(entries->size())
+                     .arg(analysed)
+                     .arg(usable.size());
+  if (report) {
+    const FrictionFit& f = report->fit.friction;
+    const RestitutionMean& r = report->fit.restitution;
+    text += QObject::tr("e = %1 ± %2, mu = %3 ± %4, beta0 = %5 ± %6, gamma0 = %7 ± %8 deg")
+                .arg(r.e.value, 0, 'f', 4)
+                .arg(r.e.sigma, 0, 'f', 4)
+                .arg(f.mu.value, 0, 'f', 4)
+                .arg(f.mu.sigma, 0, 'f', 4)
+                .arg(f.beta0.value, 0, 'f', 3)
+                .arg(f.beta0.sigma, 0, 'f', 3)
+                .arg(f.switch_angle_deg.value, 0, 'f', 1)
+                .arg(f.switch_angle_deg.sigma, 0, 'f', 1);
+    if (report->fit.laws)
+      text += QObject::tr("; e(|v_n|): %1 preferred")
+                  .arg(QString::fromStdString(restitutionLawName(report->fit.laws->preferred)));
+  } else {
+    text += QObject::tr("No fit yet: %1").arg(QString::fromStdString(report.error().message));
+  }
+  out.summary = text;
+  return out;
+}
+
+}  // namespace
+
+void CampaignView::refresh() {
+  if (dir_.isEmpty()) return;
+  if (loader_.isRunning()) {
+    refresh_again_ = true;
+    return;
+  }
+  const std::string dir = dir_.toStdString();
+  loader_.setFuture(QtConcurrent::run([dir] { return loadFolder(dir); }));
+}
+
+void CampaignView::setFolder(const QString& dir) {
+  dir_ = dir;
+  refresh();
+}
+
+QString CampaignView::summary() const {
+  return summary_->text();
+}
+
+int CampaignView::pointCount(const std::string& name) const {
+  for (const auto& c : charts_) {
+    if (c.name != name) continue;
+    int n = 0;
+    for (const auto& s : c.plot.series)
+      if (s.style == app::Series::Style::Points) n += static_cast<int>(s.x.size());
+    return n;
+  }
+  return -1;
+}
+
+void CampaignView::setCharts(std::vector<ChartData> charts, const QString& summary) {
+  charts_ = std::move(charts);
+  summary_->setText(summary);
+  rebuild();
+  emit refreshed();
+}
+
+void CampaignView::rebuild() {
+  auto* grid = static_cast<QGridLayout*>(grid_host_->layout());
+  while (QLayoutItem* item = grid->takeAt(0)) {
+    delete item->widget();
+    delete item;
+  }
+  views_.clear();
+  for (std::size_t i = 0; i < charts_.size(); ++i) {
+    auto* cell = new QWidget;
+    auto* v = new QVBoxLayout(cell);
+    v->setContentsMargins(0, 0, 0, 0);
+    QChartView* view = makeChartView(charts_[i].plot);
+    view->setObjectName(QString::fromStdString("chart_" + charts_[i].name));
+    views_.push_back(view);
+    v->addWidget(view, 1);
+    auto* row = new QHBoxLayout;
+    row->addStretch();
+    for (const char* kind : {"png", "svg", "csv"}) {
+      auto* b = new QPushButton(tr("Export %1...").arg(QString(kind).toUpper()));
+      row->addWidget(b);
+      connect(b, &QPushButton::clicked, this, [this, i, kind] {
+        const QString ext = QString(".") + kind;
+        QString path = QFileDialog::getSaveFileName(
+            this, tr("Export plot"),
+            QDir(dir_).filePath(QString::fromStdString(charts_[i].name) + ext),
+            QString("%1 (*%2)").arg(QString(kind).toUpper(), ext));
+        if (path.isEmpty()) return;
+        if (!path.endsWith(ext)) path += ext;
+        QString error;
+        if (!exportChartAs(static_cast<int>(i), path, &error)) summary_->setText(error);
+      });
+    }
+    v->addLayout(row);
+    grid->addWidget(cell, static_cast<int>(i) / 2, static_cast<int>(i) % 2);
+  }
+}
+
+bool CampaignView::exportChart(int index, const QString& stem, QString* error) {
+  for (const char* ext : {".png", ".svg", ".csv"})
+    if (!exportChartAs(index, stem + ext, error)) return false;
+  return true;
+}
+
+bool CampaignView::exportChartAs(int index, const QString& path, QString* error) {
+  if (index < 0 || index >= static_cast<int>(charts_.size())) return false;
+  const app::PlotSpec& plot = charts_[index].plot;
+  auto failed = [&](const QString& why) {
+    if (error) *error = tr("cannot write %1: %2").arg(path, why);
+    return false;
+  };
+  if (path.endsWith(".csv")) {
+    QFile csv(path);
+    if (!csv.open(QIODevice::WriteOnly | QIODevice::Truncate) ||
+        csv.write(QByteArray::fromStdString(plotCsv(plot))) < 0)
+      return failed(csv.errorString());
+    return true;
+  }
+  // A fresh view at a fixed size: the files do not depend on the window.
+  std::unique_ptr<QChartView> view(makeChartView(plot));
+  view->resize(800, 560);
+  if (path.endsWith(".png")) {
+    if (!view->grab().save(path)) return failed(tr("check the folder exists and is writable"));
+    return true;
+  }
+  if (path.endsWith(".svg")) {
+    QSvgGenerator svg;
+    svg.setFileName(path);
+    svg.setSize(view->size());
+    svg.setViewBox(QRect(QPoint(0, 0), view->size()));
+    svg.setTitle(QString::fromStdString(plot.title));
+    QPainter painter;
+    if (!painter.begin(&svg)) return failed(tr("check the folder exists and is writable"));
+    view->render(&painter);
+    painter.end();
+    return true;
+  }
+  return failed(tr("choose a .png, .svg or .csv file name"));
+}
+
+bool CampaignView::exportAll(const QString& dir, QString* error) {
+  for (std::size_t i = 0; i < charts_.size(); ++i)
+    if (!exportChart(static_cast<int>(i),
+                     QDir(dir).filePath(QString::fromStdString(charts_[i].name)), error))
+      return false;
+  return true;
+}
+
+}  // namespace collide::gui

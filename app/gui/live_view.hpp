@@ -1,0 +1,62 @@
+#pragma once
+// The live camera view: polls the camera's newest published frame at screen
+// rate (the acquisition thread only swaps a pointer to publish, so the view
+// can never stall acquisition; frames in between are simply not shown) and
+// draws it. Detection overlays come from an optional detector run on a worker
+// thread for the shown frames only, never on the acquisition thread.
+#include <QElapsedTimer>
+#include <QFutureWatcher>
+#include <QTimer>
+#include <QWidget>
+#include <functional>
+
+#include "app/gui/image_view.hpp"
+#include "app/gui/rig_worker.hpp"
+
+class QLabel;
+class QCheckBox;
+
+namespace collide::gui {
+
+/// The live view's overlay: spheres (vision::SphereDetector) and their dots
+/// (vision::findDots) on one frame. Thread-safe.
+Overlay detectSpheresAndDots(const vision::Frame& frame, vision::PixelFormat format);
+
+class LiveView : public QWidget {
+  Q_OBJECT
+ public:
+  /// Draws what a detector found on a frame (worker thread; must be thread-safe).
+  using Detector = std::function<Overlay(const vision::Frame&, vision::PixelFormat)>;
+
+  explicit LiveView(QWidget* parent = nullptr);
+  ~LiveView() override;
+
+  /// The camera to watch (null: none). Shared with the rig, which outlives it
+  /// while the view holds it.
+  void setCamera(CameraPtr camera);
+  void setDetector(Detector detector) { detector_ = std::move(detector); }
+  /// How often the screen is refreshed (Hz).
+  void setRefreshRate(double hz);
+
+  /// Frames drawn so far (tests) and the camera's published count when the
+  /// last one was drawn.
+  std::uint64_t framesShown() const { return shown_; }
+  ImageView* imageView() const { return view_; }
+
+ private:
+  void refresh();
+
+  CameraPtr camera_;
+  Detector detector_;
+  ImageView* view_ = nullptr;
+  QLabel* info_ = nullptr;
+  QCheckBox* overlays_ = nullptr;
+  QTimer timer_;
+  std::uint64_t last_published_ = 0;
+  std::uint64_t shown_ = 0;
+  QElapsedTimer clock_;
+  double display_fps_ = 0;
+  QFutureWatcher<Overlay> detection_;
+};
+
+}  // namespace collide::gui

@@ -1,0 +1,392 @@
+#include "app/gui/main_window.hpp"
+
+#include <QApplication>
+#include <QCloseEvent>
+#include <QDir>
+#include <QDockWidget>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QFrame>
+#include <QFutureWatcher>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QMenuBar>
+#include <QProgressDialog>
+#include <QPushButton>
+#include <QScrollArea>
+#include <QSettings>
+#include <QStatusBar>
+#include <QTabWidget>
+#include <QVBoxLayout>
+#include <QtConcurrent/QtConcurrentRun>
+
+#include "app/gui/calibration_dialog.hpp"
+#include "app/gui/campaign_view.hpp"
+#include "app/gui/live_view.hpp"
+#include "app/gui/replay_view.hpp"
+#include "app/gui/rig_panel.hpp"
+#include "app/gui/shot_browser.hpp"
+#include "app/results_json.hpp"
+#include "app/save.hpp"
+
+namespace collide::gui {
+namespace {
+
+QString qs(const std::string& s) {
+  return QString::fromStdString(s);
+}
+
+}  // namespace
+
+MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
+    : QMainWindow(parent), options_(std::move(options)) {
+  setObjectName("main_window");
+  setWindowTitle(tr("Collide"));
+  qRegisterMetaType<ShotPtr>();
+  qRegisterMetaType<AnalysisPtr>();
+  worker_ = new RigWorker;
+  runner_ = new AnalysisRunner(this);
+  store_pool_.setMaxThreadCount(1);  // one shot file rewritten at a time
+
+  auto* central = new QWidget;
+  auto* layout = new QVBoxLayout(central);
+  layout->setContentsMargins(4, 4, 4, 4);
+  message_bar_ = new QFrame;
+  message_bar_->setObjectName("message_bar");
+  message_bar_->setFrameShape(QFrame::StyledPanel);
+  auto* mb = new QHBoxLayout(message_bar_);
+  message_label_ = new QLabel;
+  message_label_->setObjectName("message_label");
+  message_label_->setWordWrap(true);
+  message_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  auto* dismiss = new QPushButton(tr("Dismiss"));
+  mb->addWidget(message_label_, 1);
+  mb->addWidget(dismiss);
+  message_bar_->hide();
+  connect(dismiss, &QPushButton::clicked, message_bar_, &QWidget::hide);
+  layout->addWidget(message_bar_);
+
+  tabs_ = new QTabWidget;
+  tabs_->setObjectName("views");
+  live_view_ = new LiveView;
+  live_view_->setDetector(&detectSpheresAndDots);
+  replay_view_ = new ReplayView;
+  shot_browser_ = new ShotBrowser;
+  campaign_view_ = new CampaignView;
+  tabs_->addTab(live_view_, tr("Live"));
+  tabs_->addTab(replay_view_, tr("Replay"));
+  tabs_->addTab(shot_browser_, tr("Shots"));
+  tabs_->addTab(campaign_view_, tr("Campaign"));
+  layout->addWidget(tabs_, 1);
+  setCentralWidget(central);
+
+  rig_panel_ = new RigPanel;
+  auto* scroll = new QScrollArea;
+  scroll->setWidget(rig_panel_);
+  scroll->setWidgetResizable(true);
+  scroll->setMinimumWidth(rig_panel_->sizeHint().width() + 24);  // no sideways scrolling
+  auto* dock = new QDockWidget(tr("Rig"));
+  dock->setObjectName("rig_dock");
+  dock->setWidget(scroll);
+  dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
+  addDockWidget(Qt::LeftDockWidgetArea, dock);
+  buildMenus();
+
+  // Rig panel -> control thread.
+  connect(rig_panel_, &RigPanel::armRequested, this,
+          [this](std::array<double, 2> v) { worker_->requestArm(v); });
+  connect(rig_panel_, &RigPanel::disarmRequested, this, [this] { worker_->requestDisarm(); });
+  connect(rig_panel_, &RigPanel::fireRequested, this, [this](std::array<double, 2> v) {
+    replay_view_->resultCard()->setMessage({}, tr("firing..."));
+    worker_->requestFire(v, shots_dir_);
+  });
+  connect(rig_panel_, &RigPanel::cancelRequested, this, [this] { worker_->requestCancel(); });
+  connect(rig_panel_, &RigPanel::burstSettingsRequested, this, [this](BurstSettings b) {
+    worker_->requestBurstSettings(b.pre_trigger_frames, b.post_trigger_frames, b.fps,
+                                  b.exposure_us);
+  });
+
+  // Control thread -> views.
+  connect(worker_, &RigWorker::profileLoaded, this, [this](ProfilePtr profile, CameraPtr camera) {
+    profile_ = profile;
+    rig_panel_->setProfile(profile);
+    live_view_->setCamera(camera);
+    statusBar()->showMessage(tr("Rig profile %1 loaded").arg(qs(profile->source)), 5000);
+  });
+  connect(worker_, &RigWorker::status, rig_panel_, &RigPanel::setStatus);
+  connect(worker_, &RigWorker::error, this, [this](QString m) { showMessage(m); });
+  connect(worker_, &RigWorker::shotStep, this, [this](QString step) {
+    rig_panel_->setStep(step);
+    statusBar()->showMessage(step, 3000);
+  });
+  connect(worker_, &RigWorker::shotFired, this, &MainWindow::onShotFired);
+  connect(worker_, &RigWorker::campaignProgress, this, [this](int done, int total, ShotPtr shot) {
+    if (progress_) {
+      progress_->setMaximum(total);
+      progress_->setValue(done);
+      progress_->setLabelText(tr("Shot %1 of %2 fired (%3); analysing as they come")
+                                  .arg(done)
+                                  .arg(total)
+                                  .arg(qs(shot->id)));
+    }
+    // Analysed from its file (saved before this signal), so a campaign that
+    // fires faster than the analysis keeps file names waiting, not bursts.
+    if (shot->status == hw::ShotStatus::Ok)
+      runner_->analyzeFile(QDir(shots_dir_).filePath(qs(app::shotFileName(shot->id))), "campaign");
+    shot_browser_->refresh();
+  });
+  connect(worker_, &RigWorker::campaignFinished, this, [this](QString summary, bool) {
+    campaign_view_->setCampaignRunning(false);
+    if (progress_) progress_->reset();
+    statusBar()->showMessage(summary, 10000);
+    showMessage(summary, false);
+    shot_browser_->refresh();
+  });
+
+  // Analysis.
+  connect(runner_, &AnalysisRunner::analysed, this, &MainWindow::onAnalysed);
+  connect(runner_, &AnalysisRunner::failed, this, &MainWindow::onAnalysisFailed);
+  connect(replay_view_, &ReplayView::reanalyseRequested, this, [this](ShotPtr shot) {
+    replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
+    runner_->analyze(shot, "replay", replay_file_);
+  });
+
+  // Browser and campaign.
+  connect(shot_browser_, &ShotBrowser::shotOpened, this, [this](ShotPtr shot, QString file) {
+    showShot(shot);
+    replay_file_ = file;
+    // Stored results go on the card at once; the analysis runs again for the
+    // overlays (and is stored only if the shot had none).
+    if (auto stored = storedAnalysis(*shot)) {
+      replay_view_->resultCard()->setAnalysis(
+          qs(shot->id), std::make_shared<const vision::ShotAnalysis>(std::move(*stored)));
+      runner_->analyze(shot, "overlay", file);
+    } else {
+      replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
+      runner_->analyze(shot, "replay", file);
+    }
+  });
+  connect(shot_browser_, &ShotBrowser::reanalyseRequested, this, &MainWindow::reanalyse);
+  connect(shot_browser_, &ShotBrowser::error, this, [this](QString m) { showMessage(m); });
+  connect(campaign_view_, &CampaignView::campaignRequested, this, &MainWindow::startCampaign);
+  connect(campaign_view_, &CampaignView::cancelRequested, this,
+          [this] { worker_->requestCancel(); });
+
+  if (options_.restore_settings) restoreSettings();
+  if (!options_.shots_dir.isEmpty()) shots_dir_ = options_.shots_dir;
+  if (shots_dir_.isEmpty()) shots_dir_ = QDir::current().filePath("shots");
+  setShotsDir(shots_dir_);
+  QString profile = options_.rig_profile.isEmpty() ? profile_path_ : options_.rig_profile;
+  loadProfile(profile);
+}
+
+MainWindow::~MainWindow() {
+  store_pool_.waitForDone();  // never leave a results write half-way
+  delete worker_;             // shuts the rig down safely on its own thread, then joins it
+}
+
+void MainWindow::buildMenus() {
+  QMenu* file = menuBar()->addMenu(tr("&File"));
+  file->addAction(tr("&Open rig profile..."), this, [this] {
+    const QString path = QFileDialog::getOpenFileName(this, tr("Rig profile"), profile_path_,
+                                                      tr("Rig profiles (*.toml)"));
+    if (!path.isEmpty()) loadProfile(path);
+  });
+  file->addAction(tr("&Shot folder..."), this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Shot folder"), shots_dir_);
+    if (!dir.isEmpty()) setShotsDir(dir);
+  });
+  file->addSeparator();
+  file->addAction(tr("&Quit"), this, &QWidget::close);
+  QMenu* tools = menuBar()->addMenu(tr("&Tools"));
+  tools->addAction(tr("&Launch calibration..."), this, &MainWindow::openCalibrationDialog);
+}
+
+void MainWindow::setShotsDir(const QString& dir) {
+  shots_dir_ = dir;
+  QDir().mkpath(dir);
+  shot_browser_->setFolder(dir);
+  campaign_view_->setFolder(dir);
+  statusBar()->showMessage(tr("Shots are saved in %1").arg(dir), 5000);
+}
+
+void MainWindow::loadProfile(const QString& path) {
+  profile_path_ = path;
+  worker_->requestLoadProfile(path);
+}
+
+void MainWindow::showMessage(const QString& message, bool error) {
+  messages_ << message;
+  message_label_->setText(message);
+  message_bar_->setStyleSheet(error ? "#message_bar { background: #fbe3e0; }"
+                                    : "#message_bar { background: #e3f1e0; }");
+  message_bar_->show();
+  statusBar()->showMessage(message, 8000);
+}
+
+void MainWindow::showShot(ShotPtr shot) {
+  replay_view_->setShot(shot);
+  tabs_->setCurrentWidget(replay_view_);
+}
+
+void MainWindow::onShotFired(ShotPtr shot, QString file, QString save_error) {
+  last_shot_ = shot;
+  showShot(shot);
+  replay_file_ = file;
+  if (!save_error.isEmpty())
+    showMessage(tr("Shot %1 was fired but not saved: %2").arg(qs(shot->id), save_error));
+  if (shot->status == hw::ShotStatus::Failed) {
+    showMessage(tr("Shot %1 failed: %2").arg(qs(shot->id), qs(shot->failure_reason)));
+    replay_view_->resultCard()->setMessage(qs(shot->id),
+                                           tr("the shot failed: %1").arg(qs(shot->failure_reason)));
+    emit shotAnalysed(qs(shot->id), false);
+  } else {
+    replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
+    runner_->analyze(shot, "fired", file);
+  }
+  shot_browser_->refresh();
+}
+
+void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file) {
+  if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
+  if (tag != "overlay") storeResults(file, shot->id, app::resultsToJson(*analysis));
+  std::erase_if(launches_, [&](const MeasuredLaunch& m) { return m.shot_id == qs(shot->id); });
+  for (MeasuredLaunch& m : measuredLaunches(*shot, analysis->sphere)) launches_.push_back(m);
+  if (replay_view_->shot() && replay_view_->shot()->id == shot->id) {
+    replay_view_->setAnalysis(analysis);
+    replay_view_->resultCard()->setAnalysis(qs(shot->id), analysis);
+  }
+  emit shotAnalysed(qs(shot->id), true);
+}
+
+void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file) {
+  if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
+  const QString id = shot ? qs(shot->id) : QString();
+  // A failed analysis is a result too (the catalog shows why); a build
+  // without the vision core has nothing to say about the shot.
+  if (shot && analysisAvailable() && shot->status == hw::ShotStatus::Ok && tag != "overlay")
+    storeResults(file, shot->id, app::failedResultsJson(message.toStdString()));
+  if (shot && replay_view_->shot() && replay_view_->shot()->id == shot->id && tag != "overlay")
+    replay_view_->resultCard()->setMessage(id, message);
+  if (tag != "fired" && tag != "replay") statusBar()->showMessage(message, 8000);
+  emit shotAnalysed(id, false);
+}
+
+void MainWindow::storeResults(const QString& file, const std::string& id, std::string json) {
+  if (file.isEmpty()) return;  // not saved (the save error was shown)
+  const QFileInfo info(file);
+  const std::string dir = info.absolutePath().toStdString();
+  // Rewriting the file copies it (frames included): off the GUI thread, one at a time.
+  auto* watcher = new QFutureWatcher<QString>(this);
+  connect(watcher, &QFutureWatcher<QString>::finished, this, [this, watcher, id] {
+    const QString error = watcher->result();
+    watcher->deleteLater();
+    if (!error.isEmpty()) showMessage(tr("Results of shot %1 not stored: %2").arg(qs(id), error));
+    shot_browser_->refresh();
+    campaign_view_->refresh();
+    emit resultsStored(qs(id), error);
+  });
+  watcher->setFuture(
+      QtConcurrent::run(&store_pool_, [dir, id, json = std::move(json)]() -> QString {
+        Status s = app::saveResults(dir, id, json);
+        return s ? QString() : QString::fromStdString(s.error().message);
+      }));
+}
+
+void MainWindow::reanalyse(const QStringList& files) {
+  delete progress_;
+  progress_ = new QProgressDialog(tr("Re-running the analysis"), tr("Cancel"), 0,
+                                  static_cast<int>(files.size()), this);
+  progress_->setObjectName("progress");
+  progress_->setWindowModality(Qt::NonModal);
+  progress_->setMinimumDuration(0);
+  batch_total_ = static_cast<int>(files.size());
+  batch_done_ = 0;
+  connect(progress_, &QProgressDialog::canceled, runner_, &AnalysisRunner::cancelQueued);
+  for (const QString& f : files) runner_->analyzeFile(f, "batch");
+  connect(runner_, &AnalysisRunner::pendingChanged, progress_, [this](int pending) {
+    if (pending == 0 && progress_) {
+      progress_->reset();
+      shot_browser_->refresh();
+    }
+  });
+}
+
+void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double angle_max) {
+  app::CampaignOptions o;
+  o.shots = shots;
+  o.seed = seed;
+  o.angle_min_deg = angle_min;
+  o.angle_max_deg = angle_max;
+  o.out_dir = shots_dir_.toStdString();
+  delete progress_;
+  progress_ = new QProgressDialog(tr("Firing the campaign"), tr("Cancel"), 0, shots, this);
+  progress_->setObjectName("progress");
+  progress_->setWindowModality(Qt::NonModal);
+  progress_->setMinimumDuration(0);
+  progress_->setValue(0);
+  connect(progress_, &QProgressDialog::canceled, this, [this] { worker_->requestCancel(); });
+  campaign_view_->setCampaignRunning(true);
+  worker_->requestCampaign(o);
+}
+
+void MainWindow::openCalibrationDialog() {
+  if (!profile_) {
+    showMessage(tr("Open a rig profile first."));
+    return;
+  }
+  auto* dialog = new CalibrationDialog(profile_, profile_path_, this);
+  dialog->setAttribute(Qt::WA_DeleteOnClose);
+  dialog->setLaunches(launches_);
+  // The recorded shots of the folder, read on a worker.
+  auto* watcher = new QFutureWatcher<std::vector<MeasuredLaunch>>(dialog);
+  connect(watcher, &QFutureWatcher<std::vector<MeasuredLaunch>>::finished, dialog,
+          [dialog, watcher] {
+            std::vector<MeasuredLaunch> all = watcher->result();
+            if (!all.empty()) dialog->setLaunches(std::move(all));
+          });
+  const std::string dir = shots_dir_.toStdString();
+  std::vector<MeasuredLaunch> session = launches_;
+  watcher->setFuture(QtConcurrent::run([dir, session]() {
+    auto stored = measuredLaunchesInFolder(dir);
+    if (!stored) return session;
+    // Folder shots plus any session shot not (yet) stored there.
+    std::vector<MeasuredLaunch> all = *stored;
+    for (const auto& m : session) {
+      bool known = false;
+      for (const auto& s : all)
+        known = known || (s.shot_id == m.shot_id && s.launcher == m.launcher);
+      if (!known) all.push_back(m);
+    }
+    return all;
+  }));
+  connect(dialog, &CalibrationDialog::profileSaved, this,
+          [this](QString path) { loadProfile(path); });
+  dialog->show();
+}
+
+void MainWindow::restoreSettings() {
+  QSettings s;
+  restoreGeometry(s.value("window/geometry").toByteArray());
+  restoreState(s.value("window/state").toByteArray());
+  profile_path_ = s.value("rig/profile").toString();
+  shots_dir_ = s.value("shots/dir").toString();
+  tabs_->setCurrentIndex(s.value("window/tab", 0).toInt());
+}
+
+void MainWindow::saveSettings() {
+  QSettings s;
+  s.setValue("window/geometry", saveGeometry());
+  s.setValue("window/state", saveState());
+  s.setValue("window/tab", tabs_->currentIndex());
+  s.setValue("rig/profile", profile_path_);
+  s.setValue("shots/dir", shots_dir_);
+}
+
+void MainWindow::closeEvent(QCloseEvent* event) {
+  if (options_.restore_settings) saveSettings();
+  worker_->requestCancel();
+  event->accept();
+}
+
+}  // namespace collide::gui

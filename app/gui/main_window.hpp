@@ -1,0 +1,108 @@
+#pragma once
+// The lab GUI's main window: the rig panel (dock), and the views as tabs —
+// Live, Replay (with the result card), Shots (the browser) and Campaign —
+// plus the calibration dialog (Tools menu). Device and input errors appear in
+// a message bar (what happened, what to do), never as a crash or a frozen
+// window: every device call runs on the rig's control thread (RigWorker),
+// every analysis on the thread pool. Window geometry, dock layout, the open
+// tab and the folders persist between runs (QSettings).
+#include <QMainWindow>
+#include <QString>
+#include <QStringList>
+#include <QThreadPool>
+
+#include "app/gui/rig_worker.hpp"
+#include "app/gui/shot_analysis_service.hpp"
+
+class QLabel;
+class QTabWidget;
+class QProgressDialog;
+class QFrame;
+
+namespace collide::gui {
+
+class RigPanel;
+class LiveView;
+class ReplayView;
+class ShotBrowser;
+class CampaignView;
+
+struct MainWindowOptions {
+  QString rig_profile;  ///< profile to load; empty: the last one used, else the built-in sim
+  QString shots_dir;    ///< where shots are saved; empty: the last one used, else ./shots
+  bool restore_settings = true;  ///< read and write QSettings (tests turn it off)
+};
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+ public:
+  explicit MainWindow(MainWindowOptions options = {}, QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  RigPanel* rigPanel() const { return rig_panel_; }
+  LiveView* liveView() const { return live_view_; }
+  ReplayView* replayView() const { return replay_view_; }
+  ShotBrowser* shotBrowser() const { return shot_browser_; }
+  CampaignView* campaignView() const { return campaign_view_; }
+  QTabWidget* tabs() const { return tabs_; }
+  RigWorker* rigWorker() const { return worker_; }
+  AnalysisRunner* analysisRunner() const { return runner_; }
+
+  QString shotsDir() const { return shots_dir_; }
+  void setShotsDir(const QString& dir);
+  void loadProfile(const QString& path);
+  ProfilePtr profile() const { return profile_; }
+  /// The last shot fired from this window (null before the first).
+  ShotPtr lastShot() const { return last_shot_; }
+  /// Messages shown in the message bar so far, oldest first.
+  const QStringList& messages() const { return messages_; }
+  void showMessage(const QString& message, bool error = true);
+
+  void openCalibrationDialog();
+
+ signals:
+  /// A shot's analysis finished (or failed) and is on the result card.
+  void shotAnalysed(QString shot_id, bool ok);
+  /// A shot's results were written into its file and catalog row (or not: `error`).
+  void resultsStored(QString shot_id, QString error);
+
+ protected:
+  void closeEvent(QCloseEvent* event) override;
+
+ private:
+  void buildMenus();
+  void restoreSettings();
+  void saveSettings();
+  void onShotFired(ShotPtr shot, QString file, QString save_error);
+  void onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file);
+  void onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file);
+  void showShot(ShotPtr shot);
+  void reanalyse(const QStringList& files);
+  void startCampaign(int shots, quint64 seed, double angle_min, double angle_max);
+  /// Writes the results JSON into the shot's file and catalog row (worker thread).
+  void storeResults(const QString& file, const std::string& id, std::string results_json);
+
+  MainWindowOptions options_;
+  RigWorker* worker_ = nullptr;
+  AnalysisRunner* runner_ = nullptr;
+  RigPanel* rig_panel_ = nullptr;
+  LiveView* live_view_ = nullptr;
+  ReplayView* replay_view_ = nullptr;
+  ShotBrowser* shot_browser_ = nullptr;
+  CampaignView* campaign_view_ = nullptr;
+  QTabWidget* tabs_ = nullptr;
+  QFrame* message_bar_ = nullptr;
+  QLabel* message_label_ = nullptr;
+  QProgressDialog* progress_ = nullptr;
+  int batch_total_ = 0, batch_done_ = 0;
+  QString profile_path_;
+  QString replay_file_;  ///< the file of the shot in the replay view
+  QThreadPool store_pool_;
+  QString shots_dir_;
+  ProfilePtr profile_;
+  ShotPtr last_shot_;
+  QStringList messages_;
+  std::vector<MeasuredLaunch> launches_;  ///< measured this session, for the calibration
+};
+
+}  // namespace collide::gui

@@ -1,0 +1,251 @@
+#include "app/gui/replay_view.hpp"
+
+#include <QCheckBox>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QPushButton>
+#include <QSlider>
+#include <QSplitter>
+#include <QVBoxLayout>
+#include <cmath>
+
+namespace collide::gui {
+namespace {
+
+const QColor kSphere[2] = {QColor(60, 220, 90), QColor(70, 190, 255)};
+const QColor kDot(255, 210, 40);
+const QColor kContact(255, 80, 60);
+const QColor kTruth(255, 60, 200);
+
+struct Projection {
+  double s, u0, v0;
+  QPointF operator()(const Vec3& w) const { return {u0 + w.x() / s, v0 - w.y() / s}; }
+};
+
+// Seconds on the analysis clock of every burst frame: the analysis times its
+// frames from the first analysed frame; frames carry camera timestamps.
+std::vector<double> frameTimes(const hw::Shot& shot, const vision::ShotAnalysis& a) {
+  const auto& frames = shot.burst.frames;
+  std::vector<double> t(frames.size(), std::nan(""));
+  if (a.frames.empty()) return t;
+  const auto& ref = a.frames.front();
+  std::int64_t ref_ts = 0;
+  bool found = false;
+  for (const auto& f : frames)
+    if (f.id == ref.frame_id) {
+      ref_ts = f.timestamp_ns;
+      found = true;
+    }
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    t[k] = found ? ref.t_s + (frames[k].timestamp_ns - ref_ts) * 1e-9
+                 : ref.t_s + (frames[k].id - ref.frame_id) / shot.burst.fps;
+  return t;
+}
+
+}  // namespace
+
+Overlay analysisOverlay(const hw::Shot& shot, const vision::ShotAnalysis& a, std::size_t index) {
+  Overlay o;
+  if (index >= shot.burst.frames.size()) return o;
+  const std::int64_t id = shot.burst.frames[index].id;
+  for (const auto& fd : a.frames) {
+    if (fd.frame_id != id) continue;
+    for (int i = 0; i < 2; ++i) {
+      if (fd.sphere[i])
+        o.circles.push_back({QPointF(fd.sphere[i]->u_px, fd.sphere[i]->v_px),
+                             fd.sphere[i]->radius_px, kSphere[i], fd.sphere[i]->touching});
+      for (const auto& d : fd.dots[i]) o.markers.push_back({QPointF(d.u_px, d.v_px), kDot, {}});
+    }
+  }
+  const double s = a.pixel_size_m > 0 ? a.pixel_size_m : shot.scene.pixel_size_m;
+  if (!(s > 0)) return o;
+  const Projection project{s, shot.scene.origin_u_px, shot.scene.origin_v_px};
+  const double tc = a.collision.t_collision_s.value;
+  const std::vector<double> times = frameTimes(shot, a);
+  for (int i = 0; i < 2; ++i) {
+    for (int side = 0; side < 2; ++side) {
+      const auto& fit = a.trajectory[i][side];
+      if (!fit) continue;
+      // Before impact: from the first fitted frame to the collision; after: on.
+      double t0 = side == 0 ? fit->tFirst_s() : (std::isfinite(tc) ? tc : fit->tFirst_s());
+      double t1 = side == 0 ? (std::isfinite(tc) ? tc : fit->tLast_s()) : fit->tLast_s();
+      Overlay::Path path{{}, kSphere[i], side == 1};
+      for (int k = 0; k <= 40; ++k)
+        path.points.push_back(project(fit->positionAt_m(t0 + (t1 - t0) * k / 40.0).value));
+      o.paths.push_back(std::move(path));
+      // The fitted centre at this frame's instant, on its side of the impact.
+      const double t = times[index];
+      if (std::isfinite(t) && ((side == 0 && t <= tc) || (side == 1 && t > tc)))
+        o.markers.push_back({project(fit->positionAt_m(t).value), kSphere[i], {}});
+    }
+  }
+  if (std::isfinite(tc) && a.trajectory[0][0] && a.trajectory[1][0]) {
+    const Vec3 contact = 0.5 * (a.trajectory[0][0]->positionAt_m(tc).value +
+                                a.trajectory[1][0]->positionAt_m(tc).value);
+    o.markers.push_back(
+        {project(contact), kContact, QString("contact %1 ms").arg(tc * 1e3, 0, 'f', 2)});
+  }
+  return o;
+}
+
+Overlay truthOverlay(const hw::Shot& shot, std::size_t index) {
+  Overlay o;
+  if (!shot.truth || index >= shot.burst.frames.size()) return o;
+  const auto& truth = *shot.truth;
+  const std::int64_t id = shot.burst.frames[index].id;
+  const Projection project{shot.scene.pixel_size_m, shot.scene.origin_u_px, shot.scene.origin_v_px};
+  for (std::size_t k = 0; k < truth.frame_id.size(); ++k) {
+    if (truth.frame_id[k] != id) continue;
+    for (int i = 0; i < 2; ++i)
+      o.circles.push_back({project(truth.states[k][i].position_m),
+                           0.5 * shot.scene.diameter_m[i] / shot.scene.pixel_size_m, kTruth, true});
+  }
+  return o;
+}
+
+ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
+  auto* outer = new QHBoxLayout(this);
+  auto* splitter = new QSplitter;
+  outer->addWidget(splitter);
+  auto* left = new QWidget;
+  auto* layout = new QVBoxLayout(left);
+  layout->setContentsMargins(0, 0, 0, 0);
+  view_ = new ImageView;
+  view_->setObjectName("replay_image");
+  view_->clear(tr("no shot: fire one, or open one from the Shots tab"));
+  layout->addWidget(view_, 1);
+
+  slider_ = new QSlider(Qt::Horizontal);
+  slider_->setObjectName("frame_slider");
+  slider_->setRange(0, 0);
+  layout->addWidget(slider_);
+  auto* row = new QHBoxLayout;
+  auto button = [&](const QString& text, const char* name) {
+    auto* b = new QPushButton(text);
+    b->setObjectName(name);
+    row->addWidget(b);
+    return b;
+  };
+  auto* first = button("|<", "first_frame");
+  auto* prev = button("<", "previous_frame");
+  play_ = button(tr("Play"), "play");
+  auto* next = button(">", "next_frame");
+  auto* last = button(">|", "last_frame");
+  frame_label_ = new QLabel;
+  frame_label_->setObjectName("frame_label");
+  row->addWidget(frame_label_, 1);
+  show_analysis_ = new QCheckBox(tr("analysis"));
+  show_analysis_->setChecked(true);
+  show_truth_ = new QCheckBox(tr("ground truth"));
+  row->addWidget(show_analysis_);
+  row->addWidget(show_truth_);
+  reanalyse_ = button(tr("Re-run analysis"), "reanalyse");
+  layout->addLayout(row);
+  splitter->addWidget(left);
+
+  card_ = new ResultCard;
+  splitter->addWidget(card_);
+  splitter->setStretchFactor(0, 3);
+  splitter->setStretchFactor(1, 1);
+
+  connect(slider_, &QSlider::valueChanged, this, &ReplayView::showFrame);
+  connect(first, &QPushButton::clicked, this, [this] { showFrame(0); });
+  connect(prev, &QPushButton::clicked, this, [this] { showFrame(index_ - 1); });
+  connect(next, &QPushButton::clicked, this, [this] { showFrame(index_ + 1); });
+  connect(last, &QPushButton::clicked, this, [this] { showFrame(frameCount() - 1); });
+  connect(show_analysis_, &QCheckBox::toggled, this, &ReplayView::redraw);
+  connect(show_truth_, &QCheckBox::toggled, this, &ReplayView::redraw);
+  connect(reanalyse_, &QPushButton::clicked, this, [this] {
+    if (shot_) emit reanalyseRequested(shot_);
+  });
+  play_timer_.setInterval(40);
+  connect(&play_timer_, &QTimer::timeout, this, [this] {
+    if (index_ + 1 >= frameCount()) {
+      play_timer_.stop();
+      play_->setText(tr("Play"));
+    } else {
+      showFrame(index_ + 1);
+    }
+  });
+  connect(play_, &QPushButton::clicked, this, [this] {
+    if (play_timer_.isActive()) {
+      play_timer_.stop();
+      play_->setText(tr("Play"));
+    } else {
+      if (index_ + 1 >= frameCount()) showFrame(0);
+      play_timer_.start();
+      play_->setText(tr("Pause"));
+    }
+  });
+}
+
+int ReplayView::frameCount() const {
+  return shot_ ? static_cast<int>(shot_->burst.frames.size()) : 0;
+}
+
+void ReplayView::setShot(ShotPtr shot) {
+  shot_ = std::move(shot);
+  analysis_.reset();
+  play_timer_.stop();
+  slider_->setRange(0, std::max(0, frameCount() - 1));
+  if (!shot_ || frameCount() == 0) {
+    view_->clear(shot_ ? tr("shot %1 has no frames (%2)")
+                             .arg(QString::fromStdString(shot_->id),
+                                  QString::fromStdString(shot_->failure_reason))
+                       : tr("no shot"));
+    frame_label_->clear();
+    return;
+  }
+  show_truth_->setEnabled(shot_->truth.has_value());
+  // Start at frame 0, the trigger (the predicted contact).
+  int start = 0;
+  for (int k = 0; k < frameCount(); ++k)
+    if (shot_->burst.frames[k].id == 0) start = k;
+  index_ = -1;
+  slider_->setValue(start);
+  showFrame(start);
+}
+
+void ReplayView::setAnalysis(AnalysisPtr analysis) {
+  analysis_ = std::move(analysis);
+  redraw();
+}
+
+void ReplayView::showFrame(int index) {
+  if (!shot_ || frameCount() == 0) return;
+  index = std::clamp(index, 0, frameCount() - 1);
+  if (index == index_) return;
+  index_ = index;
+  if (slider_->value() != index) slider_->setValue(index);
+  const vision::Frame& f = shot_->burst.frames[index];
+  view_->setImage(f.image.empty() ? QImage() : toDisplayImage(f.image, shot_->burst.format));
+  redraw();
+}
+
+void ReplayView::redraw() {
+  if (!shot_ || frameCount() == 0) return;
+  const vision::Frame& f = shot_->burst.frames[index_];
+  Overlay o;
+  if (analysis_ && show_analysis_->isChecked())
+    o = analysisOverlay(*shot_, *analysis_, static_cast<std::size_t>(index_));
+  if (show_truth_->isChecked()) {
+    Overlay t = truthOverlay(*shot_, static_cast<std::size_t>(index_));
+    o.circles.insert(o.circles.end(), t.circles.begin(), t.circles.end());
+  }
+  const double t_ms = (f.id) * 1e3 / shot_->burst.fps;
+  o.caption = tr("frame %1 (%2 of %3)  t = %4 ms from the trigger%5")
+                  .arg(f.id)
+                  .arg(index_ + 1)
+                  .arg(frameCount())
+                  .arg(t_ms, 0, 'f', 2)
+                  .arg(f.status == vision::FrameStatus::Good ? QString() : tr("  [bad frame]"));
+  view_->setOverlay(std::move(o));
+  QString label = tr("frame %1 / %2").arg(index_ + 1).arg(frameCount());
+  if (analysis_) {
+    const double tc = analysis_->collision.t_collision_s.value;
+    label += tr("; collision at %1 ms on the analysis clock").arg(tc * 1e3, 0, 'f', 2);
+  }
+  frame_label_->setText(label);
+}
+
+}  // namespace collide::gui

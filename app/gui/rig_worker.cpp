@@ -1,0 +1,326 @@
+#include "app/gui/rig_worker.hpp"
+
+#include <QDir>
+#include <QMetaObject>
+#include <cmath>
+
+#include "app/profile_edit.hpp"
+#include "app/rig_setup.hpp"
+#include "app/save.hpp"
+#include "app/shot_id.hpp"
+#include "app/version.hpp"
+#include "hw/sequencer.hpp"
+
+namespace collide::gui {
+namespace {
+
+QString qs(const std::string& s) {
+  return QString::fromStdString(s);
+}
+
+}  // namespace
+
+RigWorker::RigWorker() {
+  qRegisterMetaType<ProfilePtr>();
+  qRegisterMetaType<CameraPtr>();
+  qRegisterMetaType<RigStatus>();
+  qRegisterMetaType<ShotPtr>();
+  thread_.setObjectName("rig control");
+  moveToThread(&thread_);
+  thread_.start();
+  QMetaObject::invokeMethod(
+      this,
+      [this] {
+        poll_timer_ = new QTimer(this);
+        poll_timer_->setInterval(50);
+        connect(poll_timer_, &QTimer::timeout, this, &RigWorker::poll);
+      },
+      Qt::BlockingQueuedConnection);
+}
+
+RigWorker::~RigWorker() {
+  requestCancel();
+  QMetaObject::invokeMethod(
+      this,
+      [this] {
+        delete poll_timer_;
+        poll_timer_ = nullptr;
+        shutDownRig();
+      },
+      Qt::BlockingQueuedConnection);
+  thread_.quit();
+  thread_.wait();
+}
+
+void RigWorker::requestLoadProfile(QString path) {
+  QMetaObject::invokeMethod(
+      this, [this, path] { loadProfile(path); }, Qt::QueuedConnection);
+}
+void RigWorker::requestArm(std::array<double, 2> v) {
+  QMetaObject::invokeMethod(
+      this, [this, v] { arm(v); }, Qt::QueuedConnection);
+}
+void RigWorker::requestDisarm() {
+  QMetaObject::invokeMethod(
+      this, [this] { disarm(); }, Qt::QueuedConnection);
+}
+void RigWorker::requestFire(std::array<double, 2> v, QString out_dir) {
+  QMetaObject::invokeMethod(
+      this, [this, v, out_dir] { fire(v, out_dir); }, Qt::QueuedConnection);
+}
+void RigWorker::requestCampaign(app::CampaignOptions options) {
+  QMetaObject::invokeMethod(
+      this, [this, options] { campaign(options); }, Qt::QueuedConnection);
+}
+void RigWorker::requestBurstSettings(int pre, int post, double fps, double exposure_us) {
+  QMetaObject::invokeMethod(
+      this, [this, pre, post, fps, exposure_us] { burstSettings(pre, post, fps, exposure_us); },
+      Qt::QueuedConnection);
+}
+
+void RigWorker::requestCancel() {
+  std::lock_guard lock(cancel_mutex_);
+  cancel_.request_stop();
+}
+
+std::stop_token RigWorker::newCancelToken() {
+  std::lock_guard lock(cancel_mutex_);
+  cancel_ = std::stop_source();
+  return cancel_.get_token();
+}
+
+void RigWorker::shutDownRig() {
+  if (!rig_) return;
+  rig_->camera->setLiveView(false);
+  if (rig_->regulator && rig_->regulator->state() != hw::DeviceState::Closed)
+    (void)rig_->regulator->vent();
+  (void)hw::shutDown(*rig_);
+  status_.armed = status_.settled = false;
+}
+
+void RigWorker::loadProfile(const QString& path) {
+  Result<hw::RigProfile> profile =
+      path.isEmpty() ? hw::defaultRigProfile() : hw::loadRigProfile(path.toStdString());
+  if (!profile) {
+    emit error(tr("Rig profile not loaded: %1. Fix the file and open it again (File > Open rig "
+                  "profile).")
+                   .arg(qs(profile.error().message)));
+    return;
+  }
+  useProfile(std::move(profile).value());
+}
+
+void RigWorker::burstSettings(int pre, int post, double fps, double exposure_us) {
+  if (!profile_) {
+    emit error(tr("No rig: open a rig profile first."));
+    return;
+  }
+  Result<std::string> text = profile_->text;
+  struct Edit {
+    const char* section;
+    const char* key;
+    QString value;
+  };
+  const Edit all[] = {{"burst", "pre_trigger_frames", QString::number(pre)},
+                      {"burst", "post_trigger_frames", QString::number(post)},
+                      {"camera", "fps", QString::number(fps, 'g', 10)},
+                      {"camera", "exposure_us", QString::number(exposure_us, 'g', 10)}};
+  for (const Edit& e : all) {
+    if (!text) break;
+    text = app::setProfileValue(*text, e.section, e.key, e.value.toStdString());
+  }
+  if (!text) {
+    emit error(tr("Burst settings not applied: %1").arg(qs(text.error().message)));
+    return;
+  }
+  Result<hw::RigProfile> edited = hw::parseRigProfile(*text, profile_->source);
+  if (!edited) {
+    emit error(tr("Burst settings not applied: %1").arg(qs(edited.error().message)));
+    return;
+  }
+  useProfile(std::move(edited).value());
+}
+
+void RigWorker::useProfile(hw::RigProfile profile) {
+  if (poll_timer_) poll_timer_->stop();
+  shutDownRig();
+  rig_.reset();
+  profile_ = std::make_shared<const hw::RigProfile>(std::move(profile));
+  Result<hw::Rig> rig = app::buildRig(*profile_);
+  if (!rig) {
+    emit error(tr("The rig could not be built: %1").arg(qs(rig.error().message)));
+    emit profileLoaded(profile_, nullptr);
+    emitStatus();
+    return;
+  }
+  rig_ = std::make_shared<hw::Rig>(std::move(rig).value());
+  if (Status up = hw::bringUp(*rig_); !up)
+    emit error(tr("The rig did not start: %1. Check the device's connection and power, then "
+                  "reload the profile.")
+                   .arg(qs(up.error().message)));
+  rig_->camera->setLiveView(true);
+  // The camera shares the rig's lifetime: the live view may hold it past a reload.
+  emit profileLoaded(profile_, CameraPtr(rig_, rig_->camera.get()));
+  poll_timer_->start();
+  emitStatus();
+}
+
+void RigWorker::arm(std::array<double, 2> speed) {
+  if (!rig_ || !profile_) {
+    emit error(tr("No rig: open a rig profile first."));
+    return;
+  }
+  auto curve = profile_->calibration.curve();
+  if (!curve) {
+    emit error(qs(curve.error().message));
+    return;
+  }
+  if (Status up = hw::bringUp(*rig_); !up) {
+    emit error(tr("Cannot arm: %1").arg(qs(up.error().message)));
+    return;
+  }
+  for (int i = 0; i < 2; ++i) {
+    Result<double> p = curve->pressure_kPa(speed[i]);
+    if (!p) {
+      emit error(tr("Launcher %1: %2").arg(qs(profile_->launchers[i].name), qs(p.error().message)));
+      return;
+    }
+    if (Status s = rig_->regulator->setPressureKPa(profile_->launchers[i].regulator_channel, *p);
+        !s) {
+      emit error(tr("Cannot arm: %1").arg(qs(s.error().message)));
+      (void)rig_->regulator->vent();
+      status_.armed = false;
+      emitStatus();
+      return;
+    }
+  }
+  status_.armed = true;
+  poll();
+}
+
+void RigWorker::disarm() {
+  status_.armed = status_.settled = false;
+  if (rig_) {
+    if (rig_->regulator->state() != hw::DeviceState::Closed)
+      if (Status s = rig_->regulator->vent(); !s) emit error(qs(s.error().message));
+    if (rig_->valves->state() != hw::DeviceState::Closed)
+      if (Status s = rig_->valves->closeAll(); !s) emit error(qs(s.error().message));
+  }
+  poll();
+}
+
+void RigWorker::poll() {
+  if (!rig_ || !profile_) return;
+  bool settled = status_.armed;
+  if (rig_->regulator->state() == hw::DeviceState::Running) {
+    for (int i = 0; i < 2; ++i) {
+      const int ch = profile_->launchers[i].regulator_channel;
+      Result<double> rb = rig_->regulator->readPressureKPa(ch);
+      Result<double> sp = rig_->regulator->setpointKPa(ch);
+      if (!rb || !sp) {
+        settled = false;
+        continue;
+      }
+      status_.readback_kPa[i] = *rb;
+      status_.setpoint_kPa[i] = *sp;
+      if (std::abs(*rb - *sp) > profile_->sequencer.settle_tolerance_kPa) settled = false;
+    }
+  } else {
+    settled = false;
+  }
+  status_.settled = settled;
+  emitStatus();
+}
+
+void RigWorker::emitStatus() {
+  if (rig_) {
+    status_.backend = {qs(rig_->profile.regulator.backend), qs(rig_->profile.valves.backend),
+                       qs(rig_->profile.camera.backend)};
+    status_.device = {qs(rig_->profile.regulator.device), qs(rig_->profile.valves.device),
+                      qs(rig_->profile.camera.device)};
+    status_.state = {hw::toString(rig_->regulator->state()), hw::toString(rig_->valves->state()),
+                     hw::toString(rig_->camera->state())};
+  } else {
+    status_.state = {"none", "none", "none"};
+  }
+  emit status(status_);
+}
+
+void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
+  if (!rig_) {
+    emit error(tr("No rig: open a rig profile first."));
+    return;
+  }
+  if (!status_.armed || !status_.settled) {
+    emit error(tr("Not ready to fire: arm first and wait until both pressures have settled."));
+    return;
+  }
+  status_.busy = true;
+  emitStatus();
+  const std::stop_token cancel = newCancelToken();
+  hw::Sequencer sequencer(*rig_);
+  hw::Shot shot = sequencer.fire(
+      hw::ShotRequest::atSpeeds(speed[0], speed[1]),
+      [this](const hw::StepStamp& step) {
+        emit shotStep(qs(step.detail.empty() ? step.name : step.name + ": " + step.detail));
+      },
+      cancel);
+  shot.id = app::makeShotId(app::wallTimeUnixNs(), shot_counter_++);
+  shot.program_version = kVersion;
+  QString file, save_error;
+  if (Status saved = app::saveShot(out_dir.toStdString(), shot); saved)
+    file = QDir(out_dir).filePath(qs(app::shotFileName(shot.id)));
+  else
+    save_error = qs(saved.error().message);
+  if (shot.status == hw::ShotStatus::Failed && profile_->safety.vent_on_failure)
+    status_.armed = false;  // the sequencer vented the lines
+  // The sequencer stops the camera after the burst: restart it for the live view.
+  if (Status up = hw::bringUp(*rig_); !up)
+    emit error(tr("After the shot the rig did not restart: %1").arg(qs(up.error().message)));
+  status_.busy = false;
+  auto shared = std::make_shared<const hw::Shot>(std::move(shot));
+  emit shotFired(shared, file, save_error);
+  poll();
+}
+
+void RigWorker::campaign(const app::CampaignOptions& options) {
+  if (!profile_) {
+    emit error(tr("No rig: open a rig profile first."));
+    return;
+  }
+  // The campaign builds a rig per shot (each aimed for its angle): free the
+  // devices for it, and take them back afterwards.
+  poll_timer_->stop();
+  shutDownRig();
+  status_.busy = true;
+  emitStatus();
+  const std::stop_token cancel = newCancelToken();
+  Result<app::CampaignReport> report = app::runCampaign(
+      *profile_, options,
+      [this](int done, int total, const hw::Shot& shot) {
+        emit campaignProgress(done, total, std::make_shared<const hw::Shot>(shot));
+      },
+      cancel);
+  status_.busy = false;
+  if (rig_) {
+    if (Status up = hw::bringUp(*rig_); !up)
+      emit error(tr("After the campaign the rig did not restart: %1").arg(qs(up.error().message)));
+    rig_->camera->setLiveView(true);
+  }
+  poll_timer_->start();
+  emitStatus();
+  if (!report) {
+    emit error(tr("Campaign stopped: %1").arg(qs(report.error().message)));
+    emit campaignFinished(qs(report.error().message), false);
+    return;
+  }
+  QString summary = tr("%1 shots fired (%2 ok, %3 failed) into %4")
+                        .arg(report->fired)
+                        .arg(report->ok)
+                        .arg(report->failed)
+                        .arg(qs(options.out_dir));
+  if (report->cancelled) summary += tr("; cancelled");
+  emit campaignFinished(summary, report->cancelled);
+}
+
+}  // namespace collide::gui

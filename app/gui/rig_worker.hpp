@@ -1,0 +1,107 @@
+#pragma once
+// The rig's control thread. One RigWorker lives on its own QThread and is the
+// only code that calls the devices (hw's threading rule): loading a profile,
+// bringing the rig up, setting and watching pressures, arming, firing through
+// hw::Sequencer, running a campaign through app::runCampaign. The GUI talks to
+// it only through queued calls (the public request* methods may be called from
+// any thread) and hears back through signals, so no device call ever blocks
+// the GUI. Long work (a shot, a campaign) can be cancelled from any thread.
+#include <QObject>
+#include <QString>
+#include <QThread>
+#include <QTimer>
+#include <array>
+#include <memory>
+#include <mutex>
+#include <stop_token>
+
+#include "app/campaign.hpp"
+#include "app/gui/shot_analysis_service.hpp"
+#include "hw/rig.hpp"
+#include "hw/rig_profile.hpp"
+
+namespace collide::gui {
+
+using ProfilePtr = std::shared_ptr<const hw::RigProfile>;
+using CameraPtr = std::shared_ptr<hw::Camera>;
+
+/// What the rig panel shows about the devices (one snapshot).
+struct RigStatus {
+  std::array<QString, 3> backend;  ///< regulator, valves, camera
+  std::array<QString, 3> device;
+  std::array<QString, 3> state;  ///< "closed", "running", ...
+  std::array<double, 2> setpoint_kPa{0, 0};
+  std::array<double, 2> readback_kPa{0, 0};
+  bool armed = false;
+  bool settled = false;  ///< armed and both lines within the profile's tolerance
+  bool busy = false;     ///< a shot or campaign is running
+};
+
+class RigWorker : public QObject {
+  Q_OBJECT
+ public:
+  /// Starts the control thread; the worker lives there from now on.
+  RigWorker();
+  /// Shuts the rig down (valves closed, pressure vented) and joins the thread.
+  ~RigWorker() override;
+
+  // ---- any thread: each queues the work on the control thread -------------
+  void requestLoadProfile(QString path);
+  /// Pressures for these exit speeds (m/s) through the profile's calibration,
+  /// then watch them settle.
+  void requestArm(std::array<double, 2> speed_m_s);
+  /// Vent to 0 kPa and close the valves.
+  void requestDisarm();
+  /// One shot at these speeds; saved into `out_dir` (file first, then catalog row).
+  void requestFire(std::array<double, 2> speed_m_s, QString out_dir);
+  void requestCampaign(app::CampaignOptions options);
+  /// Burst and camera timing: edits the profile's text (so every shot records
+  /// the settings it was really taken with) and rebuilds the rig from it.
+  void requestBurstSettings(int pre_trigger_frames, int post_trigger_frames, double fps,
+                            double exposure_us);
+  /// Cancels the running shot or campaign (between steps / shots).
+  void requestCancel();
+
+  /// The rig's control thread (tests check that devices are driven from it).
+  QThread* controlThread() { return &thread_; }
+
+ signals:
+  void profileLoaded(collide::gui::ProfilePtr profile, collide::gui::CameraPtr camera);
+  void status(collide::gui::RigStatus status);
+  /// A device or input error: what happened and what to do (one line).
+  void error(QString message);
+  void shotStep(QString step);
+  /// A shot finished (ok or failed) and was saved as `file` (empty and
+  /// `save_error` set if saving failed: the shot is still in memory).
+  void shotFired(collide::gui::ShotPtr shot, QString file, QString save_error);
+  void campaignProgress(int done, int total, collide::gui::ShotPtr shot);
+  void campaignFinished(QString summary, bool cancelled);
+
+ private:
+  void loadProfile(const QString& path);
+  void useProfile(hw::RigProfile profile);
+  void burstSettings(int pre, int post, double fps, double exposure_us);
+  void arm(std::array<double, 2> speed_m_s);
+  void disarm();
+  void fire(std::array<double, 2> speed_m_s, const QString& out_dir);
+  void campaign(const app::CampaignOptions& options);
+  void poll();
+  void shutDownRig();
+  void emitStatus();
+  std::stop_token newCancelToken();
+
+  QThread thread_;
+  QTimer* poll_timer_ = nullptr;  // lives on the control thread
+  std::shared_ptr<hw::Rig> rig_;
+  ProfilePtr profile_;
+  RigStatus status_;
+  int shot_counter_ = 0;
+  std::mutex cancel_mutex_;
+  std::stop_source cancel_;
+};
+
+}  // namespace collide::gui
+
+Q_DECLARE_METATYPE(collide::gui::ProfilePtr)
+Q_DECLARE_METATYPE(collide::gui::CameraPtr)
+Q_DECLARE_METATYPE(collide::gui::RigStatus)

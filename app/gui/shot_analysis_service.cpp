@@ -1,0 +1,183 @@
+#include "app/gui/shot_analysis_service.hpp"
+
+#include <QtConcurrent/QtConcurrentRun>
+#include <cmath>
+#include <filesystem>
+
+#include "app/catalog.hpp"
+#include "app/results_json.hpp"
+#include "app/shot_file.hpp"
+
+namespace collide::gui {
+
+bool analysisAvailable() {
+  return COLLIDE_HAVE_SHOT_ANALYSIS != 0;
+}
+
+vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
+  vision::AnalysisSettings s;
+  s.pixel_size_m = shot.scene.pixel_size_m;
+  s.diameter_m = shot.scene.diameter_m;
+  s.mass_kg = shot.scene.mass_kg;
+  s.origin_u_px = shot.scene.origin_u_px;
+  s.origin_v_px = shot.scene.origin_v_px;
+  s.fps = shot.burst.fps;
+  return s;
+}
+
+Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot) {
+  if (shot.status != hw::ShotStatus::Ok)
+    return fail("shot " + shot.id + " failed (" + shot.failure_reason +
+                "): there is no burst to analyse");
+  if (shot.burst.frames.empty() || shot.burst.frames.front().image.empty())
+    return fail("shot " + shot.id + " has no frame images: open the shot file with its frames");
+#if COLLIDE_HAVE_SHOT_ANALYSIS
+  return vision::analyzeBurst(shot.burst, analysisSettingsFor(shot));
+#else
+  return fail(
+      "analysis not available: this build has no vision core (vision::analyzeBurst); the shot is "
+      "recorded and can be analysed later");
+#endif
+}
+
+std::optional<CampaignShot> campaignPoint(const vision::ShotAnalysis& a) {
+  const vision::CollisionProperties& c = a.collision;
+  CampaignShot s;
+  s.v_n_m_s = c.vn_m_s.value;
+  s.v_n_sigma_m_s = c.vn_m_s.sigma;
+  s.v_s_m_s = c.vs_m_s.value;
+  s.v_s_sigma_m_s = c.vs_m_s.sigma;
+  s.e = c.e.value;
+  s.e_sigma = c.e.sigma;
+  s.beta = c.beta.value;
+  s.beta_sigma = c.beta.sigma;
+  s.f = c.f.value;
+  s.f_sigma = c.f.sigma;
+  if (!(s.v_n_m_s < 0) || !std::isfinite(s.e) || !std::isfinite(s.v_s_m_s)) return std::nullopt;
+  return s;
+}
+
+std::vector<MeasuredLaunch> measuredLaunches(
+    const hw::Shot& shot, const std::array<vision::SphereKinematics, 2>& spheres) {
+  std::vector<MeasuredLaunch> out;
+  auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (rig profile)");
+  if (!profile) return out;
+  for (int i = 0; i < 2; ++i) {
+    Vec3 axis = profile->launchers[i].direction;
+    axis.z() = 0;  // trajectories before impact lie in the image plane
+    if (axis.norm() == 0) continue;
+    axis.normalize();
+    const Estimate3& v = spheres[i].velocity_before_m_s;
+    MeasuredLaunch m;
+    m.shot_id = QString::fromStdString(shot.id);
+    m.launcher = i;
+    m.pressure_kPa = shot.launchers[i].readback_kPa;
+    m.speed_m_s = v.value.dot(axis);
+    m.speed_sigma_m_s =
+        std::sqrt(std::pow(axis.x() * v.sigma.x(), 2) + std::pow(axis.y() * v.sigma.y(), 2));
+    if (std::isfinite(m.speed_m_s) && m.speed_m_s > 0) out.push_back(m);
+  }
+  return out;
+}
+
+Result<std::vector<MeasuredLaunch>> measuredLaunchesInFolder(const std::string& dir, int* skipped) {
+  auto catalog = app::Catalog::open(dir, app::Catalog::Mode::OpenExisting);
+  if (!catalog) return catalog.error();
+  app::ShotFilter ok;
+  ok.status = hw::ShotStatus::Ok;
+  auto rows = catalog->query(ok);
+  if (!rows) return rows.error();
+  std::vector<MeasuredLaunch> out;
+  int bad = 0;
+  for (const app::CatalogRow& row : *rows) {
+    if (!row.analysed) continue;
+    auto shot = app::readShot((std::filesystem::path(dir) / row.file).string(), {.frames = false});
+    if (!shot) {
+      ++bad;
+      continue;
+    }
+    auto results = app::parseResultsJson(shot->results_json);
+    if (!results || results->error) {
+      ++bad;
+      continue;
+    }
+    const auto launches = measuredLaunches(*shot, results->sphere);
+    if (launches.empty()) ++bad;
+    out.insert(out.end(), launches.begin(), launches.end());
+  }
+  if (skipped) *skipped = bad;
+  return out;
+}
+
+std::optional<vision::ShotAnalysis> storedAnalysis(const hw::Shot& shot) {
+  if (shot.results_json.empty()) return std::nullopt;
+  auto r = app::parseResultsJson(shot.results_json);
+  if (!r || r->error) return std::nullopt;
+  vision::ShotAnalysis a;
+  a.pixel_size_m = r->pixel_size_m;
+  a.sphere = r->sphere;
+  a.collision = r->collision;
+  a.quality_flags = r->quality_flags;
+  return a;
+}
+
+AnalysisRunner::AnalysisRunner(QObject* parent) : QObject(parent) {
+  connect(&watcher_, &QFutureWatcher<Outcome>::finished, this, [this] {
+    const Outcome outcome = watcher_.result();
+    const Job job = current_;
+    running_ = false;
+    --pending_;
+    if (outcome.analysis)
+      emit analysed(outcome.shot, outcome.analysis, job.tag, job.path);
+    else
+      emit failed(outcome.shot, outcome.message, job.tag, job.path);
+    emit pendingChanged(pending_);
+    startNext();
+  });
+}
+
+AnalysisRunner::~AnalysisRunner() {
+  queue_.clear();
+  watcher_.waitForFinished();  // the worker reads current_.shot
+}
+
+void AnalysisRunner::analyze(ShotPtr shot, QString tag, QString file) {
+  queue_.push_back({std::move(shot), std::move(file), std::move(tag)});
+  ++pending_;
+  emit pendingChanged(pending_);
+  startNext();
+}
+
+void AnalysisRunner::analyzeFile(QString path, QString tag) {
+  queue_.push_back({nullptr, std::move(path), std::move(tag)});
+  ++pending_;
+  emit pendingChanged(pending_);
+  startNext();
+}
+
+void AnalysisRunner::cancelQueued() {
+  pending_ -= static_cast<int>(queue_.size());
+  queue_.clear();
+  emit pendingChanged(pending_);
+}
+
+void AnalysisRunner::startNext() {
+  if (running_ || queue_.empty()) return;
+  running_ = true;
+  current_ = queue_.front();
+  queue_.erase(queue_.begin());
+  ShotPtr shot = current_.shot;
+  const std::string path = current_.path.toStdString();
+  watcher_.setFuture(QtConcurrent::run([shot, path]() mutable -> Outcome {
+    if (!shot) {
+      Result<hw::Shot> read = app::readShot(path);
+      if (!read) return {nullptr, nullptr, QString::fromStdString(read.error().message)};
+      shot = std::make_shared<const hw::Shot>(std::move(read).value());
+    }
+    Result<vision::ShotAnalysis> result = analyzeShot(*shot);
+    if (!result) return {shot, nullptr, QString::fromStdString(result.error().message)};
+    return {shot, std::make_shared<const vision::ShotAnalysis>(std::move(result).value()), {}};
+  }));
+}
+
+}  // namespace collide::gui

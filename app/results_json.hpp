@@ -1,0 +1,58 @@
+#pragma once
+// A shot's analysis results as JSON: what `collide analyze` prints and stores
+// in the shot file (results_json) and what `collide fit` and the GUI read back.
+// Layout (docs/results-format.md), every quantity in SI units named by its key:
+//
+//   {"schema": "collide.results/1",
+//    "e", "beta", "f", "gamma_deg", "vn_m_s", "vs_m_s": the headline numbers
+//                                    (also under "collision"; null if unknown),
+//    "quality_flags": ["..."],
+//    "pixel_size_m": s,
+//    "sphere1"/"sphere2": {"velocity_before_m_s": [x,y,z], "velocity_after_m_s",
+//                          "spin_before_rad_s", "spin_after_rad_s",
+//                          "frames_before", "frames_after"},
+//    "collision": {"e", "beta", "beta_from_impulse", "f", "gamma_deg", "vn_m_s",
+//                  "vs_m_s", "vs_after_m_s", "t_collision_s",
+//                  "t_collision_before_s", "t_collision_after_s"},
+//    "uncertainty": {same keys as "collision" (standard uncertainties),
+//                    "sphere1"/"sphere2": {same vector keys}},
+//    "error": "why the analysis failed" (only then; the rest may be missing)}
+//
+// sphere1 is the sphere on the left before impact. Axes: x right, y up, z
+// towards the camera. Times from the first analysed frame.
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/campaign.hpp"
+#include "analysis/result.hpp"
+#include "vision/shot_analysis.hpp"
+
+namespace collide::app {
+
+inline constexpr const char* kResultsSchema = "collide.results/1";
+
+/// The results JSON (pretty-printed with `indent` spaces, or one line for -1).
+std::string resultsToJson(const vision::ShotAnalysis& analysis, int indent = 2);
+/// The JSON stored for a shot whose analysis failed: the reason, and the flag
+/// "analysis_failed", so the catalog shows it and nothing else is lost.
+std::string failedResultsJson(const std::string& reason);
+
+/// The results read back (for fits, tables and the GUI).
+struct ShotResults {
+  std::optional<std::string> error;  ///< set when the analysis failed
+  double pixel_size_m = 0;
+  std::array<vision::SphereKinematics, 2> sphere;
+  vision::CollisionProperties collision;  ///< NaN where the JSON has null
+  std::vector<std::string> quality_flags;
+};
+/// Errors: not JSON, not an object, another schema, a key of the wrong type
+/// (named, e.g. "collision.e").
+Result<ShotResults> parseResultsJson(const std::string& json);
+
+/// The shot as the campaign fits see it. Errors: the analysis failed, or a
+/// quantity the fits need is missing (named).
+Result<CampaignShot> toCampaignShot(const ShotResults& results);
+
+}  // namespace collide::app

@@ -1,0 +1,162 @@
+// collide fit's library: a folder of analysed shot files is read back, shots
+// that cannot be used are left out with the reason, the fit recovers the
+// material the shots were made from (Walton's rule written out here from
+// SPEC.md, independently of the fitting code), and the plots hold the points.
+#include "app/campaign_report.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <random>
+
+#include "app/save.hpp"
+#include "shot_fixtures.hpp"
+
+namespace collide::app {
+namespace {
+
+constexpr double kMu = 0.176, kBeta0 = 0.44, kE = 0.97, kK = 0.4;
+
+// SPEC.md: beta = min(-1 - mu (1 + 1/K)(1 + e) v_n / v_s, beta_0).
+double waltonBeta(double v_n, double v_s) {
+  return std::min(-1.0 - kMu * (1.0 + 1.0 / kK) * (1.0 + kE) * v_n / v_s, kBeta0);
+}
+
+// The results JSON of a shot at incidence psi (degrees, 0 = head-on) with
+// |v_c| = 2 m/s, with small Gaussian noise of the stated sigmas.
+std::string resultsAt(double psi_deg, std::mt19937& rng, std::vector<std::string> flags = {}) {
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const double psi = psi_deg * std::numbers::pi / 180.0;
+  const double vn = -2.0 * std::cos(psi), vs = 2.0 * std::sin(psi);
+  const double beta = waltonBeta(vn, vs);
+  vision::ShotAnalysis a;
+  a.pixel_size_m = 2e-4;
+  auto& c = a.collision;
+  c.vn_m_s = {vn, 0.002};
+  c.vs_m_s = {vs, 0.002};
+  c.e = {kE + 0.002 * noise(rng), 0.002};
+  c.beta = {beta + 0.01 * noise(rng), 0.01};
+  c.vs_after_m_s = {-beta * vs, 0.01};
+  const double f = std::min(kMu, (1 + kBeta0) * (vs / -vn) / ((1 + 1 / kK) * (1 + kE)));
+  c.f = {f, 0.005};
+  c.gamma_deg = {180.0 - psi_deg, 0.1};
+  a.quality_flags = std::move(flags);
+  return resultsToJson(a);
+}
+
+std::string idFor(int i) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "20260314-101500-%04d", i);
+  return buf;
+}
+
+class CampaignReportTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::mt19937 rng(5);
+    for (int i = 0; i < 24; ++i) {
+      testing::ShotSpec spec;
+      spec.id = idFor(i);
+      spec.frames = 2;
+      auto shot = testing::makeShot(spec);
+      shot.results_json = resultsAt(5.0 + 75.0 * i / 23.0, rng);
+      ASSERT_TRUE(saveShot(dir_.path(), shot).ok());
+    }
+    testing::ShotSpec failed;
+    failed.id = idFor(90);
+    failed.status = hw::ShotStatus::Failed;
+    failed.results = false;
+    ASSERT_TRUE(saveShot(dir_.path(), testing::makeShot(failed)).ok());
+    testing::ShotSpec unanalysed;
+    unanalysed.id = idFor(91);
+    unanalysed.results = false;
+    auto s = testing::makeShot(unanalysed);
+    s.results_json.clear();
+    ASSERT_TRUE(saveShot(dir_.path(), s).ok());
+    testing::ShotSpec flagged;
+    flagged.id = idFor(92);
+    auto f = testing::makeShot(flagged);
+    f.results_json = resultsAt(30.0, rng, {"collision_instant_disagree"});
+    ASSERT_TRUE(saveShot(dir_.path(), f).ok());
+  }
+  testing::ScratchDir dir_;
+};
+
+TEST_F(CampaignReportTest, LeavesOutWhatCannotBeUsedAndSaysWhy) {
+  auto entries = loadCampaign(dir_.path());
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  ASSERT_EQ(entries->size(), 27u);
+  EXPECT_EQ(usableShots(*entries).size(), 24u);
+  std::map<std::string, std::string> why;
+  for (const auto& e : *entries)
+    if (!e.shot) why[e.id] = e.excluded_because;
+  ASSERT_EQ(why.size(), 3u);
+  EXPECT_NE(why[idFor(90)].find("failed shot"), std::string::npos) << why[idFor(90)];
+  EXPECT_NE(why[idFor(91)].find("collide analyze"), std::string::npos) << why[idFor(91)];
+  EXPECT_NE(why[idFor(92)].find("collision_instant_disagree"), std::string::npos);
+
+  auto with_flagged = loadCampaign(dir_.path(), /*include_flagged=*/true);
+  ASSERT_TRUE(with_flagged.ok());
+  EXPECT_EQ(usableShots(*with_flagged).size(), 25u);
+}
+
+TEST_F(CampaignReportTest, FitRecoversTheMaterialTheShotsWereMadeFrom) {
+  auto entries = loadCampaign(dir_.path());
+  ASSERT_TRUE(entries.ok());
+  auto report = fitCampaignFolder(*entries, 50, 3);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const auto& fr = report->fit.friction;
+  EXPECT_NEAR(fr.mu.value, kMu, 4 * fr.mu.sigma + 1e-4);
+  EXPECT_LT(fr.mu.sigma, 0.01);
+  EXPECT_NEAR(fr.beta0.value, kBeta0, 4 * fr.beta0.sigma + 1e-4);
+  EXPECT_NEAR(report->fit.restitution.e.value, kE, 4 * report->fit.restitution.e.sigma);
+  ASSERT_TRUE(report->bootstrap.has_value()) << report->bootstrap_error;
+  EXPECT_GT(report->bootstrap->mu_sigma, 0.0);
+
+  const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+  EXPECT_DOUBLE_EQ(j["material"]["mu"]["value"].get<double>(), fr.mu.value);
+  EXPECT_EQ(j["shots_used"].size(), 24u);
+  EXPECT_EQ(j["shots_left_out"].size(), 3u);
+  int sliding = 0;
+  for (const auto& row : j["shots_used"]) sliding += row["regime"] == "sliding";
+  EXPECT_EQ(sliding, fr.sliding_count);
+}
+
+TEST_F(CampaignReportTest, PlotsHoldEveryUsedShotAndTheModel) {
+  auto entries = loadCampaign(dir_.path());
+  ASSERT_TRUE(entries.ok());
+  auto report = fitCampaignFolder(*entries, 0);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  const auto plots = campaignPlots(*entries, &*report);
+  ASSERT_EQ(plots.size(), 5u);
+  for (const auto& p : plots) {
+    ASSERT_GE(p.plot.series.size(), 1u) << p.name;
+    EXPECT_EQ(p.plot.series[0].x.size(), 24u) << p.name;
+    EXPECT_EQ(p.plot.series[0].y_err.size(), 24u) << p.name;
+  }
+  // The Walton line on the beta plot passes through the noise-free truth.
+  const auto& line = plots[0].plot.series.at(1);
+  for (std::size_t i = 0; i < line.x.size(); i += 37) {
+    const double x = line.x[i];
+    if (x <= 0) continue;
+    EXPECT_NEAR(line.y[i], waltonBeta(-x, 1.0), 0.03) << "x = " << x;
+  }
+  // Points only, without a fit.
+  const auto bare = campaignPlots(*entries, nullptr);
+  EXPECT_EQ(bare[0].plot.series.size(), 1u);
+}
+
+TEST(CampaignReport, MissingFolderOrNoShotsIsAnError) {
+  auto r = loadCampaign("/nonexistent/campaign");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("/nonexistent/campaign"), std::string::npos);
+  testing::ScratchDir empty;
+  r = loadCampaign(empty.path());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("no shot files"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace collide::app

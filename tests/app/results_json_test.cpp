@@ -1,0 +1,147 @@
+// Results JSON: every field survives the round trip, unknowns are null (not
+// invented numbers), the headline keys feed the catalog summary, and bad JSON
+// is rejected with the key named.
+#include "app/results_json.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "app/results_summary.hpp"
+
+namespace collide::app {
+namespace {
+
+vision::ShotAnalysis sample() {
+  vision::ShotAnalysis a;
+  a.pixel_size_m = 2.1e-4;
+  double k = 1;
+  auto next = [&] { return k += 0.37; };
+  for (auto& s : a.sphere) {
+    for (Estimate3* e : {&s.velocity_before_m_s, &s.velocity_after_m_s, &s.spin_before_rad_s,
+                         &s.spin_after_rad_s}) {
+      e->value = Vec3(next(), -next(), next());
+      e->sigma = Vec3(next(), next(), next()) * 1e-3;
+    }
+    s.frames_before = static_cast<int>(next());
+    s.frames_after = static_cast<int>(next());
+  }
+  auto& c = a.collision;
+  for (vision::Measured* m : {&c.e, &c.beta, &c.beta_from_impulse, &c.f, &c.gamma_deg, &c.vn_m_s,
+                              &c.vs_m_s, &c.vs_after_m_s, &c.t_collision_s})
+    *m = {next(), next() * 1e-3};
+  c.t_collision_before_s = next();
+  c.t_collision_after_s = next();
+  a.quality_flags = {"few_frames_after", "beta_untrustworthy_geometry"};
+  return a;
+}
+
+TEST(ResultsJson, RoundTripKeepsEveryField) {
+  const auto a = sample();
+  auto r = parseResultsJson(resultsToJson(a));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(r->error.has_value());
+  EXPECT_DOUBLE_EQ(r->pixel_size_m, a.pixel_size_m);
+  EXPECT_EQ(r->quality_flags, a.quality_flags);
+  for (int s = 0; s < 2; ++s) {
+    EXPECT_EQ(r->sphere[s].frames_before, a.sphere[s].frames_before);
+    EXPECT_EQ(r->sphere[s].frames_after, a.sphere[s].frames_after);
+    EXPECT_EQ(r->sphere[s].velocity_before_m_s.value, a.sphere[s].velocity_before_m_s.value);
+    EXPECT_EQ(r->sphere[s].velocity_after_m_s.sigma, a.sphere[s].velocity_after_m_s.sigma);
+    EXPECT_EQ(r->sphere[s].spin_before_rad_s.value, a.sphere[s].spin_before_rad_s.value);
+    EXPECT_EQ(r->sphere[s].spin_after_rad_s.sigma, a.sphere[s].spin_after_rad_s.sigma);
+  }
+  const auto& c = r->collision;
+  EXPECT_EQ(c.e.value, a.collision.e.value);
+  EXPECT_EQ(c.e.sigma, a.collision.e.sigma);
+  EXPECT_EQ(c.beta.value, a.collision.beta.value);
+  EXPECT_EQ(c.beta_from_impulse.sigma, a.collision.beta_from_impulse.sigma);
+  EXPECT_EQ(c.f.value, a.collision.f.value);
+  EXPECT_EQ(c.gamma_deg.value, a.collision.gamma_deg.value);
+  EXPECT_EQ(c.vn_m_s.sigma, a.collision.vn_m_s.sigma);
+  EXPECT_EQ(c.vs_m_s.value, a.collision.vs_m_s.value);
+  EXPECT_EQ(c.vs_after_m_s.value, a.collision.vs_after_m_s.value);
+  EXPECT_EQ(c.t_collision_s.value, a.collision.t_collision_s.value);
+  EXPECT_EQ(c.t_collision_before_s, a.collision.t_collision_before_s);
+  EXPECT_EQ(c.t_collision_after_s, a.collision.t_collision_after_s);
+}
+
+TEST(ResultsJson, IssueKeysArePresentAndFeedTheCatalogSummary) {
+  const auto a = sample();
+  const auto j = nlohmann::json::parse(resultsToJson(a));
+  for (const char* key :
+       {"velocity_before_m_s", "velocity_after_m_s", "spin_before_rad_s", "spin_after_rad_s"}) {
+    EXPECT_TRUE(j["sphere1"].contains(key)) << key;
+    EXPECT_TRUE(j["sphere2"].contains(key)) << key;
+  }
+  for (const char* key : {"e", "beta", "f", "gamma_deg", "vn_m_s", "vs_m_s", "t_collision_s"}) {
+    EXPECT_TRUE(j["collision"].contains(key)) << key;
+    EXPECT_TRUE(j["uncertainty"].contains(key)) << key;
+  }
+  auto summary = summarizeResults(resultsToJson(a));
+  ASSERT_TRUE(summary.ok()) << summary.error().message;
+  EXPECT_EQ(summary->e, a.collision.e.value);
+  EXPECT_EQ(summary->beta, a.collision.beta.value);
+  EXPECT_EQ(summary->vs_m_s, a.collision.vs_m_s.value);
+  EXPECT_EQ(summary->quality_flags, a.quality_flags);
+}
+
+TEST(ResultsJson, UnknownNumbersAreNullNotInvented) {
+  auto a = sample();
+  a.collision.beta = {std::numeric_limits<double>::quiet_NaN(), 0.1};  // head-on: no beta
+  const auto j = nlohmann::json::parse(resultsToJson(a));
+  EXPECT_TRUE(j["beta"].is_null());
+  EXPECT_TRUE(j["collision"]["beta"].is_null());
+  auto r = parseResultsJson(resultsToJson(a));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(std::isnan(r->collision.beta.value));
+  auto summary = summarizeResults(resultsToJson(a));
+  ASSERT_TRUE(summary.ok());
+  EXPECT_FALSE(summary->beta.has_value());
+}
+
+TEST(ResultsJson, FailedAnalysisKeepsTheReason) {
+  auto r = parseResultsJson(failedResultsJson("only one sphere in 40 of 70 frames"));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_TRUE(r->error.has_value());
+  EXPECT_EQ(*r->error, "only one sphere in 40 of 70 frames");
+  EXPECT_EQ(r->quality_flags, std::vector<std::string>{"analysis_failed"});
+  auto shot = toCampaignShot(*r);
+  ASSERT_FALSE(shot.ok());
+  EXPECT_NE(shot.error().message.find("only one sphere"), std::string::npos);
+}
+
+TEST(ResultsJson, BadJsonNamesTheProblem) {
+  EXPECT_FALSE(parseResultsJson("{not json").ok());
+  EXPECT_FALSE(parseResultsJson("[1, 2]").ok());
+  auto r = parseResultsJson(R"({"collision": {"e": "high"}})");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("collision.e"), std::string::npos) << r.error().message;
+  r = parseResultsJson(R"({"sphere2": {"spin_after_rad_s": [1, 2]}})");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("sphere2.spin_after_rad_s"), std::string::npos)
+      << r.error().message;
+  r = parseResultsJson(R"({"schema": "collide.results/99"})");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("collide analyze"), std::string::npos) << r.error().message;
+}
+
+TEST(ResultsJson, CampaignShotCarriesTheSigmas) {
+  auto a = sample();
+  a.collision.vn_m_s = {-1.2, 0.01};
+  a.collision.vs_m_s = {0.8, 0.02};
+  auto r = parseResultsJson(resultsToJson(a));
+  ASSERT_TRUE(r.ok());
+  auto s = toCampaignShot(*r);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->v_n_m_s, -1.2);
+  EXPECT_EQ(s->v_s_sigma_m_s, 0.02);
+  EXPECT_EQ(s->e, a.collision.e.value);
+  EXPECT_EQ(s->beta_sigma, a.collision.beta.sigma);
+  EXPECT_DOUBLE_EQ(s->tanIncidence(), 0.8 / 1.2);
+}
+
+}  // namespace
+}  // namespace collide::app

@@ -1,0 +1,313 @@
+// The lab GUI driven as a user would, through QTest on the real main window:
+// load the simulated rig, set speeds, arm, fire, and read the result card
+// against the simulation's ground truth; open a shot from the browser and
+// step through it; run a small campaign and look for its points on the
+// campaign plots. Screenshots of every view are saved on the way.
+#include <gtest/gtest.h>
+
+#include <QCheckBox>
+#include <QComboBox>
+#include <QDateEdit>
+#include <QDoubleSpinBox>
+#include <QLabel>
+#include <QPushButton>
+#include <QSignalSpy>
+#include <QSpinBox>
+#include <QTabWidget>
+#include <QTableWidget>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include "analysis/walton.hpp"
+#include "app/campaign_report.hpp"
+#include "app/gui/calibration_dialog.hpp"
+#include "app/gui/campaign_view.hpp"
+#include "app/gui/live_view.hpp"
+#include "app/gui/main_window.hpp"
+#include "app/gui/replay_view.hpp"
+#include "app/gui/rig_panel.hpp"
+#include "app/gui/shot_browser.hpp"
+#include "app/rig_setup.hpp"
+#include "app/save.hpp"
+#include "gui_test_support.hpp"
+#include "hw/sequencer.hpp"
+
+using namespace collide;
+using namespace collide::gui;
+using namespace collide::gui::testing;
+
+namespace {
+
+template <class T>
+T* child(QWidget* parent, const char* name) {
+  T* w = parent->findChild<T*>(name);
+  if (!w) throw std::runtime_error(std::string("no widget named ") + name);
+  return w;
+}
+
+// What the simulation did at the collision, computed here from the shot's
+// ground truth alone: both spheres' states at the last frame before contact,
+// flown to the contact instant, then Walton's operator with the material the
+// simulator used.
+ContactOutcome truthAtCollision(const hw::Shot& shot) {
+  const hw::TruthRecord& truth = *shot.truth;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < truth.t_s.size(); ++i)
+    if (truth.t_s[i] < truth.t_collision_s) k = i;
+  const double dt = truth.t_collision_s - truth.t_s[k];
+  std::array<Sphere, 2> s;
+  for (int i = 0; i < 2; ++i) {
+    const SphereState& st = truth.states[k][i];
+    s[i].mass_kg = shot.scene.mass_kg[i];
+    s[i].diameter_m = shot.scene.diameter_m[i];
+    s[i].position_m = st.position_m + st.velocity_m_s * dt + 0.5 * kGravity_m_s2 * dt * dt;
+    s[i].velocity_m_s = st.velocity_m_s + kGravity_m_s2 * dt;
+    s[i].spin_rad_s = st.spin_rad_s;
+  }
+  auto c = collideSpheres(s[0], s[1], truth.material);
+  if (!c) throw std::runtime_error("truth: " + c.error().message);
+  return c->contact;
+}
+
+// The number a result-card label shows (its first token).
+double shown(QWidget* card, const char* name) {
+  const QString text = child<QLabel>(card, name)->text();
+  bool ok = false;
+  const double v = text.section(' ', 0, 0).toDouble(&ok);
+  return ok ? v : std::nan("");
+}
+
+MainWindowOptions options(const std::string& profile, const std::string& shots) {
+  MainWindowOptions o;
+  o.rig_profile = QString::fromStdString(profile);
+  o.shots_dir = QString::fromStdString(shots);
+  o.restore_settings = false;
+  return o;
+}
+
+bool waitUntilRigRunning(MainWindow& w) {
+  return QTest::qWaitFor(
+      [&] {
+        const RigStatus& s = w.rigPanel()->lastStatus();
+        return w.profile() != nullptr && s.state[0] == "running" && s.state[1] == "running" &&
+               s.state[2] == "running";
+      },
+      20000);
+}
+
+}  // namespace
+
+TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
+  application();
+  const std::string dir = freshDir("fire");
+  const std::array<double, 2> speeds{2.2, 2.0};
+  const std::string profile = aimedSimProfile(dir, 35.0, speeds);
+  MainWindow w(options(profile, dir + "/shots"));
+  w.resize(1500, 950);
+  w.show();
+  ASSERT_TRUE(waitUntilRigRunning(w)) << w.messages().join("\n").toStdString();
+
+  // The live view shows the camera's frames while idle.
+  w.tabs()->setCurrentWidget(w.liveView());
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.liveView()->framesShown() >= 2; }, 10000));
+  EXPECT_TRUE(screenshot(w.liveView(), "live"));
+
+  RigPanel* panel = w.rigPanel();
+  auto* fire = child<QPushButton>(panel, "fire_button");
+  EXPECT_FALSE(fire->isEnabled()) << "fire must wait for arming";
+  for (int i = 0; i < 2; ++i)
+    child<QDoubleSpinBox>(panel, i == 0 ? "speed_0" : "speed_1")->setValue(speeds[i]);
+  // Speed and pressure are linked through the profile's calibration.
+  auto curve = w.profile()->calibration.curve();
+  ASSERT_TRUE(curve);
+  EXPECT_NEAR(child<QDoubleSpinBox>(panel, "pressure_0")->value(), *curve->pressure_kPa(2.2), 0.01);
+
+  QTest::mouseClick(child<QPushButton>(panel, "arm_button"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return fire->isEnabled(); }, 10000))
+      << "never armed and settled: " << w.messages().join("\n").toStdString();
+  EXPECT_TRUE(screenshot(&w, "main_window"));
+
+  QSignalSpy analysed(&w, &MainWindow::shotAnalysed);
+  QTest::mouseClick(fire, Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.lastShot() != nullptr; }, 30000))
+      << w.messages().join("\n").toStdString();
+  const hw::Shot& shot = *w.lastShot();
+  ASSERT_EQ(shot.status, hw::ShotStatus::Ok) << shot.failure_reason;
+  ASSERT_TRUE(shot.truth.has_value());
+  EXPECT_TRUE(std::filesystem::exists(dir + "/shots/" + app::shotFileName(shot.id)));
+  EXPECT_EQ(shot.launchers[0].wanted_speed_m_s, speeds[0]);
+
+  ASSERT_TRUE(QTest::qWaitFor([&] { return analysed.count() >= 1; }, 120000));
+  ResultCard* card = w.replayView()->resultCard();
+  EXPECT_EQ(card->shotId().toStdString(), shot.id);
+  // The replay shows the burst and steps through it.
+  ReplayView* replay = w.replayView();
+  EXPECT_EQ(w.tabs()->currentWidget(), replay);
+  EXPECT_EQ(replay->frameCount(), static_cast<int>(shot.burst.frames.size()));
+  const int at = replay->frameIndex();
+  QTest::mouseClick(child<QPushButton>(replay, "next_frame"), Qt::LeftButton);
+  EXPECT_EQ(replay->frameIndex(), at + 1);
+  QTest::mouseClick(child<QPushButton>(replay, "previous_frame"), Qt::LeftButton);
+  EXPECT_EQ(replay->frameIndex(), at);
+
+  if (!analysisAvailable()) {
+    EXPECT_FALSE(card->hasResult());
+    EXPECT_TRUE(card->message().contains("analysis not available"))
+        << card->message().toStdString();
+    EXPECT_TRUE(screenshot(replay, "replay"));
+    GTEST_SKIP() << "this build has no vision::analyzeBurst: the result card cannot be checked";
+  }
+  ASSERT_TRUE(card->hasResult()) << card->message().toStdString();
+  EXPECT_TRUE(screenshot(replay, "replay"));
+
+  const ContactOutcome truth = truthAtCollision(shot);
+  struct Check {
+    const char* key;
+    const char* label;
+    double truth;
+    double tolerance;
+  };
+  const double gamma_deg = truth.before.gamma_rad * 180.0 / std::numbers::pi;
+  const Check checks[] = {
+      {"vn_m_s", "result_vn_m_s", truth.before.v_n_m_s,
+       0.03 * std::abs(truth.before.v_n_m_s) + 0.01},
+      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.05 * truth.before.v_s_m_s + 0.02},
+      {"gamma_deg", "result_gamma_deg", gamma_deg, 2.0},
+      {"e", "result_e", truth.e, 0.02},
+      {"beta", "result_beta", truth.beta, 0.1},
+      {"f", "result_f", truth.f, 0.05},
+  };
+  for (const Check& c : checks) {
+    const auto v = card->value(c.key);
+    ASSERT_TRUE(v.has_value()) << c.key;
+    EXPECT_NEAR(v->value, c.truth, c.tolerance) << c.key;
+    EXPECT_TRUE(std::isfinite(v->sigma) && v->sigma >= 0) << c.key << " sigma " << v->sigma;
+    // The label shows the same number (to its displayed precision).
+    EXPECT_NEAR(shown(card, c.label), v->value, 0.01 * std::abs(v->value) + 0.01) << c.label;
+  }
+}
+
+TEST(MainWindowGui, OpenAShotFromTheBrowser) {
+  application();
+  const std::string dir = freshDir("browse");
+  // A shot fired and saved outside the GUI, as `collide campaign` would.
+  {
+    auto profile = hw::loadRigProfile(sourcePath("config/sim.toml"));
+    ASSERT_TRUE(profile);
+    auto rig = app::buildRig(*profile);
+    ASSERT_TRUE(rig);
+    hw::Shot shot = hw::Sequencer(*rig).fire(hw::ShotRequest::atSpeeds(2.0, 2.0));
+    (void)hw::shutDown(*rig);
+    shot.id = "20260101-120000-0001";
+    ASSERT_EQ(shot.status, hw::ShotStatus::Ok) << shot.failure_reason;
+    ASSERT_TRUE(app::saveShot(dir, shot));
+  }
+  MainWindow w(options(sourcePath("config/sim.toml"), dir));
+  w.resize(1500, 950);
+  w.show();
+  ShotBrowser* browser = w.shotBrowser();
+  w.tabs()->setCurrentWidget(browser);
+  ASSERT_EQ(browser->rows().size(), 1u);
+  EXPECT_EQ(browser->rows()[0].id, "20260101-120000-0001");
+
+  // Filters: status and material.
+  browser->setStatusFilter("failed");
+  EXPECT_EQ(browser->rows().size(), 0u);
+  browser->setStatusFilter("ok");
+  EXPECT_EQ(browser->rows().size(), 1u);
+  browser->setMaterialFilter("nylon-6/6");
+  EXPECT_EQ(browser->rows().size(), 1u);
+  // Dates: the shot was fired today (its id is only a name).
+  child<QCheckBox>(browser, "date_filter")->setChecked(true);
+  child<QDateEdit>(browser, "since_date")->setDate(QDate(2000, 1, 1));
+  child<QDateEdit>(browser, "until_date")->setDate(QDate(2000, 1, 2));
+  EXPECT_EQ(browser->rows().size(), 0u);
+  child<QDateEdit>(browser, "since_date")->setDate(QDate::currentDate().addDays(-1));
+  child<QDateEdit>(browser, "until_date")->setDate(QDate::currentDate());
+  EXPECT_EQ(browser->rows().size(), 1u);
+  child<QCheckBox>(browser, "date_filter")->setChecked(false);
+  ASSERT_EQ(browser->rows().size(), 1u);
+  EXPECT_TRUE(screenshot(browser, "shots"));
+
+  // Double-click the row: the shot opens in the replay view.
+  auto* table = child<QTableWidget>(browser, "shot_table");
+  ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
+  QApplication::processEvents();
+  const QRect cell = table->visualItemRect(table->item(0, 0));
+  ASSERT_TRUE(cell.isValid());
+  // A press first: item views open only what the double-click's press hit.
+  QTest::mousePress(table->viewport(), Qt::LeftButton, {}, cell.center());
+  QTest::mouseRelease(table->viewport(), Qt::LeftButton, {}, cell.center());
+  QTest::mouseDClick(table->viewport(), Qt::LeftButton, {}, cell.center());
+  ASSERT_TRUE(QTest::qWaitFor(
+      [&] {
+        return w.replayView()->shot() && w.replayView()->shot()->id == "20260101-120000-0001";
+      },
+      20000))
+      << w.messages().join("\n").toStdString();
+  EXPECT_EQ(w.tabs()->currentWidget(), w.replayView());
+  EXPECT_GT(w.replayView()->frameCount(), 10);
+  EXPECT_FALSE(w.replayView()->imageView()->image().isNull());
+}
+
+TEST(MainWindowGui, RunASmallCampaign) {
+  application();
+  const std::string dir = freshDir("campaign");
+  MainWindow w(options(sourcePath("config/sim.toml"), dir));
+  w.resize(1500, 950);
+  w.show();
+  ASSERT_TRUE(waitUntilRigRunning(w));
+  CampaignView* view = w.campaignView();
+  w.tabs()->setCurrentWidget(view);
+  const int shots = 6;
+  child<QSpinBox>(view, "campaign_shots")->setValue(shots);
+  QSignalSpy finished(w.rigWorker(), &RigWorker::campaignFinished);
+  QSignalSpy stored(&w, &MainWindow::resultsStored);
+  QTest::mouseClick(child<QPushButton>(view, "run_campaign"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return finished.count() == 1; }, 240000));
+  // Every shot is in the folder's catalog.
+  ASSERT_TRUE(
+      QTest::qWaitFor([&] { return w.shotBrowser()->rows().size() == std::size_t(shots); }, 10000));
+  // Wait for the analyses, their results in the files, and the plots to catch up.
+  int fired_ok = 0;
+  for (const auto& row : w.shotBrowser()->rows()) fired_ok += row.status == hw::ShotStatus::Ok;
+  if (analysisAvailable())
+    ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= fired_ok; }, 240000));
+  ASSERT_TRUE(QTest::qWaitFor(
+      [&] { return w.analysisRunner()->pending() == 0 && !view->refreshing(); }, 240000));
+  view->refresh();
+  ASSERT_TRUE(QTest::qWaitFor([&] { return !view->refreshing(); }, 60000));
+  EXPECT_TRUE(screenshot(view, "campaign"));
+  // The five thesis plots, each exported as PNG, SVG and CSV.
+  ASSERT_EQ(view->charts().size(), 5u) << view->summary().toStdString();
+  const std::string out = dir + "/export";
+  std::filesystem::create_directories(out);
+  QString error;
+  ASSERT_TRUE(view->exportAll(QString::fromStdString(out), &error)) << error.toStdString();
+  for (const auto& c : view->charts())
+    for (const char* ext : {".png", ".svg", ".csv"})
+      EXPECT_TRUE(std::filesystem::file_size(out + "/" + c.name + ext) > 0) << c.name << ext;
+  if (!analysisAvailable())
+    GTEST_SKIP() << "no vision::analyzeBurst in this build: no points to plot";
+  // Every analysed shot whose flags do not rule it out is a point, as the
+  // catalog (filled by the analyses) lists them.
+  w.shotBrowser()->refresh();
+  int ok = 0, usable = 0;
+  for (const auto& row : w.shotBrowser()->rows()) {
+    ok += row.status == hw::ShotStatus::Ok;
+    bool excluded = !row.analysed;
+    for (const auto& f : row.results.quality_flags)
+      for (const auto& x : app::excludingFlags()) excluded = excluded || f == x;
+    usable += !excluded;
+  }
+  EXPECT_GE(2 * usable, ok) << "most shots should be usable: " << view->summary().toStdString();
+  EXPECT_EQ(view->pointCount("e_vs_vn"), usable) << view->summary().toStdString();
+  EXPECT_GT(view->pointCount("beta_vs_cot"), 0);
+  // The CSV holds the plotted points.
+  std::ifstream csv(out + "/e_vs_vn.csv");
+  int lines = 0;
+  for (std::string line; std::getline(csv, line);)
+    lines += line.find(",points,") != std::string::npos;
+  EXPECT_EQ(lines, view->pointCount("e_vs_vn"));
+}

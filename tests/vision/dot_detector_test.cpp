@@ -1,0 +1,176 @@
+// Dots found on rendered spheres against the true dot centres (the pattern
+// rotated by the sphere's orientation), and the limb correction of lifting
+// against the closed-form centroid of a projected spherical cap.
+#include "vision/dot_detector.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <random>
+
+#include "vision/render.hpp"
+
+namespace collide::vision {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+struct DotStats {
+  double sum_a2 = 0;                // squared angle errors, rad^2
+  double radial[4] = {0, 0, 0, 0};  // mean radial image error by polar angle band, px
+  int radial_n[4] = {0, 0, 0, 0};
+  int matched = 0, visible = 0, found_visible = 0, spurious = 0;
+  double angleRms() const { return std::sqrt(sum_a2 / matched); }
+};
+
+// Renders `frames` random single spheres and compares every dot found with the truth.
+DotStats run(RenderSettings rs, double radius, int frames, std::uint64_t seed,
+             double must_find_deg = 60) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uni(0, 1);
+  std::normal_distribution<double> nd;
+  DotStats st;
+  const SphereDetector det;
+  for (int f = 0; f < frames; ++f) {
+    rs.noise_seed = seed * 1000 + f;
+    const DotPattern pat = DotPattern::random(seed * 77 + f);
+    SphereView v;
+    v.radius_px = radius + uni(rng);
+    v.centre_px = {rs.width / 2.0 + (uni(rng) - 0.5) * 40, rs.height / 2.0 + (uni(rng) - 0.5) * 40};
+    v.orientation = Quat(nd(rng), nd(rng), nd(rng), nd(rng)).normalized();
+    v.dots = &pat;
+    const cv::Mat img = Renderer(rs).render({v}, f);
+    const FrameSpheres fs = det.detect(img, maxValue(rs.format));
+    EXPECT_EQ(fs.spheres.size(), 1u);
+    if (fs.spheres.size() != 1) continue;
+    const DotFrame df = findDots(img, fs.spheres[0], maxValue(rs.format));
+    std::vector<Vec3> truth;
+    for (const Vec3& c : pat.centres) truth.push_back(v.orientation * c);
+    std::vector<bool> seen(truth.size(), false);
+    for (const Dot& d : df.dots) {
+      EXPECT_NEAR(d.on_sphere.norm(), 1.0, 1e-12);
+      int best = -1;
+      double best_a = 1e9;
+      for (std::size_t i = 0; i < truth.size(); ++i) {
+        const double a = std::acos(std::clamp(d.on_sphere.dot(truth[i]), -1.0, 1.0));
+        if (a < best_a) best_a = a, best = static_cast<int>(i);
+      }
+      if (best_a > 0.05) {
+        std::printf(
+            "spurious dot at (%.2f, %.2f), area %.1f px^2, nearest true dot %.3f rad away\n",
+            d.u_px, d.v_px, d.area_px2, best_a);
+        ++st.spurious;
+        continue;
+      }
+      seen[best] = true;
+      st.sum_a2 += best_a * best_a;
+      ++st.matched;
+      const Vec3& t = truth[best];
+      const int band = std::min(3, static_cast<int>(std::acos(t.z()) / (kPi / 8)));
+      st.radial[band] += (d.on_sphere.head<2>().norm() - t.head<2>().norm()) * v.radius_px;
+      ++st.radial_n[band];
+    }
+    // Dots well inside the disc (near the line of sight) must be found.
+    for (std::size_t i = 0; i < truth.size(); ++i)
+      if (truth[i].z() > std::cos(must_find_deg * kPi / 180)) {
+        ++st.visible;
+        st.found_visible += seen[i];
+      }
+  }
+  for (int b = 0; b < 4; ++b)
+    if (st.radial_n[b]) st.radial[b] /= st.radial_n[b];
+  return st;
+}
+
+TEST(LiftToSphere, CapCentroidCorrection) {
+  // The projected-area centroid of a cap of half-angle alpha centred at polar
+  // angle theta lies at sin(theta) cos(alpha) from the centre (unit sphere).
+  // Check that closed form by integrating over the cap numerically, then that
+  // lifting the centroid with alpha returns the cap's centre.
+  const double alpha = 0.1, r = 50;
+  for (const double theta : {0.2, 0.7, 1.2, 1.4}) {
+    const Vec3 c(std::sin(theta), 0, std::cos(theta));
+    const Vec3 e1(std::cos(theta), 0, -std::sin(theta)), e2(0, 1, 0);
+    double area = 0, mx = 0;
+    const int n = 400;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const double phi = alpha * (i + 0.5) / n, psi = 2 * kPi * (j + 0.5) / n;
+        const Vec3 p =
+            c * std::cos(phi) + std::sin(phi) * (std::cos(psi) * e1 + std::sin(psi) * e2);
+        const double da = std::sin(phi) * p.z();  // projected area element
+        area += da;
+        mx += da * p.x();
+      }
+    const double centroid = mx / area;
+    EXPECT_NEAR(centroid, std::sin(theta) * std::cos(alpha), 1e-6) << theta;
+    const Vec3 lifted = liftToSphere(100 + centroid * r, 80, 100, 80, r, alpha);
+    EXPECT_NEAR(lifted.x(), c.x(), 1e-6);
+    EXPECT_NEAR(lifted.z(), c.z(), 1e-5);
+  }
+  // Image v down is world y up.
+  EXPECT_GT(liftToSphere(0, -10, 0, 0, 20).y(), 0);
+  // Points beyond the limb land on the limb.
+  EXPECT_NEAR(liftToSphere(30, 0, 0, 0, 20).x(), 1.0, 1e-12);
+}
+
+TEST(FindDots, RenderedDotsAreFoundAndLiftedAccurately) {
+  RenderSettings rs;
+  rs.noise_grey = 2.0;
+  rs.exposure_s = 200e-6;  // no motion here, only the timing of a real frame
+  const DotStats st = run(rs, 60, 60, 3);
+  std::printf(
+      "640x480: %d dots, angle RMS %.5f rad (%.4f px), found %d of %d within 60 deg, "
+      "%d spurious; radial bias by polar band %.4f %.4f %.4f %.4f px\n",
+      st.matched, st.angleRms(), st.angleRms() * 60, st.found_visible, st.visible, st.spurious,
+      st.radial[0], st.radial[1], st.radial[2], st.radial[3]);
+  EXPECT_EQ(st.spurious, 0);
+  EXPECT_GE(st.found_visible, 0.97 * st.visible);
+  // 0.002 rad is 0.12 px on a 60 px sphere.
+  EXPECT_LT(st.angleRms(), 0.002);
+  for (int b = 0; b < 4; ++b) EXPECT_LT(std::abs(st.radial[b]), 0.02) << "band " << b;
+}
+
+TEST(FindDots, SixteenBitAndThesisScale) {
+  RenderSettings rs;
+  rs.format = PixelFormat::Mono16;
+  rs.noise_grey = 2.0 * 65535 / 255;
+  const DotStats st16 = run(rs, 60, 20, 5);
+  EXPECT_EQ(st16.spurious, 0);
+  EXPECT_LT(st16.angleRms(), 0.002);
+
+  RenderSettings small;
+  small.width = 240, small.height = 192;
+  small.noise_grey = 1.5;
+  small.exposure_s = 200e-6;
+  const DotStats st = run(small, 18.5, 60, 7, 45);
+  std::printf("thesis scale: %d dots, angle RMS %.4f rad (%.3f px), found %d of %d within 45 deg\n",
+              st.matched, st.angleRms(), st.angleRms() * 18.5, st.found_visible, st.visible);
+  EXPECT_LE(st.spurious, 1);
+  EXPECT_GE(st.found_visible, 0.9 * st.visible);
+  EXPECT_LT(st.angleRms(), 0.012);  // ~0.2 px
+}
+
+TEST(FindDots, PlainSphereAndBadInputGiveNoDots) {
+  RenderSettings rs;
+  rs.noise_grey = 2.0;
+  SphereView v;
+  v.centre_px = {300.2, 200.7};
+  v.radius_px = 60;
+  const cv::Mat img = Renderer(rs).render({v}, 1);
+  const FrameSpheres fs = SphereDetector().detect(img, 255);
+  ASSERT_EQ(fs.spheres.size(), 1u);
+  EXPECT_TRUE(findDots(img, fs.spheres[0], 255).dots.empty());
+  EXPECT_TRUE(findDots(cv::Mat(), fs.spheres[0], 255).dots.empty());
+  SphereMeasurement bogus = fs.spheres[0];
+  bogus.circle.radius = -3;
+  EXPECT_TRUE(findDots(img, bogus, 255).dots.empty());
+  bogus.circle.radius = 60;
+  bogus.circle.u = -500;  // wholly outside the frame
+  EXPECT_TRUE(findDots(img, bogus, 255).dots.empty());
+}
+
+}  // namespace
+}  // namespace collide::vision

@@ -1,0 +1,253 @@
+#include "vision/dot_detector.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+
+namespace collide::vision {
+namespace {
+
+struct Run {
+  int y, x0, x1, parent;
+  bool edge;  // touches the edge of the analysed disc or of the frame
+};
+
+int findRoot(std::vector<Run>& runs, int i) {
+  while (runs[i].parent != i) i = runs[i].parent = runs[runs[i].parent].parent;
+  return i;
+}
+
+template <class T>
+DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
+  DotFrame out;
+  const double cu = s.circle.u, cv = s.circle.v, r = s.circle.radius;
+  const double bg = s.background, rim = s.rim_level;
+  if (!(r > 3) || !(rim > bg)) return out;
+  const double margin = set.rim_margin_px > 0 ? set.rim_margin_px : std::max(2.5, 0.03 * r + 1.5);
+  const double rin = r - margin;
+  if (!(rin > 2)) return out;
+  const int v0 = std::max(0, static_cast<int>(std::ceil(cv - rin)));
+  const int v1 = std::min(img.rows - 1, static_cast<int>(std::floor(cv + rin)));
+  if (v0 > v1) return out;
+  const double t_dot = bg + 0.5 * (rim - bg);
+
+  // Chord of the analysed disc in each row, clipped to the frame.
+  const int rows = v1 - v0 + 1;
+  std::vector<int> lo(rows), hi(rows);
+  std::vector<char> clipped(rows);
+  for (int y = v0; y <= v1; ++y) {
+    const double dy = y - cv;
+    const double h = std::sqrt(std::max(0.0, rin * rin - dy * dy));
+    const int a = static_cast<int>(std::ceil(cu - h)), b = static_cast<int>(std::floor(cu + h));
+    lo[y - v0] = std::max(0, a);
+    hi[y - v0] = std::min(img.cols - 1, b);
+    clipped[y - v0] = a < 0 || b > img.cols - 1 || y == 0 || y == img.rows - 1;
+  }
+
+  // Shading B = a + b r^2 from a sparse sample of bright pixels, refitted once
+  // without the samples that stray (dot borders, glints).
+  double sa = 0, sb = 0;
+  {
+    std::vector<double> q, val;
+    for (int y = v0; y <= v1; y += 3) {
+      const T* row = img.ptr<T>(y);
+      const double dy2 = (y - cv) * (y - cv);
+      for (int x = lo[y - v0]; x <= hi[y - v0]; x += 3) {
+        if (row[x] <= t_dot) continue;
+        q.push_back(((x - cu) * (x - cu) + dy2) / (r * r));
+        val.push_back(row[x]);
+      }
+    }
+    if (q.size() < 6) return out;
+    std::vector<char> use(q.size(), 1);
+    std::vector<double> absr;
+    for (int round = 0; round < 2; ++round) {
+      double n = 0, sq = 0, sqq = 0, sv = 0, sqv = 0;
+      for (std::size_t i = 0; i < q.size(); ++i)
+        if (use[i]) n += 1, sq += q[i], sqq += q[i] * q[i], sv += val[i], sqv += q[i] * val[i];
+      const double det = n * sqq - sq * sq;
+      if (!(det > 0)) {
+        sa = sv / std::max(1.0, n), sb = 0;
+      } else {
+        sb = (n * sqv - sq * sv) / det;
+        sa = (sv - sb * sq) / n;
+      }
+      absr.clear();
+      for (std::size_t i = 0; i < q.size(); ++i) absr.push_back(std::abs(val[i] - sa - sb * q[i]));
+      std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
+      const double limit = 4.0 * 1.4826 * absr[absr.size() / 2] + 1.0;
+      for (std::size_t i = 0; i < q.size(); ++i)
+        use[i] = std::abs(val[i] - sa - sb * q[i]) <= limit;
+    }
+  }
+  const auto shade = [&](double x, double y) {
+    return sa + sb * ((x - cu) * (x - cu) + (y - cv) * (y - cv)) / (r * r);
+  };
+
+  // Runs of dark pixels, joined into 8-connected groups.
+  std::vector<Run> runs;
+  std::vector<int> row_first(rows + 1, 0);
+  for (int y = v0; y <= v1; ++y) {
+    const int iy = y - v0;
+    row_first[iy] = static_cast<int>(runs.size());
+    const T* row = img.ptr<T>(y);
+    for (int x = lo[iy]; x <= hi[iy];) {
+      while (x <= hi[iy] && row[x] >= t_dot) ++x;
+      if (x > hi[iy]) break;
+      const int x0 = x;
+      while (x <= hi[iy] && row[x] < t_dot) ++x;
+      const int self = static_cast<int>(runs.size());
+      const bool edge = x0 == lo[iy] || x - 1 == hi[iy] || iy == 0 || iy == rows - 1 || clipped[iy];
+      runs.push_back({y, x0, x - 1, self, edge});
+      if (iy == 0) continue;
+      for (int k = row_first[iy - 1]; k < row_first[iy]; ++k) {
+        if (runs[k].x1 < x0 - 1) continue;
+        if (runs[k].x0 > x) break;
+        const int a = findRoot(runs, k), b = findRoot(runs, self);
+        if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
+      }
+    }
+  }
+  row_first[rows] = static_cast<int>(runs.size());
+  if (runs.empty()) return out;
+
+  struct Group {
+    int x0, x1, y0, y1;
+    bool edge;
+    int pixels;
+  };
+  std::vector<int> group_of(runs.size(), -1);
+  std::vector<Group> groups;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const int root = findRoot(runs, static_cast<int>(i));
+    if (group_of[root] < 0) {
+      group_of[root] = static_cast<int>(groups.size());
+      groups.push_back({runs[i].x0, runs[i].x1, runs[i].y, runs[i].y, false, 0});
+    }
+    const int g = group_of[root];
+    group_of[i] = g;
+    Group& gr = groups[g];
+    gr.x0 = std::min(gr.x0, runs[i].x0), gr.x1 = std::max(gr.x1, runs[i].x1);
+    gr.y1 = std::max(gr.y1, runs[i].y);
+    gr.edge |= runs[i].edge;
+    gr.pixels += runs[i].x1 - runs[i].x0 + 1;
+  }
+
+  // Which group owns each dark pixel, over the analysed square (for the rings).
+  const int sq0 = std::max(0, static_cast<int>(std::floor(cu - rin)) - 3);
+  const int sq1 = std::min(img.cols - 1, static_cast<int>(std::ceil(cu + rin)) + 3);
+  const int sw = sq1 - sq0 + 1;
+  std::vector<std::int32_t> owner(static_cast<std::size_t>(sw) * rows, -1);
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    std::int32_t* o = owner.data() + static_cast<std::size_t>(runs[i].y - v0) * sw - sq0;
+    for (int x = runs[i].x0; x <= runs[i].x1; ++x) o[x] = group_of[i];
+  }
+
+  // The paint's own level (a little above the background in the simulator,
+  // often more on real spheres): the median of the dots' darkest pixels. The
+  // coverage is then (B - I) / (B - paint), so the areas (and the dots' size
+  // used for the limb correction) come out right.
+  double bg_level = bg;
+  {
+    std::vector<double> core;
+    const double t_core = bg + 0.25 * (rim - bg);
+    for (const Run& run : runs) {
+      const T* row = img.ptr<T>(run.y);
+      for (int x = run.x0; x <= run.x1; ++x)
+        if (row[x] < t_core) core.push_back(row[x]);
+    }
+    if (core.size() >= 5) {
+      std::nth_element(core.begin(), core.begin() + core.size() / 2, core.end());
+      bg_level = core[core.size() / 2];
+    }
+  }
+  const double max_area = 0.25 * r * r;
+  const double cos_max = std::cos(set.max_polar_deg * std::numbers::pi / 180.0);
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    const Group& gr = groups[g];
+    if (gr.edge) {
+      ++out.rejected;
+      continue;
+    }
+    double sw_ = 0, su = 0, sv = 0;
+    for (int y = std::max(v0, gr.y0 - 2); y <= std::min(v1, gr.y1 + 2); ++y) {
+      const int iy = y - v0;
+      const T* row = img.ptr<T>(y);
+      const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
+      for (int x = std::max(lo[iy], gr.x0 - 2); x <= std::min(hi[iy], gr.x1 + 2); ++x) {
+        if (o[x] >= 0 && o[x] != static_cast<int>(g)) continue;
+        const double b = shade(x, y);
+        const double w = (b - row[x]) / (b - bg_level);
+        sw_ += w, su += w * x, sv += w * y;
+      }
+    }
+    if (!(sw_ >= 1.0) || sw_ > max_area) {
+      ++out.rejected;
+      continue;
+    }
+    Dot d;
+    d.u_px = su / sw_;
+    d.v_px = sv / sw_;
+    d.area_px2 = sw_;
+    out.dots.push_back(d);
+  }
+
+  // Dot size: face-on area pi (R sin alpha)^2; a dot seen at polar angle theta
+  // covers that times cos(theta).
+  std::vector<double> sin2;
+  for (Dot& d : out.dots) {
+    d.on_sphere = liftToSphere(d.u_px, d.v_px, cu, cv, r);
+    if (d.on_sphere.z() > 0.4)
+      sin2.push_back(d.area_px2 / (std::numbers::pi * r * r * d.on_sphere.z()));
+  }
+  double alpha = set.angular_radius_rad;
+  if (!(alpha > 0) && !sin2.empty()) {
+    std::nth_element(sin2.begin(), sin2.begin() + sin2.size() / 2, sin2.end());
+    alpha = std::asin(std::sqrt(std::clamp(sin2[sin2.size() / 2], 0.0, 0.25)));
+  }
+  out.angular_radius_rad = alpha > 0 ? alpha : 0.0;
+  out.dot_area_px2 = std::numbers::pi * std::pow(r * std::sin(out.angular_radius_rad), 2);
+  std::vector<Dot> kept;
+  for (Dot& d : out.dots) {
+    d.on_sphere = liftToSphere(d.u_px, d.v_px, cu, cv, r, out.angular_radius_rad);
+    if (d.on_sphere.z() < cos_max) {
+      ++out.rejected;
+      continue;
+    }
+    // A fragment (a dot split by noise, a speck) or two dots run together
+    // has the wrong area for a dot at this place on the sphere.
+    const double expected = out.dot_area_px2 * d.on_sphere.z();
+    if (out.dot_area_px2 > 0 && (d.area_px2 < 0.4 * expected || d.area_px2 > 2.5 * expected)) {
+      ++out.rejected;
+      continue;
+    }
+    kept.push_back(d);
+  }
+  out.dots = std::move(kept);
+  return out;
+}
+
+}  // namespace
+
+Vec3 liftToSphere(double u, double v, double cu, double cv, double r, double alpha_rad) {
+  const double reff = r * std::cos(alpha_rad);
+  double x = (u - cu) / reff, y = -(v - cv) / reff;
+  const double rho2 = x * x + y * y;
+  if (rho2 > 1.0) {
+    const double k = 1.0 / std::sqrt(rho2);
+    x *= k, y *= k;
+    return Vec3(x, y, 0.0);
+  }
+  return Vec3(x, y, std::sqrt(1.0 - rho2));
+}
+
+DotFrame findDots(const cv::Mat& image, const SphereMeasurement& sphere, int /*max_value*/,
+                  const DotSettings& settings) {
+  if (image.empty() || image.channels() != 1) return {};
+  if (image.depth() == CV_8U) return findDotsTyped<std::uint8_t>(image, sphere, settings);
+  if (image.depth() == CV_16U) return findDotsTyped<std::uint16_t>(image, sphere, settings);
+  return {};
+}
+
+}  // namespace collide::vision

@@ -1,0 +1,841 @@
+#include "vision/sphere_detector.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <opencv2/imgproc.hpp>
+
+namespace collide::vision {
+namespace {
+
+// ---------------------------------------------------------------- circle fit
+
+struct Circle {
+  double u = 0, v = 0, r = 0;
+};
+
+// Kasa's algebraic fit: minimises sum (x^2 + y^2 + D x + E y + F)^2, in
+// coordinates centred on the points' mean so the normal equations stay well
+// conditioned. Good to a fraction of the noise for full circles, biased low in
+// radius for short arcs; only the starting point of the geometric fit.
+bool kasaFit(const std::vector<CirclePoint>& p, const std::vector<char>& use, Circle& out) {
+  double mu = 0, mv = 0;
+  int n = 0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (use[i]) mu += p[i].u, mv += p[i].v, ++n;
+  if (n < 3) return false;
+  mu /= n;
+  mv /= n;
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!use[i]) continue;
+    const double x = p[i].u - mu, y = p[i].v - mv;
+    const Eigen::Vector3d row(x, y, 1.0);
+    const double z = -(x * x + y * y);
+    a += row * row.transpose();
+    b += row * z;
+  }
+  Eigen::FullPivLU<Eigen::Matrix3d> lu(a);
+  if (lu.rank() < 3) return false;
+  const Eigen::Vector3d s = lu.solve(b);
+  const double cu = -0.5 * s[0], cv = -0.5 * s[1];
+  const double r2 = cu * cu + cv * cv - s[2];
+  if (!(r2 > 0) || !std::isfinite(r2)) return false;
+  out = {cu + mu, cv + mv, std::sqrt(r2)};
+  return true;
+}
+
+// Gauss-Newton on the geometric distances; returns false if it diverges.
+bool geometricFit(const std::vector<CirclePoint>& p, const std::vector<char>& use, Circle& c,
+                  Eigen::Matrix3d& jtj_out) {
+  for (int it = 0; it < 25; ++it) {
+    // Normal equations summed by hand: J_i = -(dx/d, dy/d, 1).
+    double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (!use[i]) continue;
+      const double dx = p[i].u - c.u, dy = p[i].v - c.v;
+      const double d = std::sqrt(dx * dx + dy * dy);
+      if (d == 0) continue;
+      const double ex = dx / d, ey = dy / d, r = d - c.r;
+      sxx += ex * ex, sxy += ex * ey, syy += ey * ey, sx += ex, sy += ey, n += 1;
+      rx += ex * r, ry += ey * r, r1 += r;
+    }
+    Eigen::Matrix3d jtj;
+    jtj << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
+    const Eigen::Vector3d jtr(-rx, -ry, -r1);
+    const Eigen::Vector3d step = jtj.ldlt().solve(-jtr);
+    if (!step.allFinite()) return false;
+    c.u += step[0];
+    c.v += step[1];
+    c.r += step[2];
+    jtj_out = jtj;
+    if (!(c.r > 0)) return false;
+    if (step.cwiseAbs().maxCoeff() < 1e-7) break;
+  }
+  return std::isfinite(c.u) && std::isfinite(c.v) && std::isfinite(c.r);
+}
+
+// ------------------------------------------------------------------ levels
+
+struct Levels {
+  double bg = 0, sigma = 0, bright = 0, threshold = 0;
+  double saturated_fraction = 0;
+};
+
+// Grid samples of the frame: every `step`-th pixel of every `step`-th row,
+// starting at step/2.
+struct Grid {
+  int w = 0, h = 0, step = 1, off = 0;
+  std::vector<std::uint16_t> v;
+  std::uint16_t at(int x, int y) const { return v[static_cast<std::size_t>(y) * w + x]; }
+};
+
+template <class T>
+Grid sampleGrid(const cv::Mat& img, int step) {
+  Grid g;
+  g.step = step;
+  g.off = step / 2;
+  g.w = (img.cols - g.off + step - 1) / step;
+  g.h = (img.rows - g.off + step - 1) / step;
+  g.v.resize(static_cast<std::size_t>(g.w) * g.h);
+  for (int gy = 0; gy < g.h; ++gy) {
+    const T* row = img.ptr<T>(gy * step + g.off) + g.off;
+    std::uint16_t* out = g.v.data() + static_cast<std::size_t>(gy) * g.w;
+    for (int gx = 0; gx < g.w; ++gx) out[gx] = row[gx * step];
+  }
+  return g;
+}
+
+Levels measureLevels(const Grid& grid, int max_value) {
+  // Histogram in at most 4096 bins.
+  int shift = 0;
+  while ((max_value >> shift) >= 4096) ++shift;
+  const int bins = (max_value >> shift) + 1;
+  std::vector<int> hist(bins, 0);
+  // Every other grid sample of every other grid row: thousands of samples,
+  // plenty for a median and a MAD.
+  int n = 0;
+  int at_max = 0;
+  for (int y = 0; y < grid.h; y += 2)
+    for (int x = (y / 2) % 2; x < grid.w; x += 2) {
+      const int v = std::min<int>(grid.at(x, y), max_value);
+      ++hist[v >> shift];
+      at_max += v >= max_value;
+      ++n;
+    }
+  auto quantile = [&](const std::vector<int>& h, double q) {
+    const double target = q * n;
+    double acc = 0;
+    for (int b = 0; b < static_cast<int>(h.size()); ++b) {
+      if (acc + h[b] > target) {
+        // Interpolate inside the bin so small integer MADs are not all zero.
+        return b + (target - acc) / h[b];
+      }
+      acc += h[b];
+    }
+    return static_cast<double>(h.size());
+  };
+  const double width = 1 << shift;
+  Levels l;
+  const double med_bin = quantile(hist, 0.5);  // in bins, continuous
+  l.bg = (med_bin - 0.5) * width;
+  // MAD from the histogram of |x - median|.
+  std::vector<int> dev(bins, 0);
+  for (int b = 0; b < bins; ++b) {
+    const int d = static_cast<int>(std::abs(b + 0.5 - med_bin));
+    dev[std::min(d, bins - 1)] += hist[b];
+  }
+  const double mad = quantile(dev, 0.5) * width;
+  l.sigma = std::max(1.4826 * mad, 0.3 * width);
+  // Brightest level: the 3rd largest sample (one or two hot pixels aside).
+  int seen = 0;
+  for (int b = bins - 1; b >= 0; --b) {
+    seen += hist[b];
+    if (seen >= 3) {
+      l.bright = (b + 0.5) * width;
+      break;
+    }
+  }
+  l.threshold = l.bg + std::max(0.15 * (l.bright - l.bg), 6.0 * l.sigma + width);
+  l.saturated_fraction = static_cast<double>(at_max) / std::max(1, n);
+  return l;
+}
+
+// ------------------------------------------------------------- coarse stage
+
+struct Blob {
+  std::vector<CirclePoint> outline;  // grid-resolution outline points, pixels
+  std::vector<cv::Point2d> cells;    // cell centres (pixels), for splitting
+  int area = 0;                      // cells
+};
+
+// Connected (8-neighbour) blobs of grid cells at or above `threshold`, from
+// runs along the grid rows joined by union-find, with each blob's outline:
+// the ends of its extent in every grid row and column, where they are not on
+// the frame's border, placed half a cell outside the last bright sample.
+std::vector<Blob> findBlobs(const Grid& g, double threshold_level) {
+  // Samples are whole numbers: compare as integers.
+  const int threshold = static_cast<int>(std::ceil(threshold_level));
+  struct Run {
+    int y, x0, x1, parent;
+  };
+  std::vector<Run> runs;
+  std::vector<int> row_first(g.h + 1, 0);
+  const auto find = [&](int i) {
+    while (runs[i].parent != i) i = runs[i].parent = runs[runs[i].parent].parent;
+    return i;
+  };
+  for (int y = 0; y < g.h; ++y) {
+    row_first[y] = static_cast<int>(runs.size());
+    const std::uint16_t* row = g.v.data() + static_cast<std::size_t>(y) * g.w;
+    for (int x = 0; x < g.w;) {
+      while (x < g.w && row[x] < threshold) ++x;
+      if (x == g.w) break;
+      const int x0 = x;
+      while (x < g.w && row[x] >= threshold) ++x;
+      const int self = static_cast<int>(runs.size());
+      runs.push_back({y, x0, x - 1, self});
+      if (y == 0) continue;
+      for (int k = row_first[y - 1]; k < row_first[y]; ++k) {
+        if (runs[k].x1 < x0 - 1) continue;
+        if (runs[k].x0 > x) break;
+        const int a = find(k), b = find(self);
+        if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
+      }
+    }
+  }
+  row_first[g.h] = static_cast<int>(runs.size());
+  std::vector<int> blob_of(runs.size(), -1);
+  std::vector<Blob> blobs;
+  struct Extent {
+    int x0, x1, y0, y1;
+  };
+  std::vector<Extent> box;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const int root = find(static_cast<int>(i));
+    if (blob_of[root] < 0) {
+      blob_of[root] = static_cast<int>(blobs.size());
+      blobs.emplace_back();
+      box.push_back({runs[i].x0, runs[i].x1, runs[i].y, runs[i].y});
+    }
+    const int b = blob_of[root];
+    blob_of[i] = b;
+    blobs[b].area += runs[i].x1 - runs[i].x0 + 1;
+    Extent& e = box[b];
+    e.x0 = std::min(e.x0, runs[i].x0), e.x1 = std::max(e.x1, runs[i].x1);
+    e.y1 = std::max(e.y1, runs[i].y);
+  }
+  const double step = g.step, off = g.off;
+  std::vector<int> top, bottom, left, right;
+  for (std::size_t b = 0; b < blobs.size(); ++b) {
+    const Extent& e = box[b];
+    top.assign(e.x1 - e.x0 + 1, -1), bottom.assign(e.x1 - e.x0 + 1, -1);
+    left.assign(e.y1 - e.y0 + 1, -1), right.assign(e.y1 - e.y0 + 1, -1);
+    Blob& blob = blobs[b];
+    for (int y = e.y0; y <= e.y1; ++y)
+      for (int k = row_first[y]; k < row_first[y + 1]; ++k) {
+        if (blob_of[k] != static_cast<int>(b)) continue;
+        const Run& r = runs[k];
+        int& l = left[y - e.y0];
+        int& rr = right[y - e.y0];
+        if (l < 0 || r.x0 < l) l = r.x0;
+        rr = std::max(rr, r.x1);
+        for (int x = r.x0; x <= r.x1; ++x) {
+          int& t = top[x - e.x0];
+          if (t < 0) t = y;
+          bottom[x - e.x0] = y;
+          blob.cells.emplace_back(x * step + off, y * step + off);
+        }
+      }
+    for (int y = e.y0; y <= e.y1; ++y) {
+      const int l = left[y - e.y0], r = right[y - e.y0];
+      if (l < 0) continue;
+      const double v = y * step + off;
+      if (l > 0) blob.outline.push_back({l * step + off - 0.5 * step, v});
+      if (r < g.w - 1) blob.outline.push_back({r * step + off + 0.5 * step, v});
+    }
+    for (int x = e.x0; x <= e.x1; ++x) {
+      const int t = top[x - e.x0], bt = bottom[x - e.x0];
+      if (t < 0) continue;
+      const double u = x * step + off;
+      if (t > 0) blob.outline.push_back({u, t * step + off - 0.5 * step});
+      if (bt < g.h - 1) blob.outline.push_back({u, bt * step + off + 0.5 * step});
+    }
+  }
+  return blobs;
+}
+
+Result<CircleFit> fitCoarse(const std::vector<CirclePoint>& pts, int step) {
+  return fitCircle(pts, 3.0, 0.75 * step + 0.5);
+}
+
+bool goodCoarse(const Result<CircleFit>& f, std::size_t total, int step) {
+  return f.ok() && f->points >= 8 && f->rejected <= 0.25 * static_cast<double>(total) &&
+         f->residual_rms <= 0.45 * step + 0.6;
+}
+
+// Two circles from the outline of one blob: 2-means on the cells along the
+// blob's principal axis, outline points to the nearer cluster, fit, then each
+// point to the circle it lies closer to and fit again.
+bool splitPair(const Blob& blob, int step, std::array<CircleFit, 2>& out) {
+  if (blob.cells.size() < 10) return false;
+  cv::Point2d mean(0, 0);
+  for (const auto& c : blob.cells) mean += c;
+  mean *= 1.0 / static_cast<double>(blob.cells.size());
+  double sxx = 0, syy = 0, sxy = 0;
+  for (const auto& c : blob.cells) {
+    const cv::Point2d d = c - mean;
+    sxx += d.x * d.x, syy += d.y * d.y, sxy += d.x * d.y;
+  }
+  const double ang = 0.5 * std::atan2(2 * sxy, sxx - syy);
+  const cv::Point2d axis(std::cos(ang), std::sin(ang));
+  double lo = 0, hi = 0;
+  for (const auto& c : blob.cells) {
+    const double t = (c - mean).dot(axis);
+    lo = std::min(lo, t), hi = std::max(hi, t);
+  }
+  std::array<cv::Point2d, 2> centre{mean + axis * (0.5 * lo), mean + axis * (0.5 * hi)};
+  for (int it = 0; it < 8; ++it) {
+    std::array<cv::Point2d, 2> sum{cv::Point2d(0, 0), cv::Point2d(0, 0)};
+    std::array<int, 2> count{0, 0};
+    for (const auto& c : blob.cells) {
+      const cv::Point2d d0 = c - centre[0], d1 = c - centre[1];
+      const int k = d0.dot(d0) <= d1.dot(d1) ? 0 : 1;
+      sum[k] += c, ++count[k];
+    }
+    if (count[0] == 0 || count[1] == 0) return false;
+    centre = {sum[0] * (1.0 / count[0]), sum[1] * (1.0 / count[1])};
+  }
+  std::array<std::vector<CirclePoint>, 2> part;
+  for (const auto& p : blob.outline) {
+    const cv::Point2d q(p.u, p.v);
+    const cv::Point2d d0 = q - centre[0], d1 = q - centre[1];
+    part[d0.dot(d0) <= d1.dot(d1) ? 0 : 1].push_back(p);
+  }
+  std::array<Result<CircleFit>, 2> fit{fitCoarse(part[0], step), fitCoarse(part[1], step)};
+  if (!fit[0] || !fit[1]) return false;
+  for (int round = 0; round < 2; ++round) {
+    part[0].clear(), part[1].clear();
+    for (const auto& p : blob.outline) {
+      double res[2];
+      for (int k = 0; k < 2; ++k)
+        res[k] = std::abs(std::hypot(p.u - fit[k]->u, p.v - fit[k]->v) - fit[k]->radius);
+      part[res[0] <= res[1] ? 0 : 1].push_back(p);
+    }
+    fit = {fitCoarse(part[0], step), fitCoarse(part[1], step)};
+    if (!fit[0] || !fit[1]) return false;
+  }
+  for (int k = 0; k < 2; ++k)
+    if (!goodCoarse(fit[k], part[k].size(), step)) return false;
+  out = {*fit[0], *fit[1]};
+  return true;
+}
+
+// -------------------------------------------------------------- fine stage
+
+struct EdgeContext {
+  double threshold = 0, dark_limit = 0, sigma = 0;
+  int max_value = 0;
+  int hw = 2;           // transition window: [c - 1 - hw, c + hw]
+  int n_out = 3;        // background samples before it
+  int n_in = 5;         // sphere samples after it (the brightness at the limb)
+  int search = 6;       // crossing searched within +-search of the predicted edge
+  int line_stride = 1;  // every n-th row / column
+};
+
+struct EdgeStats {
+  double sum_out = 0, sum_rim = 0;
+  int accepted = 0, border = 0, saturated = 0;
+};
+
+// One line across the limb, sampled from outside to inside.
+struct Profile {
+  int line = 0, side = 0, axis = 0;
+  int start = 0;   // pixel (along the line) of sample 0
+  int c = 0;       // first sample at or above the threshold
+  double g = 0;    // cosine between the line and the radius at the limb
+  double out = 0;  // background level
+  double mean_in = 0, mean_x = 0, mean_x2 = 0;  // of the inside samples (x from b + 0.5)
+  bool ok = false;
+};
+
+// Shape of the sphere's brightness just inside the limb, shared by all
+// profiles of one sphere (isotropic shading): along a line meeting the limb at
+// cosine g, at x pixels inside the window end,
+//   D(x) = d + b1 g x + (b2 g^2 - b1 (1 - g^2) / R) x^2 / 2,
+// b1 the brightness' derivative inwards along the radius at the limb, b2 its
+// second derivative (the second term is the line's own curvature across the
+// radial field). Only d is per profile, so the per-profile noise does not enter the
+// slope, whose noise would otherwise bias the covered length at second order.
+struct Shading {
+  double b1 = 0, b2 = 0, radius = 1;
+  double slope(double g) const { return b1 * g; }
+  double curv(double g) const { return 0.5 * (b2 * g * g - b1 * (1 - g * g) / radius); }
+};
+
+template <class T>
+void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
+                    std::vector<Profile>& profiles, std::vector<float>& samples, int& len,
+                    int& margin, EdgeStats& st) {
+  const int w = img.cols, h = img.rows;
+  margin = ctx.search + ctx.hw + ctx.n_out + 2;  // outside the predicted edge
+  const int inner = ctx.search + ctx.hw + ctx.n_in + 2;
+  len = margin + inner + 1;
+  const double band = 0.7072 * c.r;  // each limb covers +-45 degrees
+  const std::size_t stride = img.step1();
+  const T* data = img.ptr<T>(0);
+  for (int axis = 0; axis < 2; ++axis) {      // 0: rows (left/right), 1: columns (top/bottom)
+    const double ca = axis == 0 ? c.v : c.u;  // across the lines
+    const double cb = axis == 0 ? c.u : c.v;  // along the lines
+    const int n_lines = axis == 0 ? h : w;
+    const int n_along = axis == 0 ? w : h;
+    const std::ptrdiff_t step_along = axis == 0 ? 1 : static_cast<std::ptrdiff_t>(stride);
+    const std::ptrdiff_t step_line = axis == 0 ? static_cast<std::ptrdiff_t>(stride) : 1;
+    const int l0 = std::max(0, static_cast<int>(std::ceil(ca - band)));
+    const int l1 = std::min(n_lines - 1, static_cast<int>(std::floor(ca + band)));
+    // Limb by limb, so that consecutive points are neighbours on the outline.
+    for (int side = -1; side <= 1; side += 2)
+      for (int line = l0; line <= l1; line += ctx.line_stride) {
+        const double d = line - ca;
+        const double half = std::sqrt(std::max(0.0, c.r * c.r - d * d));
+        {
+          const int edge = static_cast<int>(std::lround(cb + side * half));
+          const int start = edge + side * margin;  // outermost sample
+          const int end = edge - side * inner;
+          if (std::min(start, end) < 0 || std::max(start, end) > n_along - 1) {
+            ++st.border;
+            continue;
+          }
+          const T* src = data + line * step_line + start * step_along;
+          const std::ptrdiff_t dir = -side * step_along;
+          const std::size_t at = samples.size();
+          samples.resize(at + len);
+          float* buf = samples.data() + at;
+          for (int i = 0; i < len; ++i) buf[i] = static_cast<float>(src[i * dir]);
+          Profile p;
+          p.line = line, p.side = side, p.axis = axis, p.start = start;
+          p.g = half / c.r;
+          profiles.push_back(p);
+        }
+      }
+  }
+}
+
+// Finds the crossing and checks the background and the inside of one profile.
+void screenProfile(const float* p, int len, int predicted, const EdgeContext& ctx, Profile& pr,
+                   EdgeStats& st) {
+  pr.ok = false;
+  const int first = std::max(ctx.n_out + ctx.hw + 1, predicted - ctx.search);
+  const int last = std::min(len - ctx.hw - ctx.n_in - 1, predicted + ctx.search);
+  int c = -1;
+  for (int i = first; i <= last; ++i)
+    if (p[i - 1] < ctx.threshold && p[i] >= ctx.threshold) {
+      c = i;
+      break;
+    }
+  if (c < 0) return;
+  const int a = c - 1 - ctx.hw, b = c + ctx.hw;
+  // Background: flat and dark (no other sphere, no glare).
+  double out = 0;
+  for (int i = a - ctx.n_out; i < a; ++i) {
+    if (p[i] >= ctx.dark_limit) return;
+    out += p[i];
+  }
+  // Sphere just inside: bright (no dot), not clipped.
+  double sy = 0, sx = 0, sx2 = 0;
+  for (int j = 1; j <= ctx.n_in; ++j) {
+    const double y = p[b + j];
+    if (y < ctx.threshold) return;
+    if (y >= ctx.max_value) {
+      ++st.saturated;
+      return;
+    }
+    const double x = j - 0.5;
+    sy += y, sx += x, sx2 += x * x;
+  }
+  pr.c = c;
+  pr.out = out / ctx.n_out;
+  pr.mean_in = sy / ctx.n_in;
+  pr.mean_x = sx / ctx.n_in;
+  pr.mean_x2 = sx2 / ctx.n_in;
+  pr.ok = true;
+}
+
+// b1, b2 by least squares over every usable profile, each profile's own level
+// eliminated by centring. Profiles whose inside samples stray from the shared
+// shape (a dot edge, a highlight) are dropped and the fit repeated.
+Shading fitShading(const std::vector<float>& samples, int len, std::vector<Profile>& profiles,
+                   const EdgeContext& ctx, double radius) {
+  Shading sh;
+  sh.radius = radius;
+  for (int round = 0; round < 2; ++round) {
+    Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+    for (const Profile& pr : profiles) {
+      if (!pr.ok) continue;
+      const float* p = samples.data() + static_cast<std::size_t>(&pr - profiles.data()) * len;
+      const int b = pr.c + ctx.hw;
+      const double g = pr.g;
+      for (int j = 1; j <= ctx.n_in; ++j) {
+        const double x = j - 0.5;
+        const double y = p[b + j] - pr.mean_in;
+        const double f1 = g * (x - pr.mean_x) - 0.5 * (1 - g * g) / radius * (x * x - pr.mean_x2);
+        const double f2 = 0.5 * g * g * (x * x - pr.mean_x2);
+        const Eigen::Vector2d f(f1, f2);
+        a += f * f.transpose();
+        rhs += f * y;
+      }
+    }
+    Eigen::FullPivLU<Eigen::Matrix2d> lu(a);
+    if (lu.rank() == 2) {
+      const Eigen::Vector2d sol = lu.solve(rhs);
+      sh.b1 = sol[0], sh.b2 = sol[1];
+    } else {
+      sh.b1 = sh.b2 = 0;
+    }
+    if (round == 1) break;
+    // Drop profiles that do not follow the shared shape.
+    for (Profile& pr : profiles) {
+      if (!pr.ok) continue;
+      const float* p = samples.data() + static_cast<std::size_t>(&pr - profiles.data()) * len;
+      const int b = pr.c + ctx.hw;
+      const double s = sh.slope(pr.g), q = sh.curv(pr.g);
+      const double d = pr.mean_in - s * pr.mean_x - q * pr.mean_x2;
+      double ss = 0;
+      for (int j = 1; j <= ctx.n_in; ++j) {
+        const double x = j - 0.5;
+        const double r = p[b + j] - (d + s * x + q * x * x);
+        ss += r * r;
+      }
+      if (std::sqrt(ss / ctx.n_in) > 3.0 * ctx.sigma + 0.03 * (d - pr.out)) pr.ok = false;
+    }
+  }
+  return sh;
+}
+
+// The edge of one screened profile, in profile coordinates (sample i's centre
+// at i); NaN if unusable.
+double edgeOfProfile(const float* p, const Profile& pr, const Shading& sh, const EdgeContext& ctx,
+                     EdgeStats& st) {
+  const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
+  const double s = sh.slope(pr.g), q = sh.curv(pr.g);
+  // Brightness above background at the window's inner end b + 0.5.
+  const double d = pr.mean_in - s * pr.mean_x - q * pr.mean_x2 - pr.out;
+  if (!(d > ctx.threshold - pr.out)) return std::nan("");
+  // The window [a - 0.5, b + 0.5] holds the whole transition: the sum of
+  // (p - out) over it is the integral of D over the covered length L,
+  //   S = d L - s L^2 / 2 + q L^3 / 3   (x = -L .. 0).
+  double sum = 0;
+  for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
+  double len = sum / d;
+  for (int it = 0; it < 4; ++it) {
+    const double f = d * len - 0.5 * s * len * len + q * len * len * len / 3.0 - sum;
+    const double df = d - s * len + q * len * len;
+    if (!(df > 0)) return std::nan("");
+    len -= f / df;
+  }
+  if (!(len > 0.0 && len < b - a + 1.0)) return std::nan("");
+  st.sum_out += pr.out;
+  st.sum_rim += pr.out + d - s * len + q * len * len;  // brightness at the limb
+  ++st.accepted;
+  return b + 0.5 - len;
+}
+
+template <class T>
+void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
+                std::vector<CirclePoint>& pts, EdgeStats& st) {
+  std::vector<Profile> profiles;
+  std::vector<float> samples;
+  int len = 0, margin = 0;
+  profiles.reserve(static_cast<std::size_t>(6 * c.r) + 8);
+  samples.reserve(profiles.capacity() * 40);
+  sampleProfiles<T>(img, c, ctx, profiles, samples, len, margin, st);
+  for (std::size_t k = 0; k < profiles.size(); ++k)
+    screenProfile(samples.data() + k * len, len, margin, ctx, profiles[k], st);
+  const Shading sh = fitShading(samples, len, profiles, ctx, c.r);
+  for (std::size_t k = 0; k < profiles.size(); ++k) {
+    const Profile& pr = profiles[k];
+    if (!pr.ok) continue;
+    const double x = edgeOfProfile(samples.data() + k * len, pr, sh, ctx, st);
+    if (std::isnan(x)) continue;
+    // The pixel row averages the limb over its height; on a curved limb that
+    // mean lies inside the circle by x''/24 = 1/(24 R g^3): put it back.
+    const double strip = 1.0 / (24.0 * c.r * pr.g * pr.g * pr.g);
+    const double along = pr.start - pr.side * (x - strip);
+    if (pr.axis == 0)
+      pts.push_back({along, static_cast<double>(pr.line)});
+    else
+      pts.push_back({static_cast<double>(pr.line), along});
+  }
+}
+
+template <class T>
+FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetectorSettings& set) {
+  FrameSpheres out;
+  const int w = img.cols, h = img.rows;
+  const double max_r = set.max_radius_px > 0 ? set.max_radius_px : 0.5 * std::min(w, h);
+  const double min_r = set.min_radius_px > 0 ? set.min_radius_px : std::min(w, h) / 40.0;
+  int step = set.coarse_step;
+  if (step <= 0) step = std::clamp(static_cast<int>(min_r / 3.0), 1, 4);
+  if (std::min(w, h) < 4 * step) step = 1;
+
+  const Grid grid = sampleGrid<T>(img, step);
+  const Levels lv = measureLevels(grid, max_value);
+  out.background = lv.bg;
+  out.noise_sigma = lv.sigma;
+  out.threshold = lv.threshold;
+  out.saturated = lv.saturated_fraction > 0.2 || lv.bg > 0.5 * max_value;
+  if (lv.bg > 0.5 * max_value) {
+    out.notes.push_back(
+        "the background is brighter than half of full scale (saturated or "
+        "overexposed frame): no sphere can be told from it");
+    return out;
+  }
+  if (lv.bright - lv.bg < std::max(12.0 * lv.sigma, 0.04 * max_value)) {
+    out.notes.push_back("no bright object in the frame (no sphere)");
+    return out;
+  }
+
+  const std::vector<Blob> blobs = findBlobs(grid, lv.threshold);
+  const double min_cells = 0.15 * 3.14159 * min_r * min_r / (step * step);
+
+  EdgeContext ctx;
+  ctx.threshold = lv.threshold;
+  ctx.sigma = lv.sigma;
+  // Background samples above this belong to something else (the other sphere
+  // at contact, glare): the profile is not used.
+  ctx.dark_limit = lv.bg + std::max(5.0 * lv.sigma + 1.0, 0.1 * (lv.threshold - lv.bg));
+  ctx.dark_limit = std::min(ctx.dark_limit, lv.threshold);
+  ctx.max_value = max_value;
+  ctx.hw = std::max(1, static_cast<int>(std::ceil(set.edge_half_width_px)));
+
+  struct Candidate {
+    CircleFit coarse;
+    bool touching;
+  };
+  std::vector<Candidate> cands;
+  for (const Blob& blob : blobs) {
+    if (blob.area < std::max(3.0, min_cells)) {
+      if (blob.area * step * step >= 4) ++out.blobs_ignored;
+      continue;
+    }
+    const Result<CircleFit> single = fitCoarse(blob.outline, step);
+    auto radiusOk = [&](const CircleFit& f) {
+      return f.radius >= min_r - step && f.radius <= max_r + step;
+    };
+    if (goodCoarse(single, blob.outline.size(), step) && radiusOk(*single)) {
+      cands.push_back({*single, false});
+      continue;
+    }
+    std::array<CircleFit, 2> pair;
+    if (splitPair(blob, step, pair) && radiusOk(pair[0]) && radiusOk(pair[1])) {
+      cands.push_back({pair[0], true});
+      cands.push_back({pair[1], true});
+      continue;
+    }
+    ++out.blobs_ignored;
+  }
+
+  for (const Candidate& cand : cands) {
+    Circle c{cand.coarse.u, cand.coarse.v, cand.coarse.radius};
+    EdgeContext local = ctx;
+    local.search = step + 2 + (cand.touching ? 4 : 0);
+    // Big spheres have edge points to spare: every other line halves the work
+    // for a sqrt(2) larger (still tiny) noise.
+    local.line_stride = set.line_stride > 0
+                            ? set.line_stride
+                            : std::max(1, static_cast<int>(std::lround(c.r / 30.0)));
+    // The limb brightness is read over up to 8 px inside, less on small spheres.
+    local.n_in = std::clamp(static_cast<int>(c.r / 7.0), 3, 8);
+    std::vector<CirclePoint> pts;
+    EdgeStats st;
+    edgePoints<T>(img, c, local, pts, st);
+    Result<CircleFit> fit = fitCircle(pts, 3.5, 0.05, true);
+    if (!fit || fit->points < 12) {
+      ++out.blobs_ignored;
+      out.notes.push_back("a blob near (" + std::to_string(static_cast<int>(c.u)) + ", " +
+                          std::to_string(static_cast<int>(c.v)) +
+                          ") has too few clean edge points for a circle");
+      continue;
+    }
+    SphereMeasurement m;
+    m.circle = *fit;
+    m.touching = cand.touching;
+    m.background = st.accepted ? st.sum_out / st.accepted : lv.bg;
+    m.rim_level = st.accepted ? st.sum_rim / st.accepted : lv.threshold;
+    m.saturated_pixels = st.saturated;
+    const double r = fit->radius;
+    m.cut_by_border =
+        fit->u - r < -0.5 || fit->v - r < -0.5 || fit->u + r > w - 0.5 || fit->v + r > h - 0.5;
+    if (r < min_r || r > max_r) {
+      ++out.blobs_ignored;
+      continue;
+    }
+    out.spheres.push_back(m);
+  }
+  // Spheres whose outlines (nearly) meet count as touching even when their blobs
+  // were apart on the grid.
+  for (std::size_t i = 0; i < out.spheres.size(); ++i)
+    for (std::size_t j = i + 1; j < out.spheres.size(); ++j) {
+      const CircleFit &a = out.spheres[i].circle, &b = out.spheres[j].circle;
+      if (std::hypot(a.u - b.u, a.v - b.v) < a.radius + b.radius + 2.0)
+        out.spheres[i].touching = out.spheres[j].touching = true;
+    }
+  std::sort(out.spheres.begin(), out.spheres.end(),
+            [](const SphereMeasurement& a, const SphereMeasurement& b) {
+              return a.circle.u < b.circle.u;
+            });
+  return out;
+}
+
+}  // namespace
+
+namespace {
+
+// Residuals of every point from circle c; returns the robust (MAD) standard
+// deviation of those in use.
+double residuals(const std::vector<CirclePoint>& p, const std::vector<char>& use, const Circle& c,
+                 std::vector<double>& res, std::vector<double>& scratch) {
+  scratch.clear();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double dx = p[i].u - c.u, dy = p[i].v - c.v;
+    res[i] = std::sqrt(dx * dx + dy * dy) - c.r;
+    if (use[i]) scratch.push_back(std::abs(res[i]));
+  }
+  if (scratch.empty()) return 0;
+  const std::size_t mid = scratch.size() / 2;
+  std::nth_element(scratch.begin(), scratch.begin() + mid, scratch.end());
+  return 1.4826 * scratch[mid];
+}
+
+// The circle through three points; false if they are (nearly) collinear.
+bool circleThrough(const CirclePoint& a, const CirclePoint& b, const CirclePoint& c, Circle& out) {
+  const double bx = b.u - a.u, by = b.v - a.v, cx = c.u - a.u, cy = c.v - a.v;
+  const double d = 2.0 * (bx * cy - by * cx);
+  if (std::abs(d) < 1e-9 * (bx * bx + by * by + cx * cx + cy * cy)) return false;
+  const double b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+  const double ux = (cy * b2 - by * c2) / d, uy = (bx * c2 - cx * b2) / d;
+  out = {a.u + ux, a.v + uy, std::sqrt(ux * ux + uy * uy)};
+  return std::isfinite(out.r);
+}
+
+}  // namespace
+
+Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double reject_sigmas,
+                            double min_reject_px, bool ordered) {
+  const std::size_t n = points.size();
+  if (n < 5) return fail("circle fit: " + std::to_string(n) + " edge points; need at least 5");
+  std::vector<char> use(n, 1);
+  Circle c;
+  if (!kasaFit(points, use, c)) return fail("circle fit: the edge points lie on a line");
+  Eigen::Matrix3d jtj;
+  if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
+  std::vector<double> res(n), scratch;
+  scratch.reserve(n);
+  int kept = static_cast<int>(n);
+  // Drops points beyond the rejection limit and refits until nothing changes.
+  const auto trim = [&]() -> Status {
+    for (int round = 0; round < 4; ++round) {
+      const double robust = residuals(points, use, c, res, scratch);
+      const double limit = std::max(reject_sigmas * robust, min_reject_px);
+      bool changed = false;
+      kept = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const char keep = std::abs(res[i]) <= limit;
+        changed |= keep != use[i];
+        use[i] = keep;
+        kept += keep;
+      }
+      if (kept < 5) return fail("circle fit: too many outlying edge points");
+      if (!changed) break;
+      if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
+    }
+    return Ok{};
+  };
+  if (Status st = trim(); !st) return st.error();
+
+  // When many points are off in one direction (dots denting a long stretch of
+  // the limb), the least-squares start is pulled and trimming keeps the wrong
+  // points. Points in outline order show it: neighbours agree with each other
+  // far better than with the circle. Then search circles through triples of
+  // points (RANSAC) for the one most points lie on, and trim from there.
+  if (ordered && n >= 30) {
+    const double spread = residuals(points, use, c, res, scratch);
+    scratch.clear();
+    for (std::size_t i = 1; i < n; ++i) scratch.push_back(std::abs(res[i] - res[i - 1]));
+    std::nth_element(scratch.begin(), scratch.begin() + scratch.size() / 2, scratch.end());
+    const double local = 1.4826 * scratch[scratch.size() / 2] / std::sqrt(2.0);
+    if (spread > 2.5 * local + 0.25 * min_reject_px) {
+      const double band = std::max(3.0 * local, min_reject_px);
+      std::uint64_t state = 0x9e3779b97f4a7c15ULL ^ n;
+      const auto next = [&state]() {
+        state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+        return static_cast<std::size_t>(state >> 33);
+      };
+      int best = -1;
+      Circle best_c = c;
+      for (int trial = 0; trial < 40; ++trial) {
+        const std::size_t i = next() % n;
+        const std::size_t j = (i + n / 3 + next() % (n / 6 + 1)) % n;
+        const std::size_t k = (i + 2 * n / 3 + next() % (n / 6 + 1)) % n;
+        Circle t;
+        if (!circleThrough(points[i], points[j], points[k], t)) continue;
+        int count = 0;
+        for (std::size_t m = 0; m < n; ++m) {
+          const double dx = points[m].u - t.u, dy = points[m].v - t.v;
+          count += std::abs(std::sqrt(dx * dx + dy * dy) - t.r) <= band;
+        }
+        if (count > best) best = count, best_c = t;
+      }
+      int now = 0;
+      for (std::size_t m = 0; m < n; ++m) now += std::abs(res[m]) <= band;
+      if (best > now) {
+        c = best_c;
+        for (std::size_t m = 0; m < n; ++m) {
+          const double dx = points[m].u - c.u, dy = points[m].v - c.v;
+          use[m] = std::abs(std::sqrt(dx * dx + dy * dy) - c.r) <= band;
+        }
+        if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
+        if (Status st = trim(); !st) return st.error();
+      }
+    }
+  }
+
+  double ss = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (use[i]) {
+      const double dx = points[i].u - c.u, dy = points[i].v - c.v;
+      const double r = std::sqrt(dx * dx + dy * dy) - c.r;
+      ss += r * r;
+    }
+  CircleFit f;
+  f.u = c.u;
+  f.v = c.v;
+  f.radius = c.r;
+  f.points = kept;
+  f.rejected = static_cast<int>(n) - kept;
+  f.residual_rms = std::sqrt(ss / kept);
+  const double s2 = kept > 3 ? ss / (kept - 3) : 0.0;
+  const Eigen::Matrix3d cov = jtj.inverse() * s2;
+  f.sigma_u = std::sqrt(std::max(0.0, cov(0, 0)));
+  f.sigma_v = std::sqrt(std::max(0.0, cov(1, 1)));
+  f.sigma_radius = std::sqrt(std::max(0.0, cov(2, 2)));
+  return f;
+}
+
+SphereDetector::SphereDetector(SphereDetectorSettings settings) : settings_(settings) {}
+
+FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
+  if (image.empty() || image.channels() != 1 ||
+      (image.depth() != CV_8U && image.depth() != CV_16U)) {
+    FrameSpheres out;
+    out.notes.push_back("not a one-channel 8- or 16-bit image");
+    return out;
+  }
+  if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_);
+  return detectTyped<std::uint16_t>(image, max_value, settings_);
+}
+
+}  // namespace collide::vision

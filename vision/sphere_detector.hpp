@@ -1,0 +1,102 @@
+#pragma once
+// Finds the bright spheres of one frame and measures each centre and radius to
+// a small fraction of a pixel (SPEC step 1).
+//
+// Method. (1) Levels: the background and noise from a sparse sample of the
+// frame (median, MAD), a threshold between background and sphere. (2) Coarse:
+// threshold a subsampled grid, label connected blobs, fit a circle to each
+// blob's outline (a blob of two touching spheres is split in two). (3) Fine:
+// along image rows (left and right limbs) and columns (top and bottom), one
+// edge point per line, found by the area (zeroth-moment) method: the sum of the
+// profile across the edge, minus the background, is the covered length times
+// the sphere's brightness at the limb, which is extrapolated from the inside of
+// the profile, so a darker rim (front lighting) does not bias the radius and
+// any symmetric blur (optics, motion) cancels. Profiles that meet a dot, the
+// other sphere, or the frame border are rejected. (4) An algebraic circle fit
+// then a geometric (Gauss-Newton) one with iterative outlier rejection; the
+// covariance gives each sphere's uncertainty.
+//
+// Image coordinates: u right, v down, origin at the top-left pixel's centre.
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "analysis/result.hpp"
+
+namespace collide::vision {
+
+struct CirclePoint {
+  double u = 0, v = 0;
+};
+
+/// A circle fitted to edge points (pixels).
+struct CircleFit {
+  double u = 0, v = 0, radius = 0;
+  double sigma_u = 0, sigma_v = 0, sigma_radius = 0;  ///< standard uncertainties
+  double residual_rms = 0;                            ///< of the points kept
+  int points = 0;                                     ///< points kept
+  int rejected = 0;                                   ///< outliers dropped
+};
+
+/// Algebraic (Kasa) then geometric least-squares circle through `points`, with
+/// outliers beyond `reject_sigmas` robust standard deviations (but at least
+/// `min_reject_px` from the circle) dropped and the fit repeated. With
+/// `ordered` (points in order along the outline) a fit that neighbouring
+/// points disagree with as a group (a long run of outliers on one side) is
+/// replaced by the best circle through triples of points (RANSAC), then trimmed.
+/// Errors: fewer than 5 points, collinear points, a fit that does not converge.
+Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double reject_sigmas = 3.5,
+                            double min_reject_px = 0.05, bool ordered = false);
+
+struct SphereDetectorSettings {
+  /// Smaller blobs are ignored (noise, specks); 0: 1/40 of the image's smaller side.
+  double min_radius_px = 0.0;
+  double max_radius_px = 0.0;  ///< 0: half the image's smaller side
+  /// Subsampling of the coarse grid in pixels; 0: automatic (a third of the
+  /// smallest radius, from 1 to 4).
+  int coarse_step = 0;
+  /// Half-width (pixels) of the blur the edge profiles must tolerate: the
+  /// transition window spans +-(edge_half_width + 1) px around the threshold
+  /// crossing. Raise it for strong motion blur (e.g. (speed * exposure) / 2).
+  double edge_half_width_px = 1.5;
+  /// Edge points on every n-th row and column; 0: automatic (radius / 30,
+  /// at least 1), which keeps ~170 points on a 60 px sphere.
+  int line_stride = 0;
+};
+
+/// One sphere found in one frame (pixels).
+struct SphereMeasurement {
+  CircleFit circle;
+  bool cut_by_border = false;  ///< the outline runs off the frame
+  bool touching = false;       ///< its blob was merged with another sphere's
+  double background = 0;       ///< local background level, grey levels
+  double rim_level = 0;        ///< mean brightness at the limb, grey levels
+  int saturated_pixels = 0;    ///< pixels at full scale seen on its profiles
+};
+
+struct FrameSpheres {
+  std::vector<SphereMeasurement> spheres;  ///< sorted by u
+  double background = 0;                   ///< grey levels (frame median)
+  double noise_sigma = 0;                  ///< grey levels, from the background MAD
+  double threshold = 0;                    ///< sphere / background threshold used
+  bool saturated = false;                  ///< a large part of the frame at full scale
+  int blobs_ignored = 0;                   ///< blobs too small, too large or not round
+  std::vector<std::string> notes;          ///< why something was not found
+};
+
+class SphereDetector {
+ public:
+  explicit SphereDetector(SphereDetectorSettings settings = {});
+  const SphereDetectorSettings& settings() const { return settings_; }
+
+  /// All spheres in `image` (CV_8UC1 or CV_16UC1; `max_value` is the format's
+  /// full scale, e.g. 4095 for Mono12). Never throws for any image content;
+  /// an empty or unsupported image gives no spheres and a note.
+  /// Thread-safe (const).
+  FrameSpheres detect(const cv::Mat& image, int max_value) const;
+
+ private:
+  SphereDetectorSettings settings_;
+};
+
+}  // namespace collide::vision

@@ -1,0 +1,455 @@
+#include "vision/spin_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <utility>
+
+#include "analysis/rotation.hpp"
+
+namespace collide::vision {
+namespace {
+
+using Match = std::pair<int, int>;
+
+Eigen::Matrix3d skew(const Vec3& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return s;
+}
+
+Eigen::Matrix3d expRot(const Vec3& phi) {
+  const double a = phi.norm();
+  if (a < 1e-12) return Eigen::Matrix3d::Identity() + skew(phi);
+  return Eigen::AngleAxisd(a, phi / a).toRotationMatrix();
+}
+
+// Left Jacobian of SO(3): exp([phi + d]) ~ exp([J_l(phi) d]) exp([phi]).
+Eigen::Matrix3d leftJacobian(const Vec3& phi) {
+  const double a = phi.norm();
+  const Eigen::Matrix3d k = skew(phi);
+  if (a < 1e-6) return Eigen::Matrix3d::Identity() + 0.5 * k;
+  return Eigen::Matrix3d::Identity() + (1 - std::cos(a)) / (a * a) * k +
+         (a - std::sin(a)) / (a * a * a) * k * k;
+}
+
+double weightOf(const SpinFrame& f, std::size_t i) {
+  return f.weights.size() == f.dots.size() ? f.weights[i] : 1.0;
+}
+
+// Mutual nearest neighbours between rot * a and b within the gate.
+std::vector<Match> matchDots(const SpinFrame& a, const SpinFrame& b, const Eigen::Matrix3d& rot,
+                             double cos_gate) {
+  const std::size_t na = a.dots.size(), nb = b.dots.size();
+  std::vector<int> best_ab(na, -1), best_ba(nb, -1);
+  std::vector<double> score_ab(na, cos_gate), score_ba(nb, cos_gate);
+  for (std::size_t i = 0; i < na; ++i) {
+    const Vec3 q = rot * a.dots[i];
+    for (std::size_t j = 0; j < nb; ++j) {
+      const double c = q.dot(b.dots[j]);
+      if (c > score_ab[i]) score_ab[i] = c, best_ab[i] = static_cast<int>(j);
+      if (c > score_ba[j]) score_ba[j] = c, best_ba[j] = static_cast<int>(i);
+    }
+  }
+  std::vector<Match> m;
+  for (std::size_t i = 0; i < na; ++i)
+    if (best_ab[i] >= 0 && best_ba[best_ab[i]] == static_cast<int>(i))
+      m.emplace_back(static_cast<int>(i), best_ab[i]);
+  return m;
+}
+
+// Kabsch on the matches, then one more round of matching with the result.
+bool refinePair(const SpinFrame& a, const SpinFrame& b, std::vector<Match>& m, Eigen::Matrix3d& rot,
+                double cos_gate, int min_matches) {
+  for (int round = 0; round < 2; ++round) {
+    if (static_cast<int>(m.size()) < min_matches) return false;
+    Eigen::Matrix3Xd from(3, m.size()), to(3, m.size());
+    Eigen::VectorXd w(m.size());
+    for (std::size_t k = 0; k < m.size(); ++k) {
+      from.col(k) = a.dots[m[k].first];
+      to.col(k) = b.dots[m[k].second];
+      w[k] = std::sqrt(weightOf(a, m[k].first) * weightOf(b, m[k].second));
+    }
+    auto fit = fitRotation(from, to, w);
+    if (!fit) return false;
+    rot = fit->rotation;
+    m = matchDots(a, b, rot, cos_gate);
+  }
+  return static_cast<int>(m.size()) >= min_matches;
+}
+
+// Orthonormal frame from two non-parallel unit vectors (first axis = p).
+Eigen::Matrix3d triad(const Vec3& p, const Vec3& q) {
+  const Vec3 e2 = p.cross(q).normalized();
+  Eigen::Matrix3d f;
+  f.col(0) = p;
+  f.col(1) = e2;
+  f.col(2) = p.cross(e2);
+  return f;
+}
+
+// Every rotation taking a pair of a's dots onto a pair of b's with the same
+// separation, scored by how many dots it matches. Returns the best rotation
+// (by count, then by the smaller angle) or false if none reaches min_matches.
+bool searchRotation(const SpinFrame& a, const SpinFrame& b, double max_angle, double cos_gate,
+                    int min_matches, Eigen::Matrix3d& best_rot) {
+  // The best-conditioned dots only: bounded cost, and near-limb dots are noisy.
+  const auto strongest = [](const SpinFrame& f) {
+    std::vector<int> idx(f.dots.size());
+    std::iota(idx.begin(), idx.end(), 0);
+    std::sort(idx.begin(), idx.end(),
+              [&](int x, int y) { return weightOf(f, x) > weightOf(f, y); });
+    if (idx.size() > 10) idx.resize(10);
+    return idx;
+  };
+  const std::vector<int> ia = strongest(a), ib = strongest(b);
+  int best = -1;
+  double best_angle = 1e9;
+  const double cos_max = std::cos(max_angle);
+  for (std::size_t x = 0; x < ia.size(); ++x)
+    for (std::size_t y = x + 1; y < ia.size(); ++y) {
+      const Vec3 &p = a.dots[ia[x]], &q = a.dots[ia[y]];
+      const double sep = std::acos(std::clamp(p.dot(q), -1.0, 1.0));
+      if (sep < 0.12 || sep > 2.8) continue;  // too close or nearly opposite: poor axis
+      const Eigen::Matrix3d fa = triad(p, q);
+      for (std::size_t u = 0; u < ib.size(); ++u)
+        for (std::size_t v = 0; v < ib.size(); ++v) {
+          if (u == v) continue;
+          const Vec3 &r = b.dots[ib[u]], &s = b.dots[ib[v]];
+          if (std::abs(std::acos(std::clamp(r.dot(s), -1.0, 1.0)) - sep) > 0.04) continue;
+          const Eigen::Matrix3d rot = triad(r, s) * fa.transpose();
+          const double tr = 0.5 * (rot.trace() - 1.0);  // cos of the rotation angle
+          if (tr < cos_max) continue;
+          int count = 0;
+          for (const Vec3& d : a.dots) {
+            const Vec3 e = rot * d;
+            for (const Vec3& o : b.dots)
+              if (e.dot(o) > cos_gate) {
+                ++count;
+                break;
+              }
+          }
+          const double angle = std::acos(std::clamp(tr, -1.0, 1.0));
+          if (count > best || (count == best && angle < best_angle))
+            best = count, best_angle = angle, best_rot = rot;
+        }
+    }
+  return best >= min_matches;
+}
+
+struct Observation {
+  int frame, track;
+  Vec3 p;
+  double w;
+};
+
+// The joint fit of one side's tracks (see the header). `body` is indexed by
+// track id and filled for tracks seen at least twice.
+struct JointFit {
+  Vec3 w = Vec3::Zero();
+  std::vector<Vec3> body;
+  std::vector<char> has_body;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  int tracks = 0, used = 0, rejected = 0, frames = 0;
+  double rms = 0;
+};
+
+Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
+                          const std::vector<std::vector<int>>& track_of, int next_track,
+                          const Vec3& w_start) {
+  const std::size_t n = frames.size();
+  JointFit out;
+  // ---- observations of tracks seen at least twice
+  std::vector<int> count(next_track, 0);
+  for (std::size_t k = 0; k < n; ++k)
+    for (const int t : track_of[k])
+      if (t >= 0) ++count[t];
+  std::vector<int> param_of(next_track, -1);
+  int tracks = 0;
+  for (int t = 0; t < next_track; ++t)
+    if (count[t] >= 2) param_of[t] = tracks++;
+  std::vector<Observation> obs;
+  std::vector<char> frame_used(n, 0);
+  for (std::size_t k = 0; k < n; ++k)
+    for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
+      const int t = track_of[k][i];
+      if (t < 0 || param_of[t] < 0) continue;
+      obs.push_back({static_cast<int>(k), param_of[t], frames[k].dots[i], weightOf(frames[k], i)});
+      frame_used[k] = 1;
+    }
+  const double t0 = frames.front().t_s;
+
+  // ---- joint fit: spin, body positions and (optionally) per-frame centre offsets
+  // Residuals are taken in the image plane (x, y of the unit sphere), where
+  // the dots' errors are isotropic; lifting only served the matching.
+  Vec3 w = w_start;
+  std::vector<Vec3> body(tracks, Vec3::Zero());
+  for (const Observation& o : obs)
+    body[o.track] += o.w * expRot(w * (frames[o.frame].t_s - t0)).transpose() * o.p;
+  for (Vec3& b : body) b.normalize();
+  std::vector<int> offset_of(n, -1);
+  int offsets = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    if (frame_used[k] && frames[k].centre_sigma > 0) offset_of[k] = offsets++;
+  std::vector<Eigen::Vector2d> shift(n, Eigen::Vector2d::Zero());
+  std::vector<char> use(obs.size(), 1);
+  const int nb = 3 + 2 * tracks;
+  const int np = nb + 2 * offsets;
+  Eigen::MatrixXd h(np, np);
+  Eigen::VectorXd g(np);
+  double s2 = 0;
+  int used = 0;
+  // Offsets are held at zero until the residuals have given the dots' noise
+  // scale, which sets the weight of their prior (the detector's centre sigma).
+  bool with_offsets = false;
+  for (int outer = 0; outer < 4; ++outer) {
+    const double prior_scale = with_offsets ? s2 : 0.0;
+    for (int it = 0; it < 20; ++it) {
+      h.setZero();
+      g.setZero();
+      std::vector<Eigen::Matrix<double, 3, 2>> basis(tracks);
+      for (int j = 0; j < tracks; ++j) {
+        const Vec3& b = body[j];
+        const Vec3 e1 =
+            (std::abs(b.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(b).normalized();
+        basis[j].col(0) = e1;
+        basis[j].col(1) = b.cross(e1);
+      }
+      for (std::size_t i = 0; i < obs.size(); ++i) {
+        if (!use[i]) continue;
+        const Observation& o = obs[i];
+        const double tau = frames[o.frame].t_s - t0;
+        const Eigen::Matrix3d e = expRot(w * tau);
+        const Vec3 m = e * body[o.track];
+        const int off = with_offsets ? offset_of[o.frame] : -1;
+        Eigen::Vector2d r = o.p.head<2>() - m.head<2>();
+        if (off >= 0) r -= shift[o.frame];
+        Eigen::Matrix<double, 2, 5> jac;
+        jac.leftCols<3>() = (-skew(m) * leftJacobian(w * tau) * tau).topRows<2>();
+        jac.rightCols<2>() = (e * basis[o.track]).topRows<2>();
+        const int pb = 3 + 2 * o.track;
+        const Eigen::Matrix<double, 5, 5> jtj = o.w * jac.transpose() * jac;
+        const Eigen::Matrix<double, 5, 1> jtr = o.w * jac.transpose() * r;
+        h.topLeftCorner<3, 3>() += jtj.topLeftCorner<3, 3>();
+        h.block<3, 2>(0, pb) += jtj.topRightCorner<3, 2>();
+        h.block<2, 3>(pb, 0) += jtj.bottomLeftCorner<2, 3>();
+        h.block<2, 2>(pb, pb) += jtj.bottomRightCorner<2, 2>();
+        g.head<3>() += jtr.head<3>();
+        g.segment<2>(pb) += jtr.tail<2>();
+        if (off >= 0) {
+          // d(model)/d(shift) = identity.
+          const int po = nb + 2 * off;
+          h.block<3, 2>(0, po) += o.w * jac.leftCols<3>().transpose();
+          h.block<2, 3>(po, 0) += o.w * jac.leftCols<3>();
+          h.block<2, 2>(pb, po) += o.w * jac.rightCols<2>().transpose();
+          h.block<2, 2>(po, pb) += o.w * jac.rightCols<2>();
+          h.block<2, 2>(po, po) += o.w * Eigen::Matrix2d::Identity();
+          g.segment<2>(po) += o.w * r;
+        }
+      }
+      if (with_offsets)
+        for (std::size_t k = 0; k < n; ++k) {
+          if (offset_of[k] < 0) continue;
+          const int po = nb + 2 * offset_of[k];
+          const double lambda = prior_scale / (frames[k].centre_sigma * frames[k].centre_sigma);
+          h.block<2, 2>(po, po) += lambda * Eigen::Matrix2d::Identity();
+          g.segment<2>(po) -= lambda * shift[k];
+        }
+      // A track whose observations were all dropped leaves its block empty;
+      // offsets are unused until enabled.
+      h.diagonal().tail(np - 3).array() += 1e-12;
+      if (!with_offsets) h.diagonal().tail(np - nb).array() += 1.0;
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(h);
+      const Eigen::VectorXd dx = ldlt.solve(g);
+      if (!dx.allFinite()) return fail("spin: the dot fit is degenerate (dots on one line?)");
+      w += dx.head<3>();
+      for (int j = 0; j < tracks; ++j)
+        body[j] = (body[j] + basis[j] * dx.segment<2>(3 + 2 * j)).normalized();
+      if (with_offsets)
+        for (std::size_t k = 0; k < n; ++k)
+          if (offset_of[k] >= 0) shift[k] += dx.segment<2>(nb + 2 * offset_of[k]);
+      if (dx.norm() < 1e-12 + 1e-10 * w.norm()) break;
+    }
+    // Residuals; drop observations beyond 4 robust sigmas and refit.
+    std::vector<double> rn(obs.size(), 0), absr;
+    double ss = 0, ss_unw = 0;
+    used = 0;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      const Observation& o = obs[i];
+      const Vec3 m = expRot(w * (frames[o.frame].t_s - t0)) * body[o.track];
+      Eigen::Vector2d r = o.p.head<2>() - m.head<2>();
+      if (with_offsets && offset_of[o.frame] >= 0) r -= shift[o.frame];
+      rn[i] = std::sqrt(o.w) * r.norm();
+      if (!use[i]) continue;
+      absr.push_back(rn[i]);
+      ss += rn[i] * rn[i];
+      ss_unw += r.squaredNorm();
+      ++used;
+    }
+    const int dof = 2 * used - nb;
+    if (dof < 1)
+      return fail("spin: " + std::to_string(used) + " dot positions in " + std::to_string(tracks) +
+                  " tracks are too few to fit a spin");
+    // The offsets' prior counts as data: its penalty joins the residuals.
+    double penalty = 0;
+    if (with_offsets)
+      for (std::size_t k = 0; k < n; ++k)
+        if (offset_of[k] >= 0)
+          penalty += prior_scale * shift[k].squaredNorm() /
+                     (frames[k].centre_sigma * frames[k].centre_sigma);
+    s2 = (ss + penalty) / dof;
+    out.rms = std::sqrt(ss_unw / used);
+    std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
+    // Norms of 2-D Gaussian residuals: median = 1.1774 sigma.
+    const double sigma = absr[absr.size() / 2] / 1.1774;
+    bool changed = false;
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      const char keep = rn[i] <= 4.0 * sigma;
+      changed |= keep != use[i];
+      use[i] = keep;
+    }
+    const bool enable = offsets > 0 && !with_offsets;
+    with_offsets = with_offsets || offsets > 0;
+    if (!changed && !enable && outer > 0) break;
+  }
+  const Eigen::MatrixXd cov = h.ldlt().solve(Eigen::MatrixXd::Identity(np, np)) * s2;
+  out.w = w;
+  out.cov = cov.topLeftCorner<3, 3>();
+  out.body.assign(next_track, Vec3::Zero());
+  out.has_body.assign(next_track, 0);
+  for (int t = 0; t < next_track; ++t)
+    if (param_of[t] >= 0) out.body[t] = body[param_of[t]], out.has_body[t] = 1;
+  out.tracks = tracks;
+  out.used = used;
+  out.rejected = static_cast<int>(obs.size()) - used;
+  out.frames = static_cast<int>(std::count(frame_used.begin(), frame_used.end(), 1));
+  return out;
+}
+
+}  // namespace
+
+Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
+  const std::size_t n = frames.size();
+  if (n < 2) return fail("spin: " + std::to_string(n) + " frames with dots; need at least 2");
+  for (std::size_t k = 1; k < n; ++k)
+    if (!(frames[k].t_s > frames[k - 1].t_s))
+      return fail("spin: frame times must increase (frame " + std::to_string(k) + ")");
+  const double cos_gate = std::cos(opt.match_gate_rad);
+  SpinFit out;
+  out.track_of.resize(n);
+  for (std::size_t k = 0; k < n; ++k) out.track_of[k].assign(frames[k].dots.size(), -1);
+
+  // ---- match consecutive frames, chain matches into tracks
+  int next_track = 0;
+  Vec3 sum_w = Vec3::Zero();
+  double sum_dt = 0;
+  const auto matchPairs = [&](int min_matches) {
+    bool have_pred = false;
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+      const SpinFrame &a = frames[k], &b = frames[k + 1];
+      const double dt = b.t_s - a.t_s;
+      if (static_cast<int>(std::min(a.dots.size(), b.dots.size())) < min_matches) continue;
+      Eigen::Matrix3d rot;
+      std::vector<Match> m;
+      bool ok = false;
+      if (have_pred) {
+        rot = expRot(sum_w / sum_dt * dt);
+        m = matchDots(a, b, rot, cos_gate);
+        const double need = 0.5 * static_cast<double>(std::min(a.dots.size(), b.dots.size()));
+        ok = static_cast<double>(m.size()) >= need &&
+             refinePair(a, b, m, rot, cos_gate, min_matches);
+      }
+      if (!ok && searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, min_matches, rot)) {
+        m = matchDots(a, b, rot, cos_gate);
+        ok = refinePair(a, b, m, rot, cos_gate, min_matches);
+      }
+      if (!ok) continue;
+      const Eigen::AngleAxisd aa(rot);
+      // Prediction for the next pair: the mean angular velocity so far.
+      sum_w += aa.axis() * aa.angle();
+      sum_dt += dt;
+      have_pred = true;
+      ++out.pairs;
+      for (const Match& mm : m) {
+        int& ta = out.track_of[k][mm.first];
+        if (ta < 0) ta = next_track++;
+        out.track_of[k + 1][mm.second] = ta;
+      }
+    }
+  };
+  matchPairs(opt.min_matches);
+  // Few dots in view: bootstrap from pairs of two (the smaller of the two
+  // possible rotations is taken; the fit's residuals catch a wrong one).
+  if (out.pairs == 0 && opt.min_matches > 2) matchPairs(2);
+  if (out.pairs == 0)
+    return fail("spin: no two consecutive frames share " + std::to_string(opt.min_matches) +
+                " matched dots; the dots cannot be followed (too few dots, or the sphere turns "
+                "too far between frames)");
+
+  // ---- first fit, then every dot re-assigned with it (tracks grow across
+  // frames the pairwise matching skipped), and the final fit
+  auto first = jointFit(frames, out.track_of, next_track, sum_w / sum_dt);
+  if (!first) return first.error();
+  const double t0 = frames.front().t_s;
+  const double cos_tight = std::cos(opt.regrow_gate_rad);
+  std::vector<std::vector<int>> grown(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    grown[k].assign(frames[k].dots.size(), -1);
+    const Eigen::Matrix3d o = expRot(first->w * (frames[k].t_s - t0));
+    // Mutual best between this frame's dots and the tracks' predicted places.
+    std::vector<int> best_track(frames[k].dots.size(), -1);
+    std::vector<double> best_c(frames[k].dots.size(), cos_tight);
+    std::vector<int> best_dot(next_track, -1);
+    std::vector<double> best_dc(next_track, cos_tight);
+    for (int t = 0; t < next_track; ++t) {
+      if (!first->has_body[t]) continue;
+      const Vec3 q = o * first->body[t];
+      for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
+        const double c = q.dot(frames[k].dots[i]);
+        if (c > best_c[i]) best_c[i] = c, best_track[i] = t;
+        if (c > best_dc[t]) best_dc[t] = c, best_dot[t] = static_cast<int>(i);
+      }
+    }
+    for (std::size_t i = 0; i < frames[k].dots.size(); ++i)
+      if (best_track[i] >= 0 && best_dot[best_track[i]] == static_cast<int>(i))
+        grown[k][i] = best_track[i];
+  }
+  // Dots on no track yet: new tracks from consecutive frames, predicted with the spin.
+  int grown_next = next_track;
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    SpinFrame a, b;
+    std::vector<int> ia, ib;
+    for (std::size_t i = 0; i < frames[k].dots.size(); ++i)
+      if (grown[k][i] < 0 || grown[k][i] >= next_track)
+        a.dots.push_back(frames[k].dots[i]), ia.push_back(static_cast<int>(i));
+    for (std::size_t i = 0; i < frames[k + 1].dots.size(); ++i)
+      if (grown[k + 1][i] < 0)
+        b.dots.push_back(frames[k + 1].dots[i]), ib.push_back(static_cast<int>(i));
+    if (a.dots.empty() || b.dots.empty()) continue;
+    const Eigen::Matrix3d rot = expRot(first->w * (frames[k + 1].t_s - frames[k].t_s));
+    for (const Match& mm : matchDots(a, b, rot, cos_tight)) {
+      int& ta = grown[k][ia[mm.first]];
+      if (ta < 0) ta = grown_next++;
+      grown[k + 1][ib[mm.second]] = ta;
+    }
+  }
+  auto fit = jointFit(frames, grown, grown_next, first->w);
+  if (!fit)
+    fit = std::move(first);  // the grown tracks did not fit: keep the first
+  else
+    out.track_of = std::move(grown);
+  const Vec3 w = fit->w;
+
+  out.spin_rad_s = w;
+  out.covariance = fit->cov;
+  out.sigma_rad_s = out.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  out.tracks = fit->tracks;
+  out.observations = fit->used;
+  out.rejected = fit->rejected;
+  out.frames = fit->frames;
+  out.residual_rms_rad = fit->rms;
+  return out;
+}
+
+}  // namespace collide::vision
