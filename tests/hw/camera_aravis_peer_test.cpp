@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "aravis_profile.hpp"
 #include "camera_conformance.hpp"
@@ -200,6 +201,27 @@ TEST_P(InProcessFake, FramesArriveBitExactAndInOrder) {
 INSTANTIATE_TEST_SUITE_P(Formats, InProcessFake,
                          ::testing::Values(PixelFormat::Mono8, PixelFormat::Mono16),
                          [](const auto& info) { return collide::vision::toString(info.param); });
+
+TEST(CameraAravisFake, LiveViewPublishesFramesWhetherArmedOrNot) {
+  CameraAravis cam("Fake_1", {});
+  ASSERT_TRUE(cam.open());
+  ASSERT_TRUE(cam.setFakeFill(&fillPattern));
+  ASSERT_TRUE(cam.configure(config160()));
+  ASSERT_TRUE(cam.start());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(cam.publishedFrames(), 0u);  // nobody watches: nothing published
+  cam.setLiveView(true);
+  const std::int64_t deadline = monotonicNowNs() + 5 * kSecond;
+  while (cam.publishedFrames() < 5 && monotonicNowNs() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(cam.publishedFrames(), 5u);
+  const auto latest = cam.latestFrame();
+  ASSERT_TRUE(latest);
+  ASSERT_TRUE(latest->good());
+  EXPECT_TRUE(identical(latest->image,
+                        patternFrame(patternId(latest->image), 160, 120, PixelFormat::Mono8)));
+  cam.setLiveView(false);
+}
 
 TEST(CameraAravisFake, RefusesMono12WhichTheFakeCannotDeliver) {
   CameraAravis cam("Fake_1", {});
