@@ -4,8 +4,12 @@
 // control and GVSP streaming over loopback. Started with a serial number of
 // its own, and ready once a camera opened at 127.0.0.1 reports that serial
 // (so a test never talks to another simulator left running on the machine).
+// The simulator listens on the fixed GigE Vision control port 3956, so only
+// one can run at a time on the machine: instances take turns through a lock
+// file (another test program, or another build's tests, may hold it).
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -33,6 +37,7 @@ class GigeFake {
       reason_ = std::string(kProgram) + " is not installed (Debian package aravis-tools)";
       return;
     }
+    if (!takeTurn()) return;
     serial_ = "CT" + std::to_string(::getpid() % 100000) + "-" + std::to_string(++instances());
     std::vector<std::string> args{kProgram, "-i", kAddress, "-s", serial_};
     args.insert(args.end(), extra.begin(), extra.end());
@@ -60,7 +65,10 @@ class GigeFake {
     waitUntilReady();
   }
 
-  ~GigeFake() { stop(SIGTERM); }
+  ~GigeFake() {
+    stop(SIGTERM);
+    if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the turn
+  }
   GigeFake(const GigeFake&) = delete;
   GigeFake& operator=(const GigeFake&) = delete;
 
@@ -72,6 +80,26 @@ class GigeFake {
   void kill() { stop(SIGKILL); }
 
  private:
+  // Waits (up to 5 minutes) for the machine-wide turn to run the simulator.
+  bool takeTurn() {
+    const char* path = "/tmp/collide-arv-fake-gv-camera.lock";
+    lock_fd_ = ::open(path, O_CREAT | O_RDWR | O_CLOEXEC, 0666);
+    if (lock_fd_ < 0) {
+      reason_ = std::string("cannot open the lock file ") + path;
+      return false;
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+    while (::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        reason_ = std::string("another program kept the GigE simulator's turn (") + path +
+                  ") for 5 minutes";
+        return false;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return true;
+  }
+
   static int& instances() {
     static int n = 0;
     return n;
@@ -141,6 +169,7 @@ class GigeFake {
   }
 
   pid_t pid_ = -1;
+  int lock_fd_ = -1;
   bool ready_ = false;
   std::string serial_;
   std::string reason_;
