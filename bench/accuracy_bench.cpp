@@ -3,6 +3,7 @@
 // `collide campaign` does), against the shots' ground truth (TruthRecord).
 //
 //   build/bench/accuracy_bench [--shots N] [--campaign N] [--thesis N] [--seed S]
+//                              [--verbose] [--save-bad DIR]
 //
 // Sections (issue 4 §3):
 //  1. 640 x 480 (config/sim.toml): per-shot errors of e, beta, spins, centres
@@ -25,6 +26,8 @@
 #include "analysis/walton.hpp"
 #include "app/campaign.hpp"
 #include "app/rig_setup.hpp"
+#include "app/save.hpp"
+#include "app/shot_file.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/shot_analysis.hpp"
 
@@ -33,6 +36,15 @@ using namespace collide;
 namespace {
 
 bool g_verbose = false;
+std::string g_save_bad;  // --save-bad DIR: shots with an error beyond 5 sigma are saved there
+
+void saveBad(const hw::Shot& shot, const std::string& why) {
+  if (g_save_bad.empty()) return;
+  if (Status st = app::saveShot(g_save_bad, shot); !st)
+    std::printf("  (could not save: %s)\n", st.error().message.c_str());
+  else
+    std::printf("  saved %s to %s: %s\n", shot.id.c_str(), g_save_bad.c_str(), why.c_str());
+}
 
 struct Stat {
   std::vector<double> v;
@@ -147,6 +159,7 @@ SectionResult runSection(const char* title, const hw::RigProfile& base, int shot
     if (!r || !truth) {
       std::printf("shot %2zu: analysis failed: %s\n", i,
                   r ? truth.error().message.c_str() : r.error().message.c_str());
+      if (!r) saveBad(shot, r.error().message);
       ++failed;
       continue;
     }
@@ -163,6 +176,11 @@ SectionResult runSection(const char* title, const hw::RigProfile& base, int shot
       pb.add(b_err / c.beta.sigma);
     }
     if (!r->quality_flags.empty()) ++flagged;
+    if (std::abs(e_err) > 5 * c.e.sigma + 1e-4 || std::abs(b_err) > 5 * c.beta.sigma + 1e-3) {
+      std::printf("shot %2zu: e error %+.5f (sigma %.5f), beta error %+.4f (sigma %.4f)\n", i,
+                  e_err, c.e.sigma, b_err, c.beta.sigma);
+      saveBad(shot, "error beyond 5 sigma");
+    }
     // Collision instant on the truth's clock (seconds after frame 0's mid-exposure).
     const hw::TruthRecord& t = *shot.truth;
     std::size_t first = 0;
@@ -279,7 +297,56 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--campaign")) campaign = std::atoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--thesis")) thesis = std::atoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--seed")) seed = std::strtoull(argv[i + 1], nullptr, 10);
+    if (!std::strcmp(argv[i], "--save-bad")) g_save_bad = argv[i + 1];
   }
+  for (int i = 1; i + 1 < argc; ++i)
+    if (!std::strcmp(argv[i], "--reanalyse")) {
+      // One saved shot again, with the per-sphere errors.
+      auto shot = app::readShot(argv[i + 1]);
+      if (!shot || !shot->truth) {
+        std::fprintf(stderr, "%s\n", shot ? "no truth in the shot" : shot.error().message.c_str());
+        return 1;
+      }
+      auto r = vision::analyzeBurst(shot->burst, settingsFor(*shot));
+      std::array<Sphere, 2> tb, ta;
+      if (!r || !truthAtContact(*shot, tb, ta)) {
+        std::fprintf(stderr, "%s\n", r ? "no collision in the truth" : r.error().message.c_str());
+        return 1;
+      }
+      auto truth = measureCollision(tb, ta);
+      const vision::CollisionProperties& c = r->collision;
+      std::printf(
+          "e %.5f (truth %.5f, sigma %.5f) beta %.4f (truth %.4f, sigma %.4f) vn %.3f vs %.3f\n",
+          c.e.value, truth->e, c.e.sigma, c.beta.value, truth->beta, c.beta.sigma, c.vn_m_s.value,
+          c.vs_m_s.value);
+      for (const std::string& f : r->quality_flags) std::printf("flag %s\n", f.c_str());
+      if (g_verbose)
+        for (const vision::FrameDetections& fd : r->frames) {
+          std::printf("frame %3lld:", static_cast<long long>(fd.frame_id));
+          for (int s = 0; s < 2; ++s)
+            if (fd.sphere[s])
+              std::printf("  s%d (%.2f, %.2f) r %.2f %s%s dots %zu", s + 1, fd.sphere[s]->u_px,
+                          fd.sphere[s]->v_px, fd.sphere[s]->radius_px,
+                          fd.sphere[s]->cut_by_border ? "C" : "", fd.sphere[s]->touching ? "T" : "",
+                          fd.dots[s].size());
+          std::printf("\n");
+        }
+      for (int s = 0; s < 2; ++s) {
+        const vision::SphereKinematics& k = r->sphere[s];
+        const auto row = [](const char* what, const Estimate3& e, const Vec3& t) {
+          std::printf(
+              "  %-9s (%+.4f %+.4f %+.4f) truth (%+.4f %+.4f %+.4f) sigma (%.4f %.4f %.4f)\n", what,
+              e.value.x(), e.value.y(), e.value.z(), t.x(), t.y(), t.z(), e.sigma.x(), e.sigma.y(),
+              e.sigma.z());
+        };
+        std::printf("sphere %d: frames %d/%d\n", s + 1, k.frames_before, k.frames_after);
+        row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
+        row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
+        row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
+        row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
+      }
+      return 0;
+    }
   const std::string root = COLLIDE_SOURCE_DIR;
   auto sim = hw::loadRigProfile(root + "/config/sim.toml");
   auto sim_thesis = hw::loadRigProfile(root + "/config/sim-thesis.toml");

@@ -36,6 +36,9 @@ double systematicCentrePx(double radius_px) {
 // The spin fits' scatter-based uncertainties fall short by about this factor
 // for the same reason (slowly changing dot-centroid errors).
 constexpr double kSpinSigmaScale = 1.25;
+// Standard deviation given to each component of a spin that could not be
+// measured (no dot followed), rad/s.
+constexpr double kUnknownSpinSigma = 50.0;
 
 std::string fmt(const char* spec, double v) {
   char buf[64];
@@ -674,7 +677,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         // Lift with the track's radius: steadier than one frame's.
         m.circle.radius = r_med[s];
         dots[k][s] = findDots(burst.frames[data[k].index].image, m, max_value);
-        if (dots[k][s].dots.size() < 2) continue;
+        if (dots[k][s].dots.empty()) continue;
         SpinFrame f;
         f.t_s = data[k].t;
         for (const Dot& d : dots[k][s].dots) {
@@ -689,8 +692,11 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         in.spin[s][side] = spin->spin_rad_s;
         in.spin_cov[s][side] = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
       } else {
+        // Unknown spin: zero, with a spread wide enough for any spin these
+        // launches give, so beta and f carry the ignorance in their sigmas.
         in.spin[s][side] = Vec3::Zero();
-        in.spin_cov[s][side] = Eigen::Matrix3d::Zero();
+        in.spin_cov[s][side] =
+            Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
         addFlag(out, side == 0 ? "no_spin_before" : "no_spin_after");
       }
       SphereKinematics& kin = out.sphere[s];
