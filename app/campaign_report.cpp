@@ -71,12 +71,12 @@ std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries)
   return out;
 }
 
-Result<CampaignReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries, int resamples,
+Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries, int resamples,
                                          std::uint64_t seed) {
   const auto shots = usableShots(entries);
   auto fit = fitCampaign(shots);
   if (!fit) return fit.error();
-  CampaignReport report{*fit, std::nullopt, ""};
+  CampaignFitReport report{*fit, std::nullopt, ""};
   if (resamples > 0) {
     // Head-on shots have no beta: the friction bootstrap takes the others.
     std::vector<CampaignShot> oblique;
@@ -115,7 +115,7 @@ double maxOr(const std::vector<double>& v, double fallback) {
 }  // namespace
 
 std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
-                                     const CampaignReport* report) {
+                                     const CampaignFitReport* report) {
   Series beta{"shots", Series::Style::Points, {}, {}, {}, 0};
   Series tangent = beta, f = beta, e_tan = beta, e_vn = beta;
   for (const auto& entry : entries) {
@@ -235,7 +235,7 @@ json fitted(const FittedValue& v) {
 }  // namespace
 
 std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
-                               const CampaignReport& report) {
+                               const CampaignFitReport& report) {
   const auto& fr = report.fit.friction;
   const auto& em = report.fit.restitution;
   json j;

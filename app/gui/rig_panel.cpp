@@ -169,6 +169,8 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
 }
 
 void RigPanel::setProfile(ProfilePtr profile) {
+  const bool had_profile = profile_ != nullptr;
+  const std::array<double, 2> previous = wantedSpeeds();
   profile_ = std::move(profile);
   if (!profile_) return;
   const hw::RigProfile& p = *profile_;
@@ -187,8 +189,11 @@ void RigPanel::setProfile(ProfilePtr profile) {
     if (curve) speed_[i]->setRange(curve->speed_m_s(p_lo), curve->speed_m_s(p_hi));
   }
   linking_ = false;
+  // Keep the speeds asked for so far (a reload after new burst settings must
+  // not change them); 2 m/s on the first profile.
   for (int i = 0; i < 2; ++i)
-    setWantedSpeed(i, std::clamp(2.0, speed_[i]->minimum(), speed_[i]->maximum()));
+    setWantedSpeed(
+        i, std::clamp(had_profile ? previous[i] : 2.0, speed_[i]->minimum(), speed_[i]->maximum()));
 
   curve_->clear();
   if (curve) {
