@@ -49,7 +49,7 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
   for (const Row& row : kRows) {
     auto* name = new QLabel(QString::fromUtf8(row.name));
     name->setTextFormat(Qt::RichText);
-    auto* value = new QLabel("-");
+    auto* value = new QLabel(QString::fromUtf8("-0.000000 ± 0.000000"));  // sizes the column
     value->setObjectName(QString("result_") + row.key);
     value->setTextInteractionFlags(Qt::TextSelectableByMouse);
     QFont f = value->font();
@@ -70,6 +70,7 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
   message_->setWordWrap(true);
   grid->addWidget(message_, r++, 0, 1, 3);
   grid->setRowStretch(r, 1);
+  setMinimumWidth(sizeHint().width());
   setMessage({}, tr("no shot yet"));
 }
 
