@@ -3,8 +3,8 @@
 // backends plug in underneath). While running it streams frames into a
 // pre-trigger ring (BurstRecorder); a shot arms the ring, triggers it, and
 // takes the burst of pre- and post-trigger frames with its stream statistics.
-// Backends: CameraSim ("sim"), CameraReplay ("replay"); later CameraAravis,
-// CameraV4l2.
+// Backends: CameraSim ("sim"), CameraReplay ("replay"), CameraV4l2 ("v4l2");
+// later CameraAravis.
 //
 // Threads: lifecycle calls, arm/trigger/waitBurst/takeBurst from the rig's
 // control thread, one at a time; state() from any thread. Each backend owns

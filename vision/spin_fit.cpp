@@ -144,65 +144,26 @@ struct Observation {
   double w;
 };
 
-}  // namespace
+// The joint fit of one side's tracks (see the header). `body` is indexed by
+// track id and filled for tracks seen at least twice.
+struct JointFit {
+  Vec3 w = Vec3::Zero();
+  std::vector<Vec3> body;
+  std::vector<char> has_body;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  int tracks = 0, used = 0, rejected = 0, frames = 0;
+  double rms = 0;
+};
 
-Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
+Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
+                          const std::vector<std::vector<int>>& track_of, int next_track,
+                          const Vec3& w_start) {
   const std::size_t n = frames.size();
-  if (n < 2) return fail("spin: " + std::to_string(n) + " frames with dots; need at least 2");
-  for (std::size_t k = 1; k < n; ++k)
-    if (!(frames[k].t_s > frames[k - 1].t_s))
-      return fail("spin: frame times must increase (frame " + std::to_string(k) + ")");
-  const double cos_gate = std::cos(opt.match_gate_rad);
-  SpinFit out;
-  out.track_of.resize(n);
-  for (std::size_t k = 0; k < n; ++k) out.track_of[k].assign(frames[k].dots.size(), -1);
-
-  // ---- match consecutive frames, chain matches into tracks
-  int next_track = 0;
-  Vec3 sum_w = Vec3::Zero();
-  double sum_dt = 0;
-  bool have_pred = false;
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    const SpinFrame &a = frames[k], &b = frames[k + 1];
-    const double dt = b.t_s - a.t_s;
-    if (static_cast<int>(std::min(a.dots.size(), b.dots.size())) < opt.min_matches) continue;
-    Eigen::Matrix3d rot;
-    std::vector<Match> m;
-    bool ok = false;
-    if (have_pred) {
-      rot = expRot(sum_w / sum_dt * dt);
-      m = matchDots(a, b, rot, cos_gate);
-      const double need = 0.5 * static_cast<double>(std::min(a.dots.size(), b.dots.size()));
-      ok = static_cast<double>(m.size()) >= need &&
-           refinePair(a, b, m, rot, cos_gate, opt.min_matches);
-    }
-    if (!ok &&
-        searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, opt.min_matches, rot)) {
-      m = matchDots(a, b, rot, cos_gate);
-      ok = refinePair(a, b, m, rot, cos_gate, opt.min_matches);
-    }
-    if (!ok) continue;
-    const Eigen::AngleAxisd aa(rot);
-    // Prediction for the next pair: the mean angular velocity so far.
-    sum_w += aa.axis() * aa.angle();
-    sum_dt += dt;
-    have_pred = true;
-    ++out.pairs;
-    for (const Match& mm : m) {
-      int& ta = out.track_of[k][mm.first];
-      if (ta < 0) ta = next_track++;
-      out.track_of[k + 1][mm.second] = ta;
-    }
-  }
-  if (out.pairs == 0)
-    return fail("spin: no two consecutive frames share " + std::to_string(opt.min_matches) +
-                " matched dots; the dots cannot be followed (too few dots, or the sphere turns "
-                "too far between frames)");
-
+  JointFit out;
   // ---- observations of tracks seen at least twice
   std::vector<int> count(next_track, 0);
   for (std::size_t k = 0; k < n; ++k)
-    for (const int t : out.track_of[k])
+    for (const int t : track_of[k])
       if (t >= 0) ++count[t];
   std::vector<int> param_of(next_track, -1);
   int tracks = 0;
@@ -212,7 +173,7 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
   std::vector<char> frame_used(n, 0);
   for (std::size_t k = 0; k < n; ++k)
     for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
-      const int t = out.track_of[k][i];
+      const int t = track_of[k][i];
       if (t < 0 || param_of[t] < 0) continue;
       obs.push_back({static_cast<int>(k), param_of[t], frames[k].dots[i], weightOf(frames[k], i)});
       frame_used[k] = 1;
@@ -222,7 +183,7 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
   // ---- joint fit: spin, body positions and (optionally) per-frame centre offsets
   // Residuals are taken in the image plane (x, y of the unit sphere), where
   // the dots' errors are isotropic; lifting only served the matching.
-  Vec3 w = sum_w / sum_dt;
+  Vec3 w = w_start;
   std::vector<Vec3> body(tracks, Vec3::Zero());
   for (const Observation& o : obs)
     body[o.track] += o.w * expRot(w * (frames[o.frame].t_s - t0)).transpose() * o.p;
@@ -338,7 +299,7 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
           penalty += prior_scale * shift[k].squaredNorm() /
                      (frames[k].centre_sigma * frames[k].centre_sigma);
     s2 = (ss + penalty) / dof;
-    out.residual_rms_rad = std::sqrt(ss_unw / used);
+    out.rms = std::sqrt(ss_unw / used);
     std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
     // Norms of 2-D Gaussian residuals: median = 1.1774 sigma.
     const double sigma = absr[absr.size() / 2] / 1.1774;
@@ -353,13 +314,141 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
     if (!changed && !enable && outer > 0) break;
   }
   const Eigen::MatrixXd cov = h.ldlt().solve(Eigen::MatrixXd::Identity(np, np)) * s2;
-  out.spin_rad_s = w;
-  out.covariance = cov.topLeftCorner<3, 3>();
-  out.sigma_rad_s = out.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  out.w = w;
+  out.cov = cov.topLeftCorner<3, 3>();
+  out.body.assign(next_track, Vec3::Zero());
+  out.has_body.assign(next_track, 0);
+  for (int t = 0; t < next_track; ++t)
+    if (param_of[t] >= 0) out.body[t] = body[param_of[t]], out.has_body[t] = 1;
   out.tracks = tracks;
-  out.observations = used;
+  out.used = used;
   out.rejected = static_cast<int>(obs.size()) - used;
   out.frames = static_cast<int>(std::count(frame_used.begin(), frame_used.end(), 1));
+  return out;
+}
+
+}  // namespace
+
+Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
+  const std::size_t n = frames.size();
+  if (n < 2) return fail("spin: " + std::to_string(n) + " frames with dots; need at least 2");
+  for (std::size_t k = 1; k < n; ++k)
+    if (!(frames[k].t_s > frames[k - 1].t_s))
+      return fail("spin: frame times must increase (frame " + std::to_string(k) + ")");
+  const double cos_gate = std::cos(opt.match_gate_rad);
+  SpinFit out;
+  out.track_of.resize(n);
+  for (std::size_t k = 0; k < n; ++k) out.track_of[k].assign(frames[k].dots.size(), -1);
+
+  // ---- match consecutive frames, chain matches into tracks
+  int next_track = 0;
+  Vec3 sum_w = Vec3::Zero();
+  double sum_dt = 0;
+  const auto matchPairs = [&](int min_matches) {
+    bool have_pred = false;
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+      const SpinFrame &a = frames[k], &b = frames[k + 1];
+      const double dt = b.t_s - a.t_s;
+      if (static_cast<int>(std::min(a.dots.size(), b.dots.size())) < min_matches) continue;
+      Eigen::Matrix3d rot;
+      std::vector<Match> m;
+      bool ok = false;
+      if (have_pred) {
+        rot = expRot(sum_w / sum_dt * dt);
+        m = matchDots(a, b, rot, cos_gate);
+        const double need = 0.5 * static_cast<double>(std::min(a.dots.size(), b.dots.size()));
+        ok = static_cast<double>(m.size()) >= need &&
+             refinePair(a, b, m, rot, cos_gate, min_matches);
+      }
+      if (!ok && searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, min_matches, rot)) {
+        m = matchDots(a, b, rot, cos_gate);
+        ok = refinePair(a, b, m, rot, cos_gate, min_matches);
+      }
+      if (!ok) continue;
+      const Eigen::AngleAxisd aa(rot);
+      // Prediction for the next pair: the mean angular velocity so far.
+      sum_w += aa.axis() * aa.angle();
+      sum_dt += dt;
+      have_pred = true;
+      ++out.pairs;
+      for (const Match& mm : m) {
+        int& ta = out.track_of[k][mm.first];
+        if (ta < 0) ta = next_track++;
+        out.track_of[k + 1][mm.second] = ta;
+      }
+    }
+  };
+  matchPairs(opt.min_matches);
+  // Few dots in view: bootstrap from pairs of two (the smaller of the two
+  // possible rotations is taken; the fit's residuals catch a wrong one).
+  if (out.pairs == 0 && opt.min_matches > 2) matchPairs(2);
+  if (out.pairs == 0)
+    return fail("spin: no two consecutive frames share " + std::to_string(opt.min_matches) +
+                " matched dots; the dots cannot be followed (too few dots, or the sphere turns "
+                "too far between frames)");
+
+  // ---- first fit, then every dot re-assigned with it (tracks grow across
+  // frames the pairwise matching skipped), and the final fit
+  auto first = jointFit(frames, out.track_of, next_track, sum_w / sum_dt);
+  if (!first) return first.error();
+  const double t0 = frames.front().t_s;
+  const double cos_tight = std::cos(opt.regrow_gate_rad);
+  std::vector<std::vector<int>> grown(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    grown[k].assign(frames[k].dots.size(), -1);
+    const Eigen::Matrix3d o = expRot(first->w * (frames[k].t_s - t0));
+    // Mutual best between this frame's dots and the tracks' predicted places.
+    std::vector<int> best_track(frames[k].dots.size(), -1);
+    std::vector<double> best_c(frames[k].dots.size(), cos_tight);
+    std::vector<int> best_dot(next_track, -1);
+    std::vector<double> best_dc(next_track, cos_tight);
+    for (int t = 0; t < next_track; ++t) {
+      if (!first->has_body[t]) continue;
+      const Vec3 q = o * first->body[t];
+      for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
+        const double c = q.dot(frames[k].dots[i]);
+        if (c > best_c[i]) best_c[i] = c, best_track[i] = t;
+        if (c > best_dc[t]) best_dc[t] = c, best_dot[t] = static_cast<int>(i);
+      }
+    }
+    for (std::size_t i = 0; i < frames[k].dots.size(); ++i)
+      if (best_track[i] >= 0 && best_dot[best_track[i]] == static_cast<int>(i))
+        grown[k][i] = best_track[i];
+  }
+  // Dots on no track yet: new tracks from consecutive frames, predicted with the spin.
+  int grown_next = next_track;
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    SpinFrame a, b;
+    std::vector<int> ia, ib;
+    for (std::size_t i = 0; i < frames[k].dots.size(); ++i)
+      if (grown[k][i] < 0 || grown[k][i] >= next_track)
+        a.dots.push_back(frames[k].dots[i]), ia.push_back(static_cast<int>(i));
+    for (std::size_t i = 0; i < frames[k + 1].dots.size(); ++i)
+      if (grown[k + 1][i] < 0)
+        b.dots.push_back(frames[k + 1].dots[i]), ib.push_back(static_cast<int>(i));
+    if (a.dots.empty() || b.dots.empty()) continue;
+    const Eigen::Matrix3d rot = expRot(first->w * (frames[k + 1].t_s - frames[k].t_s));
+    for (const Match& mm : matchDots(a, b, rot, cos_tight)) {
+      int& ta = grown[k][ia[mm.first]];
+      if (ta < 0) ta = grown_next++;
+      grown[k + 1][ib[mm.second]] = ta;
+    }
+  }
+  auto fit = jointFit(frames, grown, grown_next, first->w);
+  if (!fit)
+    fit = std::move(first);  // the grown tracks did not fit: keep the first
+  else
+    out.track_of = std::move(grown);
+  const Vec3 w = fit->w;
+
+  out.spin_rad_s = w;
+  out.covariance = fit->cov;
+  out.sigma_rad_s = out.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  out.tracks = fit->tracks;
+  out.observations = fit->used;
+  out.rejected = fit->rejected;
+  out.frames = fit->frames;
+  out.residual_rms_rad = fit->rms;
   return out;
 }
 

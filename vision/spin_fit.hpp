@@ -50,8 +50,12 @@ struct SpinOptions {
   double max_rotation_per_frame_rad = 0.6;
   /// A predicted dot must land within this angle of its match (rad).
   double match_gate_rad = 0.08;
-  /// Minimum matched dots for a frame pair to count.
+  /// Minimum matched dots for a frame pair to count (2 is tried when no pair
+  /// reaches it).
   int min_matches = 3;
+  /// After a first fit, every dot within this angle of a track's fitted place
+  /// joins it (rad), so frames with one or two dots count too.
+  double regrow_gate_rad = 0.04;
 };
 
 struct SpinFit {
