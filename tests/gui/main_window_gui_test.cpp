@@ -260,7 +260,7 @@ TEST(MainWindowGui, RunASmallCampaign) {
   ASSERT_TRUE(waitUntilRigRunning(w));
   CampaignView* view = w.campaignView();
   w.tabs()->setCurrentWidget(view);
-  const int shots = 6;
+  const int shots = 10;  // enough for both regimes of the friction fit at 10..80 degrees
   child<QSpinBox>(view, "campaign_shots")->setValue(shots);
   QSignalSpy finished(w.rigWorker(), &RigWorker::campaignFinished);
   QSignalSpy stored(&w, &MainWindow::resultsStored);
@@ -304,6 +304,13 @@ TEST(MainWindowGui, RunASmallCampaign) {
   EXPECT_GE(2 * usable, ok) << "most shots should be usable: " << view->summary().toStdString();
   EXPECT_EQ(view->pointCount("e_vs_vn"), usable) << view->summary().toStdString();
   EXPECT_GT(view->pointCount("beta_vs_cot"), 0);
+  // With shots on both sides of the switch the fitted Walton line is drawn.
+  const auto& beta_plot = view->charts().front().plot;
+  EXPECT_EQ(view->charts().front().name, "beta_vs_cot");
+  bool has_line = false;
+  for (const auto& series : beta_plot.series)
+    has_line = has_line || series.style == app::Series::Style::Line;
+  EXPECT_TRUE(has_line) << view->summary().toStdString();
   // The CSV holds the plotted points.
   std::ifstream csv(out + "/e_vs_vn.csv");
   int lines = 0;
