@@ -131,6 +131,8 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   play_ = button(tr("Play"), "play");
   auto* next = button(">", "next_frame");
   auto* last = button(">|", "last_frame");
+  for (auto* b : {first, prev, next, last}) b->setMaximumWidth(44);
+  play_->setMaximumWidth(70);
   frame_label_ = new QLabel;
   frame_label_->setObjectName("frame_label");
   row->addWidget(frame_label_, 1);
@@ -144,7 +146,7 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   splitter->addWidget(left);
 
   card_ = new ResultCard;
-  card_->setMinimumWidth(card_->sizeHint().width());
+  splitter->setChildrenCollapsible(false);
   splitter->addWidget(card_);
   splitter->setStretchFactor(0, 3);
   splitter->setStretchFactor(1, 1);

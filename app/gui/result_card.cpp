@@ -1,6 +1,7 @@
 #include "app/gui/result_card.hpp"
 
 #include <QGridLayout>
+#include <QFontMetrics>
 #include <QLabel>
 #include <cmath>
 
@@ -49,12 +50,15 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
   for (const Row& row : kRows) {
     auto* name = new QLabel(QString::fromUtf8(row.name));
     name->setTextFormat(Qt::RichText);
-    auto* value = new QLabel(QString::fromUtf8("-0.000000 ± 0.000000"));  // sizes the column
+    auto* value = new QLabel("-");
     value->setObjectName(QString("result_") + row.key);
     value->setTextInteractionFlags(Qt::TextSelectableByMouse);
     QFont f = value->font();
     f.setFamily("monospace");
     value->setFont(f);
+    // Room for "value ± uncertainty" at the precision withSigma() uses.
+    value->setMinimumWidth(
+        QFontMetrics(f).horizontalAdvance(QString::fromUtf8("-0.0000000 ± 0.0000000")));
     grid->addWidget(name, r, 0);
     grid->addWidget(value, r, 1);
     grid->addWidget(new QLabel(row.unit), r, 2);
@@ -70,7 +74,6 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
   message_->setWordWrap(true);
   grid->addWidget(message_, r++, 0, 1, 3);
   grid->setRowStretch(r, 1);
-  setMinimumWidth(sizeHint().width());
   setMessage({}, tr("no shot yet"));
 }
 
