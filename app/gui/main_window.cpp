@@ -84,7 +84,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   auto* scroll = new QScrollArea;
   scroll->setWidget(rig_panel_);
   scroll->setWidgetResizable(true);
-  scroll->setMinimumWidth(rig_panel_->sizeHint().width() + 24);  // no sideways scrolling
+  // The panel fits its dock's width (no sideways scrolling); it scrolls down only.
+  scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  scroll->setMinimumWidth(500);
   auto* dock = new QDockWidget(tr("Rig"));
   dock->setObjectName("rig_dock");
   dock->setWidget(scroll);
