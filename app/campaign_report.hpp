@@ -35,14 +35,14 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir,
 /// The shots the fits use, in entry order.
 std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries);
 
-struct CampaignReport {
+struct CampaignFitReport {
   CampaignFit fit;
   std::optional<FrictionBootstrap> bootstrap;  ///< cross-check of the sigmas
   std::string bootstrap_error;                 ///< why there is none
 };
 /// Fits the usable shots (analysis/campaign.hpp fitCampaign) and bootstraps
 /// the friction fit (`resamples` >= 10, or 0 for none).
-Result<CampaignReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
+Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
                                          int resamples = 200, std::uint64_t seed = 1);
 
 /// The five plots, named for their files: beta_vs_cot (beta against -v_n/v_s
@@ -54,10 +54,10 @@ struct NamedPlot {
   PlotSpec plot;
 };
 std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
-                                     const CampaignReport* report);
+                                     const CampaignFitReport* report);
 
 /// The fit report: material, laws, bootstrap, and the shots used/left out.
 std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
-                               const CampaignReport& report);
+                               const CampaignFitReport& report);
 
 }  // namespace collide::app

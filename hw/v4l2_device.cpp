@@ -67,8 +67,11 @@ Error V4l2Device::errnoError(const std::string& what, int err) const {
                 path_ + "` shows which), or another camera in this profile uses it");
   if (err == ENODEV || err == ENXIO)
     return fail(path_ + ": the device went away (" + what +
-                "): check its cable and `v4l2-ctl "
-                "--list-devices`");
+                "): check its cable and `v4l2-ctl --list-devices`");
+  if (err == EIO)
+    return fail(path_ + ": the driver stopped the stream with a fatal error (" + what +
+                "); the device went away or failed: check its cable and the kernel log "
+                "(dmesg)");
   return fail(path_ + ": " + what + " failed: " + std::strerror(err));
 }
 
@@ -266,7 +269,8 @@ std::optional<V4l2Control> V4l2Device::control(const std::string& key) const {
 
 Status V4l2Device::setControl(const V4l2Control& c, std::int64_t value) {
   if (c.read_only) return fail(name() + ": control " + c.key + " is read-only");
-  if (value < c.minimum || value > c.maximum)
+  // A button acts when written; its value means nothing (its range is 0..0).
+  if (c.type != V4L2_CTRL_TYPE_BUTTON && (value < c.minimum || value > c.maximum))
     return fail(name() + ": control " + c.key + " = " + std::to_string(value) + " is outside " +
                 std::to_string(c.minimum) + ".." + std::to_string(c.maximum));
   v4l2_ext_control e{};

@@ -2,7 +2,7 @@
 // Role: the solenoid valves that fire the launchers (one GPIO line each).
 // A shot fires a pattern: per valve an opening instant and a pulse width, on
 // CLOCK_MONOTONIC; the bank reports when each valve actually opened and closed.
-// Backends: ValveBankSim ("sim"); later ValveBankGpiod.
+// Backends: ValveBankSim ("sim"), ValveBankGpiod ("gpiod", GPIO lines).
 //
 // Threads: every call from the rig's control thread, one at a time; state()
 // from any thread.

@@ -1,5 +1,8 @@
 #include "hw/valve_bank_gpiod.hpp"
 
+#include <pthread.h>
+#include <sched.h>
+#include <sys/prctl.h>
 #include <time.h>
 
 #include <algorithm>
@@ -25,6 +28,29 @@ void sleepUntilMonotonic(std::int64_t t_ns) {
                     static_cast<long>(t_ns % 1'000'000'000)};
   clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
 }
+
+// Runs the calling thread at SCHED_FIFO `priority` for its lifetime (0: no change).
+class RealtimeScope {
+ public:
+  explicit RealtimeScope(int priority) {
+    if (priority <= 0) return;
+    pthread_getschedparam(pthread_self(), &policy_, &param_);
+    sched_param p{};
+    p.sched_priority = priority;
+    error_ = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+    active_ = error_ == 0;
+  }
+  ~RealtimeScope() {
+    if (active_) pthread_setschedparam(pthread_self(), policy_, &param_);
+  }
+  int error() const { return error_; }
+
+ private:
+  int policy_ = SCHED_OTHER;
+  sched_param param_{};
+  int error_ = 0;
+  bool active_ = false;
+};
 
 std::string signalName(int sig) {
   const char* abbrev = sigabbrev_np(sig);
@@ -73,6 +99,8 @@ Result<ValveGpiodSettings> ValveGpiodSettings::read(SettingsReader& r, const std
     return r.invalid("consumer", "must be 1 to 31 characters (the kernel's limit)");
   COLLIDE_ASSIGN_OR_RETURN(s.watchdog_grace_us,
                            r.integer("watchdog_grace_us", 2000, {.ge = 0, .le = 1'000'000}));
+  COLLIDE_ASSIGN_OR_RETURN(s.realtime_priority,
+                           r.integer("realtime_priority", 0, {.ge = 0, .le = 98}));
   COLLIDE_RETURN_IF_ERROR(r.finish("the gpiod valve backend"));
   return s;
 }
@@ -128,12 +156,29 @@ Status ValveBankGpiod::onConfigure(const ValveConfig& config) {
 }
 
 Status ValveBankGpiod::onStart() {
+  if (rt_priority_ > 0) {
+    // Find out now, not at the first shot, whether real-time priority is allowed.
+    RealtimeScope probe(rt_priority_);
+    if (probe.error())
+      return fail("cannot fire at real-time priority " + std::to_string(rt_priority_) + " (" +
+                  std::strerror(probe.error()) +
+                  "): allow it (CAP_SYS_NICE, or a line `@collide - rtprio " +
+                  std::to_string(rt_priority_ + 1) +
+                  "` in /etc/security/limits.d/, then log in again) or set "
+                  "valves.realtime_priority = 0");
+  }
   clearValveSafetySignal();
   {
     std::lock_guard lock(wd_mutex_);
     wd_stop_ = false;
   }
   watchdog_ = std::thread(&ValveBankGpiod::watchdogLoop, this);
+  if (rt_priority_ > 0) {
+    // The watchdog must be able to preempt a firing loop that runs away.
+    sched_param p{};
+    p.sched_priority = rt_priority_ + 1;
+    pthread_setschedparam(watchdog_.native_handle(), SCHED_FIFO, &p);
+  }
   return Ok{};
 }
 
@@ -226,6 +271,16 @@ Result<std::vector<ValveEvent>> ValveBankGpiod::onFire(const std::vector<ValvePu
     std::lock_guard lock(wd_mutex_);
     tripped_at_.clear();
   }
+  // Sleep to each edge without the kernel's default 50 us timer slack (it
+  // may otherwise wake this thread that much late, on purpose); restored after.
+  struct SlackGuard {
+    int previous = prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0);
+    SlackGuard() { prctl(PR_SET_TIMERSLACK, 1, 0, 0, 0); }
+    ~SlackGuard() {
+      if (previous > 0) prctl(PR_SET_TIMERSLACK, previous, 0, 0, 0);
+    }
+  } slack;
+  const RealtimeScope realtime(rt_priority_);
   struct Slot {
     ValvePulse pulse;
     std::optional<std::int64_t> opened, close_at, closed;
@@ -321,8 +376,10 @@ Result<std::unique_ptr<ValveBank>> makeGpiod(BackendContext& ctx) {
                              GpiodLines::open(s.lines, s.active_low, s.consumer));
     return std::unique_ptr<ValveLines>(std::move(lines));
   };
-  return std::unique_ptr<ValveBank>(std::make_unique<ValveBankGpiod>(
-      ctx.device.device, static_cast<int>(s.lines.size()), opener, s.watchdog_grace_us));
+  auto bank = std::make_unique<ValveBankGpiod>(ctx.device.device, static_cast<int>(s.lines.size()),
+                                               opener, s.watchdog_grace_us);
+  bank->setRealtimePriority(s.realtime_priority);
+  return std::unique_ptr<ValveBank>(std::move(bank));
 }
 
 const bool registered = BackendRegistry<ValveBank>::instance().add("gpiod", &makeGpiod);

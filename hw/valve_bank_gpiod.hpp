@@ -30,6 +30,9 @@
 //   active_low = false         true: a valve is open while its line is low
 //   consumer = "collide"       the name `gpioinfo` shows for the held lines
 //   watchdog_grace_us = 2000   how far past the longest pulse the watchdog steps in
+//   realtime_priority = 0      1..99: fire (and watch) at SCHED_FIFO priority, so
+//                              other programs cannot delay the edges; needs
+//                              CAP_SYS_NICE or an rtprio limit (limits.d); 0: off
 #include <condition_variable>
 #include <functional>
 #include <memory>
@@ -51,9 +54,10 @@ struct ValveGpiodSettings {
   bool active_low = false;
   std::string consumer = "collide";
   std::int64_t watchdog_grace_us = 2000;
+  int realtime_priority = 0;
 
   /// From the [valves] table (device, lines, active_low, consumer,
-  /// watchdog_grace_us); refuses unknown keys. `chip` is valves.device.
+  /// watchdog_grace_us, realtime_priority); refuses unknown keys. `chip` is valves.device.
   static Result<ValveGpiodSettings> read(SettingsReader& r, const std::string& chip);
 };
 
@@ -72,6 +76,10 @@ class ValveBankGpiod final : public ValveBank {
   ValveLines* lines() const { return lines_.get(); }
   /// How many times the watchdog cut a pulse short since open(). Any thread.
   int watchdogTrips() const;
+  /// 1..99: fire() runs at this SCHED_FIFO priority (restored after), and the
+  /// watchdog one above; start() fails if the process may not. 0: off.
+  /// Before start().
+  void setRealtimePriority(int priority) { rt_priority_ = priority; }
 
  protected:
   Status onOpen() override;
@@ -98,6 +106,7 @@ class ValveBankGpiod final : public ValveBank {
   int valves_;
   LineOpener open_lines_;
   std::int64_t grace_ns_;
+  int rt_priority_ = 0;
   std::int64_t max_pulse_ns_ = 0;
   std::unique_ptr<ValveLines> lines_;
   std::unique_ptr<ValveSafetyGuard> guard_;

@@ -26,6 +26,8 @@
 #include <limits>
 #include <sstream>
 
+#include "app/campaign_report.hpp"
+
 namespace collide::gui {
 namespace {
 
@@ -84,10 +86,13 @@ QChartView* makeChartView(const app::PlotSpec& spec) {
     for (std::size_t i = 0; i < n; ++i) {
       if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
       s->append(series.x[i], series.y[i]);
+      // The range takes in the error bars too.
+      const double e =
+          i < series.y_err.size() && std::isfinite(series.y_err[i]) ? series.y_err[i] : 0;
       xmin = std::min(xmin, series.x[i]);
       xmax = std::max(xmax, series.x[i]);
-      ymin = std::min(ymin, series.y[i]);
-      ymax = std::max(ymax, series.y[i]);
+      ymin = std::min(ymin, series.y[i] - e);
+      ymax = std::max(ymax, series.y[i] + e);
     }
     attach(s, !series.label.empty());
     // One-sigma error bars: a short vertical line per point.
@@ -217,11 +222,45 @@ void CampaignView::setCampaignRunning(bool running) {
 
 namespace {
 
-// The folder's analysed shots, fitted, as the five plots (worker thread).
+// The folder's analysed shots, fitted, as the five plots (worker thread):
+// the same entries, fits and PlotSpecs `collide fit` draws.
 CampaignView::Loaded loadFolder(const std::string& dir) {
-  // Filled in from app/campaign_report (loadCampaign, fitCampaignFolder,
-  // campaignPlots) once it is on main.
-  return {{}, QString::fromStdString("campaign fits are not in this build yet (" + dir + ")")};
+  CampaignView::Loaded out;
+  auto entries = app::loadCampaign(dir);
+  if (!entries) {
+    out.summary = QString::fromStdString(entries.error().message);
+    return out;
+  }
+  const std::vector<CampaignShot> usable = app::usableShots(*entries);
+  int analysed = 0;
+  for (const auto& e : *entries) analysed += e.results.has_value();
+  auto report = app::fitCampaignFolder(*entries, /*resamples=*/0);
+  for (auto& named : app::campaignPlots(*entries, report ? &*report : nullptr))
+    out.charts.push_back({named.name, std::move(named.plot)});
+  QString text = QObject::tr("%1 shots in the folder, %2 analysed, %3 used by the fits. ")
+                     .arg(entries->size())
+                     .arg(analysed)
+                     .arg(usable.size());
+  if (report) {
+    const FrictionFit& f = report->fit.friction;
+    const RestitutionMean& r = report->fit.restitution;
+    text += QObject::tr("e = %1 ± %2, mu = %3 ± %4, beta0 = %5 ± %6, gamma0 = %7 ± %8 deg")
+                .arg(r.e.value, 0, 'f', 4)
+                .arg(r.e.sigma, 0, 'f', 4)
+                .arg(f.mu.value, 0, 'f', 4)
+                .arg(f.mu.sigma, 0, 'f', 4)
+                .arg(f.beta0.value, 0, 'f', 3)
+                .arg(f.beta0.sigma, 0, 'f', 3)
+                .arg(f.switch_angle_deg.value, 0, 'f', 1)
+                .arg(f.switch_angle_deg.sigma, 0, 'f', 1);
+    if (report->fit.laws)
+      text += QObject::tr("; e(|v_n|): %1 preferred")
+                  .arg(QString::fromStdString(restitutionLawName(report->fit.laws->preferred)));
+  } else {
+    text += QObject::tr("No fit yet: %1").arg(QString::fromStdString(report.error().message));
+  }
+  out.summary = text;
+  return out;
 }
 
 }  // namespace
@@ -280,19 +319,19 @@ void CampaignView::rebuild() {
     v->addWidget(view, 1);
     auto* row = new QHBoxLayout;
     row->addStretch();
-    for (const char* kind : {"PNG", "SVG", "CSV"}) {
-      auto* b = new QPushButton(tr("Export %1...").arg(kind));
+    for (const char* kind : {"png", "svg", "csv"}) {
+      auto* b = new QPushButton(tr("Export %1...").arg(QString(kind).toUpper()));
       row->addWidget(b);
-      connect(b, &QPushButton::clicked, this, [this, i] {
-        const QString stem = QFileDialog::getSaveFileName(
-            this, tr("Export plot (writes .png, .svg and .csv)"),
-            QDir(dir_).filePath(QString::fromStdString(charts_[i].name)));
-        if (stem.isEmpty()) return;
+      connect(b, &QPushButton::clicked, this, [this, i, kind] {
+        const QString ext = QString(".") + kind;
+        QString path = QFileDialog::getSaveFileName(
+            this, tr("Export plot"),
+            QDir(dir_).filePath(QString::fromStdString(charts_[i].name) + ext),
+            QString("%1 (*%2)").arg(QString(kind).toUpper(), ext));
+        if (path.isEmpty()) return;
+        if (!path.endsWith(ext)) path += ext;
         QString error;
-        QString base = stem;
-        for (const char* ext : {".png", ".svg", ".csv"})
-          if (base.endsWith(ext)) base.chop(4);
-        if (!exportChart(static_cast<int>(i), base, &error)) summary_->setText(error);
+        if (!exportChartAs(static_cast<int>(i), path, &error)) summary_->setText(error);
       });
     }
     v->addLayout(row);
@@ -301,37 +340,45 @@ void CampaignView::rebuild() {
 }
 
 bool CampaignView::exportChart(int index, const QString& stem, QString* error) {
+  for (const char* ext : {".png", ".svg", ".csv"})
+    if (!exportChartAs(index, stem + ext, error)) return false;
+  return true;
+}
+
+bool CampaignView::exportChartAs(int index, const QString& path, QString* error) {
   if (index < 0 || index >= static_cast<int>(charts_.size())) return false;
   const app::PlotSpec& plot = charts_[index].plot;
+  auto failed = [&](const QString& why) {
+    if (error) *error = tr("cannot write %1: %2").arg(path, why);
+    return false;
+  };
+  if (path.endsWith(".csv")) {
+    QFile csv(path);
+    if (!csv.open(QIODevice::WriteOnly | QIODevice::Truncate) ||
+        csv.write(QByteArray::fromStdString(plotCsv(plot))) < 0)
+      return failed(csv.errorString());
+    return true;
+  }
   // A fresh view at a fixed size: the files do not depend on the window.
   std::unique_ptr<QChartView> view(makeChartView(plot));
   view->resize(800, 560);
-  if (!view->grab().save(stem + ".png")) {
-    if (error)
-      *error = tr("cannot write %1.png: check the folder exists and is writable").arg(stem);
-    return false;
+  if (path.endsWith(".png")) {
+    if (!view->grab().save(path)) return failed(tr("check the folder exists and is writable"));
+    return true;
   }
-  {
+  if (path.endsWith(".svg")) {
     QSvgGenerator svg;
-    svg.setFileName(stem + ".svg");
+    svg.setFileName(path);
     svg.setSize(view->size());
     svg.setViewBox(QRect(QPoint(0, 0), view->size()));
     svg.setTitle(QString::fromStdString(plot.title));
     QPainter painter;
-    if (!painter.begin(&svg)) {
-      if (error) *error = tr("cannot write %1.svg: check the folder is writable").arg(stem);
-      return false;
-    }
+    if (!painter.begin(&svg)) return failed(tr("check the folder exists and is writable"));
     view->render(&painter);
     painter.end();
+    return true;
   }
-  QFile csv(stem + ".csv");
-  if (!csv.open(QIODevice::WriteOnly | QIODevice::Truncate) ||
-      csv.write(QByteArray::fromStdString(plotCsv(plot))) < 0) {
-    if (error) *error = tr("cannot write %1.csv: %2").arg(stem, csv.errorString());
-    return false;
-  }
-  return true;
+  return failed(tr("choose a .png, .svg or .csv file name"));
 }
 
 bool CampaignView::exportAll(const QString& dir, QString* error) {

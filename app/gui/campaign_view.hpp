@@ -51,6 +51,8 @@ class CampaignView : public QWidget {
   QString summary() const;
   /// Writes chart `index` as <stem>.png, <stem>.svg and <stem>.csv.
   bool exportChart(int index, const QString& stem, QString* error = nullptr);
+  /// Writes chart `index` to `path`, as its extension says (.png, .svg, .csv).
+  bool exportChartAs(int index, const QString& path, QString* error = nullptr);
   /// All charts into `dir` under their names.
   bool exportAll(const QString& dir, QString* error = nullptr);
 

@@ -6,7 +6,27 @@
 #include <QVBoxLayout>
 #include <QtConcurrent/QtConcurrentRun>
 
+#include "vision/dot_detector.hpp"
+#include "vision/sphere_detector.hpp"
+
 namespace collide::gui {
+
+Overlay detectSpheresAndDots(const vision::Frame& frame, vision::PixelFormat format) {
+  Overlay o;
+  if (frame.image.empty()) return o;
+  static const vision::SphereDetector detector;  // const detect(): thread-safe
+  const int max_value = vision::maxValue(format);
+  const vision::FrameSpheres found = detector.detect(frame.image, max_value);
+  const QColor colours[2] = {QColor(60, 220, 90), QColor(70, 190, 255)};
+  for (std::size_t i = 0; i < found.spheres.size(); ++i) {
+    const vision::SphereMeasurement& s = found.spheres[i];
+    o.circles.push_back(
+        {QPointF(s.circle.u, s.circle.v), s.circle.radius, colours[i % 2], s.touching});
+    for (const vision::Dot& d : vision::findDots(frame.image, s, max_value).dots)
+      o.markers.push_back({QPointF(d.u_px, d.v_px), QColor(255, 210, 40), {}});
+  }
+  return o;
+}
 
 LiveView::LiveView(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(this);

@@ -18,6 +18,10 @@ class QCheckBox;
 
 namespace collide::gui {
 
+/// The live view's overlay: spheres (vision::SphereDetector) and their dots
+/// (vision::findDots) on one frame. Thread-safe.
+Overlay detectSpheresAndDots(const vision::Frame& frame, vision::PixelFormat format);
+
 class LiveView : public QWidget {
   Q_OBJECT
  public:

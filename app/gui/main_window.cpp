@@ -7,6 +7,7 @@
 #include <QFileDialog>
 #include <QFileInfo>
 #include <QFrame>
+#include <QFutureWatcher>
 #include <QHBoxLayout>
 #include <QLabel>
 #include <QMenuBar>
@@ -17,6 +18,7 @@
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QVBoxLayout>
+#include <QtConcurrent/QtConcurrentRun>
 
 #include "app/gui/calibration_dialog.hpp"
 #include "app/gui/campaign_view.hpp"
@@ -24,6 +26,8 @@
 #include "app/gui/replay_view.hpp"
 #include "app/gui/rig_panel.hpp"
 #include "app/gui/shot_browser.hpp"
+#include "app/results_json.hpp"
+#include "app/save.hpp"
 
 namespace collide::gui {
 namespace {
@@ -42,6 +46,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   qRegisterMetaType<AnalysisPtr>();
   worker_ = new RigWorker;
   runner_ = new AnalysisRunner(this);
+  store_pool_.setMaxThreadCount(1);  // one shot file rewritten at a time
 
   auto* central = new QWidget;
   auto* layout = new QVBoxLayout(central);
@@ -64,6 +69,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   tabs_ = new QTabWidget;
   tabs_->setObjectName("views");
   live_view_ = new LiveView;
+  live_view_->setDetector(&detectSpheresAndDots);
   replay_view_ = new ReplayView;
   shot_browser_ = new ShotBrowser;
   campaign_view_ = new CampaignView;
@@ -78,7 +84,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   auto* scroll = new QScrollArea;
   scroll->setWidget(rig_panel_);
   scroll->setWidgetResizable(true);
-  scroll->setMinimumWidth(rig_panel_->sizeHint().width() + 24);  // no sideways scrolling
+  // The panel fits its dock's width (no sideways scrolling); it scrolls down only.
+  scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  scroll->setMinimumWidth(500);
   auto* dock = new QDockWidget(tr("Rig"));
   dock->setObjectName("rig_dock");
   dock->setWidget(scroll);
@@ -123,7 +131,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
                                   .arg(total)
                                   .arg(qs(shot->id)));
     }
-    if (shot->status == hw::ShotStatus::Ok) runner_->analyze(shot, "campaign");
+    // Analysed from its file (saved before this signal), so a campaign that
+    // fires faster than the analysis keeps file names waiting, not bursts.
+    if (shot->status == hw::ShotStatus::Ok)
+      runner_->analyzeFile(QDir(shots_dir_).filePath(qs(app::shotFileName(shot->id))), "campaign");
     shot_browser_->refresh();
   });
   connect(worker_, &RigWorker::campaignFinished, this, [this](QString summary, bool) {
@@ -139,14 +150,23 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   connect(runner_, &AnalysisRunner::failed, this, &MainWindow::onAnalysisFailed);
   connect(replay_view_, &ReplayView::reanalyseRequested, this, [this](ShotPtr shot) {
     replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
-    runner_->analyze(shot, "replay");
+    runner_->analyze(shot, "replay", replay_file_);
   });
 
   // Browser and campaign.
-  connect(shot_browser_, &ShotBrowser::shotOpened, this, [this](ShotPtr shot, QString) {
+  connect(shot_browser_, &ShotBrowser::shotOpened, this, [this](ShotPtr shot, QString file) {
     showShot(shot);
-    replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
-    runner_->analyze(shot, "replay");
+    replay_file_ = file;
+    // Stored results go on the card at once; the analysis runs again for the
+    // overlays (and is stored only if the shot had none).
+    if (auto stored = storedAnalysis(*shot)) {
+      replay_view_->resultCard()->setAnalysis(
+          qs(shot->id), std::make_shared<const vision::ShotAnalysis>(std::move(*stored)));
+      runner_->analyze(shot, "overlay", file);
+    } else {
+      replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
+      runner_->analyze(shot, "replay", file);
+    }
   });
   connect(shot_browser_, &ShotBrowser::reanalyseRequested, this, &MainWindow::reanalyse);
   connect(shot_browser_, &ShotBrowser::error, this, [this](QString m) { showMessage(m); });
@@ -163,7 +183,8 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
 }
 
 MainWindow::~MainWindow() {
-  delete worker_;  // shuts the rig down safely on its own thread, then joins it
+  store_pool_.waitForDone();  // never leave a results write half-way
+  delete worker_;             // shuts the rig down safely on its own thread, then joins it
 }
 
 void MainWindow::buildMenus() {
@@ -213,6 +234,7 @@ void MainWindow::showShot(ShotPtr shot) {
 void MainWindow::onShotFired(ShotPtr shot, QString file, QString save_error) {
   last_shot_ = shot;
   showShot(shot);
+  replay_file_ = file;
   if (!save_error.isEmpty())
     showMessage(tr("Shot %1 was fired but not saved: %2").arg(qs(shot->id), save_error));
   if (shot->status == hw::ShotStatus::Failed) {
@@ -222,34 +244,55 @@ void MainWindow::onShotFired(ShotPtr shot, QString file, QString save_error) {
     emit shotAnalysed(qs(shot->id), false);
   } else {
     replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
-    runner_->analyze(shot, "fired");
+    runner_->analyze(shot, "fired", file);
   }
   shot_browser_->refresh();
 }
 
-void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag) {
+void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file) {
   if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
-  storeResults(*shot, *analysis);
+  if (tag != "overlay") storeResults(file, shot->id, app::resultsToJson(*analysis));
+  std::erase_if(launches_, [&](const MeasuredLaunch& m) { return m.shot_id == qs(shot->id); });
   for (MeasuredLaunch& m : measuredLaunches(*shot, analysis->sphere)) launches_.push_back(m);
   if (replay_view_->shot() && replay_view_->shot()->id == shot->id) {
     replay_view_->setAnalysis(analysis);
     replay_view_->resultCard()->setAnalysis(qs(shot->id), analysis);
   }
-  campaign_view_->refresh();
   emit shotAnalysed(qs(shot->id), true);
 }
 
-void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag) {
+void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file) {
   if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
   const QString id = shot ? qs(shot->id) : QString();
-  if (shot && replay_view_->shot() && replay_view_->shot()->id == shot->id)
+  // A failed analysis is a result too (the catalog shows why); a build
+  // without the vision core has nothing to say about the shot.
+  if (shot && analysisAvailable() && shot->status == hw::ShotStatus::Ok && tag != "overlay")
+    storeResults(file, shot->id, app::failedResultsJson(message.toStdString()));
+  if (shot && replay_view_->shot() && replay_view_->shot()->id == shot->id && tag != "overlay")
     replay_view_->resultCard()->setMessage(id, message);
   if (tag != "fired" && tag != "replay") statusBar()->showMessage(message, 8000);
   emit shotAnalysed(id, false);
 }
 
-void MainWindow::storeResults(const hw::Shot&, const vision::ShotAnalysis&) {
-  // Stored into the shot file and catalog once app/results_json is on main.
+void MainWindow::storeResults(const QString& file, const std::string& id, std::string json) {
+  if (file.isEmpty()) return;  // not saved (the save error was shown)
+  const QFileInfo info(file);
+  const std::string dir = info.absolutePath().toStdString();
+  // Rewriting the file copies it (frames included): off the GUI thread, one at a time.
+  auto* watcher = new QFutureWatcher<QString>(this);
+  connect(watcher, &QFutureWatcher<QString>::finished, this, [this, watcher, id] {
+    const QString error = watcher->result();
+    watcher->deleteLater();
+    if (!error.isEmpty()) showMessage(tr("Results of shot %1 not stored: %2").arg(qs(id), error));
+    shot_browser_->refresh();
+    campaign_view_->refresh();
+    emit resultsStored(qs(id), error);
+  });
+  watcher->setFuture(
+      QtConcurrent::run(&store_pool_, [dir, id, json = std::move(json)]() -> QString {
+        Status s = app::saveResults(dir, id, json);
+        return s ? QString() : QString::fromStdString(s.error().message);
+      }));
 }
 
 void MainWindow::reanalyse(const QStringList& files) {
@@ -297,6 +340,28 @@ void MainWindow::openCalibrationDialog() {
   auto* dialog = new CalibrationDialog(profile_, profile_path_, this);
   dialog->setAttribute(Qt::WA_DeleteOnClose);
   dialog->setLaunches(launches_);
+  // The recorded shots of the folder, read on a worker.
+  auto* watcher = new QFutureWatcher<std::vector<MeasuredLaunch>>(dialog);
+  connect(watcher, &QFutureWatcher<std::vector<MeasuredLaunch>>::finished, dialog,
+          [dialog, watcher] {
+            std::vector<MeasuredLaunch> all = watcher->result();
+            if (!all.empty()) dialog->setLaunches(std::move(all));
+          });
+  const std::string dir = shots_dir_.toStdString();
+  std::vector<MeasuredLaunch> session = launches_;
+  watcher->setFuture(QtConcurrent::run([dir, session]() {
+    auto stored = measuredLaunchesInFolder(dir);
+    if (!stored) return session;
+    // Folder shots plus any session shot not (yet) stored there.
+    std::vector<MeasuredLaunch> all = *stored;
+    for (const auto& m : session) {
+      bool known = false;
+      for (const auto& s : all)
+        known = known || (s.shot_id == m.shot_id && s.launcher == m.launcher);
+      if (!known) all.push_back(m);
+    }
+    return all;
+  }));
   connect(dialog, &CalibrationDialog::profileSaved, this,
           [this](QString path) { loadProfile(path); });
   dialog->show();

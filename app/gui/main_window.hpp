@@ -9,6 +9,7 @@
 #include <QMainWindow>
 #include <QString>
 #include <QStringList>
+#include <QThreadPool>
 
 #include "app/gui/rig_worker.hpp"
 #include "app/gui/shot_analysis_service.hpp"
@@ -62,6 +63,8 @@ class MainWindow : public QMainWindow {
  signals:
   /// A shot's analysis finished (or failed) and is on the result card.
   void shotAnalysed(QString shot_id, bool ok);
+  /// A shot's results were written into its file and catalog row (or not: `error`).
+  void resultsStored(QString shot_id, QString error);
 
  protected:
   void closeEvent(QCloseEvent* event) override;
@@ -71,12 +74,13 @@ class MainWindow : public QMainWindow {
   void restoreSettings();
   void saveSettings();
   void onShotFired(ShotPtr shot, QString file, QString save_error);
-  void onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag);
-  void onAnalysisFailed(ShotPtr shot, QString message, QString tag);
+  void onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file);
+  void onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file);
   void showShot(ShotPtr shot);
   void reanalyse(const QStringList& files);
   void startCampaign(int shots, quint64 seed, double angle_min, double angle_max);
-  void storeResults(const hw::Shot& shot, const vision::ShotAnalysis& analysis);
+  /// Writes the results JSON into the shot's file and catalog row (worker thread).
+  void storeResults(const QString& file, const std::string& id, std::string results_json);
 
   MainWindowOptions options_;
   RigWorker* worker_ = nullptr;
@@ -92,6 +96,8 @@ class MainWindow : public QMainWindow {
   QProgressDialog* progress_ = nullptr;
   int batch_total_ = 0, batch_done_ = 0;
   QString profile_path_;
+  QString replay_file_;  ///< the file of the shot in the replay view
+  QThreadPool store_pool_;
   QString shots_dir_;
   ProfilePtr profile_;
   ShotPtr last_shot_;

@@ -2,7 +2,10 @@
 
 #include <QtConcurrent/QtConcurrentRun>
 #include <cmath>
+#include <filesystem>
 
+#include "app/catalog.hpp"
+#include "app/results_json.hpp"
 #include "app/shot_file.hpp"
 
 namespace collide::gui {
@@ -77,6 +80,47 @@ std::vector<MeasuredLaunch> measuredLaunches(
   return out;
 }
 
+Result<std::vector<MeasuredLaunch>> measuredLaunchesInFolder(const std::string& dir, int* skipped) {
+  auto catalog = app::Catalog::open(dir, app::Catalog::Mode::OpenExisting);
+  if (!catalog) return catalog.error();
+  app::ShotFilter ok;
+  ok.status = hw::ShotStatus::Ok;
+  auto rows = catalog->query(ok);
+  if (!rows) return rows.error();
+  std::vector<MeasuredLaunch> out;
+  int bad = 0;
+  for (const app::CatalogRow& row : *rows) {
+    if (!row.analysed) continue;
+    auto shot = app::readShot((std::filesystem::path(dir) / row.file).string(), {.frames = false});
+    if (!shot) {
+      ++bad;
+      continue;
+    }
+    auto results = app::parseResultsJson(shot->results_json);
+    if (!results || results->error) {
+      ++bad;
+      continue;
+    }
+    const auto launches = measuredLaunches(*shot, results->sphere);
+    if (launches.empty()) ++bad;
+    out.insert(out.end(), launches.begin(), launches.end());
+  }
+  if (skipped) *skipped = bad;
+  return out;
+}
+
+std::optional<vision::ShotAnalysis> storedAnalysis(const hw::Shot& shot) {
+  if (shot.results_json.empty()) return std::nullopt;
+  auto r = app::parseResultsJson(shot.results_json);
+  if (!r || r->error) return std::nullopt;
+  vision::ShotAnalysis a;
+  a.pixel_size_m = r->pixel_size_m;
+  a.sphere = r->sphere;
+  a.collision = r->collision;
+  a.quality_flags = r->quality_flags;
+  return a;
+}
+
 AnalysisRunner::AnalysisRunner(QObject* parent) : QObject(parent) {
   connect(&watcher_, &QFutureWatcher<Outcome>::finished, this, [this] {
     const Outcome outcome = watcher_.result();
@@ -84,9 +128,9 @@ AnalysisRunner::AnalysisRunner(QObject* parent) : QObject(parent) {
     running_ = false;
     --pending_;
     if (outcome.analysis)
-      emit analysed(outcome.shot, outcome.analysis, job.tag);
+      emit analysed(outcome.shot, outcome.analysis, job.tag, job.path);
     else
-      emit failed(outcome.shot, outcome.message, job.tag);
+      emit failed(outcome.shot, outcome.message, job.tag, job.path);
     emit pendingChanged(pending_);
     startNext();
   });
@@ -97,8 +141,8 @@ AnalysisRunner::~AnalysisRunner() {
   watcher_.waitForFinished();  // the worker reads current_.shot
 }
 
-void AnalysisRunner::analyze(ShotPtr shot, QString tag) {
-  queue_.push_back({std::move(shot), {}, std::move(tag)});
+void AnalysisRunner::analyze(ShotPtr shot, QString tag, QString file) {
+  queue_.push_back({std::move(shot), std::move(file), std::move(tag)});
   ++pending_;
   emit pendingChanged(pending_);
   startNext();

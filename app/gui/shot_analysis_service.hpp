@@ -55,6 +55,17 @@ struct MeasuredLaunch {
 std::vector<MeasuredLaunch> measuredLaunches(
     const hw::Shot& shot, const std::array<vision::SphereKinematics, 2>& spheres);
 
+/// The measured launches of every analysed shot in a shot folder (read from
+/// the shot files' stored results, without frames). `skipped` counts analysed
+/// shots whose results or profile could not be used. Errors: no catalog.
+Result<std::vector<MeasuredLaunch>> measuredLaunchesInFolder(const std::string& dir,
+                                                             int* skipped = nullptr);
+
+/// The stored results of a shot (its results JSON) as an analysis without
+/// per-frame data, for the result card. Nothing if it has none or they say
+/// the analysis failed.
+std::optional<vision::ShotAnalysis> storedAnalysis(const hw::Shot& shot);
+
 /// Runs analyses on the global thread pool and reports back on the thread that
 /// owns this object (the GUI thread). Shots are analysed in the order queued.
 class AnalysisRunner : public QObject {
@@ -63,8 +74,9 @@ class AnalysisRunner : public QObject {
   explicit AnalysisRunner(QObject* parent = nullptr);
   ~AnalysisRunner() override;
 
-  /// Queues `shot` for analysis; `tag` comes back with the result.
-  void analyze(ShotPtr shot, QString tag = {});
+  /// Queues `shot` for analysis; `tag` and `file` (where the shot is stored,
+  /// may be empty) come back with the result.
+  void analyze(ShotPtr shot, QString tag = {}, QString file = {});
   /// Queues the shot file at `path`: read (with frames) and analysed on the worker.
   void analyzeFile(QString path, QString tag = {});
   /// Drops every queued shot not yet started (the running one finishes).
@@ -72,9 +84,10 @@ class AnalysisRunner : public QObject {
   int pending() const { return pending_; }
 
  signals:
-  void analysed(collide::gui::ShotPtr shot, collide::gui::AnalysisPtr analysis, QString tag);
+  void analysed(collide::gui::ShotPtr shot, collide::gui::AnalysisPtr analysis, QString tag,
+                QString file);
   /// `shot` is null when the file could not be read.
-  void failed(collide::gui::ShotPtr shot, QString message, QString tag);
+  void failed(collide::gui::ShotPtr shot, QString message, QString tag, QString file);
   /// Queue length changed (running + waiting).
   void pendingChanged(int pending);
 
@@ -82,7 +95,7 @@ class AnalysisRunner : public QObject {
   void startNext();
   struct Job {
     ShotPtr shot;
-    QString path;  ///< read the shot from here when `shot` is null
+    QString path;  ///< where the shot is stored; read from here when `shot` is null
     QString tag;
   };
   struct Outcome {

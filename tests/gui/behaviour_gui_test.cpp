@@ -4,6 +4,8 @@
 // window's state persists between runs.
 #include <gtest/gtest.h>
 
+#include <QDoubleSpinBox>
+#include <QLabel>
 #include <QPushButton>
 #include <QSettings>
 #include <QSignalSpy>
@@ -132,4 +134,56 @@ TEST(BehaviourGui, WindowStatePersistsBetweenRuns) {
   ASSERT_TRUE(QTest::qWaitFor([&] { return again.profile() != nullptr; }, 20000));
   EXPECT_EQ(again.profile()->source, sourcePath("config/sim.toml"));
   QSettings().clear();
+}
+
+TEST(BehaviourGui, SafetyLimitsBoundWhatThePanelCanAskFor) {
+  application();
+  const std::string dir = freshDir("safety");
+  MainWindow w(options(simProfileWith(dir, "calibration", "max_kpa", "60.0"), dir + "/shots"));
+  w.show();
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.profile() != nullptr; }, 20000))
+      << w.messages().join("\n").toStdString();
+  auto* pressure = w.rigPanel()->findChild<QDoubleSpinBox*>("pressure_0");
+  auto* speed = w.rigPanel()->findChild<QDoubleSpinBox*>("speed_0");
+  EXPECT_DOUBLE_EQ(pressure->maximum(), 60.0);
+  auto curve = w.profile()->calibration.curve();
+  ASSERT_TRUE(curve);
+  EXPECT_NEAR(speed->maximum(), curve->speed_m_s(60.0), 1e-3);
+  speed->setValue(9.0);  // above what 60 kPa gives: clamped
+  EXPECT_LE(pressure->value(), 60.0);
+  EXPECT_TRUE(
+      w.rigPanel()->findChild<QLabel*>("safety_limits")->text().contains("safety maximum 200 kPa"));
+}
+
+TEST(BehaviourGui, BurstSettingsApplyAndAreRecordedWithTheShot) {
+  application();
+  const std::string dir = freshDir("burst");
+  MainWindow w(options(sourcePath("config/sim.toml"), dir));
+  w.show();
+  auto running = [&] {
+    const RigStatus& s = w.rigPanel()->lastStatus();
+    return w.profile() && s.state[0] == "running" && s.state[2] == "running";
+  };
+  ASSERT_TRUE(QTest::qWaitFor(running, 20000));
+  RigPanel* panel = w.rigPanel();
+  panel->findChild<QSpinBox*>("pre_trigger_frames")->setValue(12);
+  panel->findChild<QSpinBox*>("post_trigger_frames")->setValue(18);
+  QTest::mouseClick(panel->findChild<QPushButton*>("apply_burst"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.profile()->burst.post_trigger_frames == 18; }, 20000))
+      << w.messages().join("\n").toStdString();
+  ASSERT_TRUE(QTest::qWaitFor(running, 20000));
+  QTest::mouseClick(panel->findChild<QPushButton*>("arm_button"), Qt::LeftButton);
+  auto* fire = panel->findChild<QPushButton*>("fire_button");
+  ASSERT_TRUE(QTest::qWaitFor([&] { return fire->isEnabled(); }, 10000));
+  QTest::mouseClick(fire, Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.lastShot() != nullptr; }, 30000));
+  const hw::Shot& shot = *w.lastShot();
+  ASSERT_EQ(shot.status, hw::ShotStatus::Ok) << shot.failure_reason;
+  EXPECT_EQ(shot.burst.frames.size(), 30u);
+  EXPECT_EQ(shot.burst.frames.front().id, -12);
+  // The profile recorded with the shot says what was really used.
+  auto recorded = hw::parseRigProfile(shot.rig_profile_toml, "recorded");
+  ASSERT_TRUE(recorded) << recorded.error().message;
+  EXPECT_EQ(recorded->burst.pre_trigger_frames, 12);
+  EXPECT_EQ(recorded->burst.post_trigger_frames, 18);
 }

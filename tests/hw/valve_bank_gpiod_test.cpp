@@ -5,6 +5,8 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -194,6 +196,38 @@ TEST(ValveBankGpiod, StopAndCloseDriveEveryLineInactive) {
   ASSERT_TRUE(b.lines->set(1, true));
   ASSERT_TRUE(b.bank->close());
   EXPECT_EQ(b.bank->lines(), nullptr);  // released
+}
+
+TEST(ValveBankGpiod, FiresAtRealtimePriorityWhenAllowedAndSaysHowOtherwise) {
+  // Whether this process may use SCHED_FIFO at all (root or an rtprio limit).
+  sched_param p{};
+  p.sched_priority = 11;
+  int policy = 0;
+  sched_param before{};
+  pthread_getschedparam(pthread_self(), &policy, &before);
+  const bool allowed = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  pthread_setschedparam(pthread_self(), policy, &before);
+
+  Bench b = makeBench();
+  b.bank->setRealtimePriority(10);
+  ASSERT_TRUE(b.bank->open());
+  ASSERT_TRUE(b.bank->configure({50000}));
+  const auto started = b.bank->start();
+  if (!allowed) {
+    ASSERT_FALSE(started);
+    EXPECT_THAT(started.error().message, HasSubstr("cannot fire at real-time priority 10"));
+    EXPECT_THAT(started.error().message, HasSubstr("rtprio 11"));
+    return;
+  }
+  ASSERT_TRUE(started) << started.error().message;
+  const auto events = b.bank->fire({{0, monotonicNowNs() + 2 * kMs, 1000}});
+  ASSERT_TRUE(events) << events.error().message;
+  EXPECT_EQ(edgesOf(*b.lines, 0).size(), 2u);
+  // The calling thread is back at its own scheduling afterwards.
+  int after_policy = -1;
+  sched_param after{};
+  pthread_getschedparam(pthread_self(), &after_policy, &after);
+  EXPECT_EQ(after_policy, policy);
 }
 
 // ---- exit and signals (in a child process each) ---------------------------

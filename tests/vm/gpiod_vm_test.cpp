@@ -205,13 +205,19 @@ TEST_F(GpiodVm, FiringPatternAsTheKernelSawIt) {
   printDistribution("inter-valve delay error (kernel - programmed)", delay_err);
   printDistribution("opening edge after its programmed instant", open_late);
   printDistribution("reported edge - kernel edge", report_err);
-  // Generous bounds: emulation stalls whole vCPUs for milliseconds.
-  for (double e : width_err) {
-    EXPECT_GE(e, 0.0);  // never short: the closing is timed from the end of the opening call
-    EXPECT_LT(e, 25000.0);
-  }
-  for (double e : delay_err) EXPECT_LT(std::abs(e), 25000.0);
-  for (double e : report_err) EXPECT_LT(std::abs(e), 10000.0);
+  // What holds for every pulse, however the emulator stalls: never short
+  // (the closing is timed from the end of the opening call; and edges never
+  // early, checked above). Emulation stalls a vCPU now and then for tens of
+  // milliseconds, in the middle of a pulse or of a driver call, so the
+  // systematic errors are checked on the medians, and generously.
+  for (double e : width_err) EXPECT_GE(e, 0.0);
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  EXPECT_LT(median(width_err), 3000.0);
+  EXPECT_LT(std::abs(median(delay_err)), 3000.0);
+  EXPECT_LT(std::abs(median(report_err)), 1000.0);
 }
 
 TEST_F(GpiodVm, TheLongestPulseLimitHolds) {
@@ -238,7 +244,9 @@ TEST_F(GpiodVm, TheLongestPulseLimitHolds) {
   std::printf("pulse at the 20000 us limit: the kernel saw %.1f us (%s)\n", width_us,
               at_limit ? "fired" : "the watchdog ended it");
   EXPECT_GE(width_us, 19500.0);
-  EXPECT_LT(width_us, 20000.0 + 2000.0 + 25000.0);
+  // Limit, grace, and room for an emulator stall (up to ~35 ms seen); the
+  // refusal above and the watchdog test below are what prove the limit.
+  EXPECT_LT(width_us, 20000.0 + 2000.0 + 50000.0);
   EXPECT_EQ(kernelLevels()[0], 0);
 }
 
