@@ -16,6 +16,7 @@
 #include <QTabWidget>
 #include <QTableWidget>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <numbers>
 
@@ -163,18 +164,23 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
     double tolerance;
   };
   const double gamma_deg = truth.before.gamma_rad * 180.0 / std::numbers::pi;
+  // Tolerances: issue 4's per-shot accuracy targets (|error of e| <= 0.005,
+  // |error of beta| <= 0.03), and 1 % on the contact velocities.
   const Check checks[] = {
       {"vn_m_s", "result_vn_m_s", truth.before.v_n_m_s,
-       0.03 * std::abs(truth.before.v_n_m_s) + 0.01},
-      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.05 * truth.before.v_s_m_s + 0.02},
-      {"gamma_deg", "result_gamma_deg", gamma_deg, 2.0},
-      {"e", "result_e", truth.e, 0.02},
-      {"beta", "result_beta", truth.beta, 0.1},
-      {"f", "result_f", truth.f, 0.05},
+       0.01 * std::abs(truth.before.v_n_m_s) + 0.005},
+      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.01 * truth.before.v_s_m_s + 0.005},
+      {"gamma_deg", "result_gamma_deg", gamma_deg, 0.5},
+      {"e", "result_e", truth.e, 0.005},
+      {"beta", "result_beta", truth.beta, 0.03},
+      {"f", "result_f", truth.f, 0.01},
   };
+
   for (const Check& c : checks) {
     const auto v = card->value(c.key);
     ASSERT_TRUE(v.has_value()) << c.key;
+    std::printf("result card %-10s %12.6f +- %9.6f   truth %12.6f\n", c.key, v->value, v->sigma,
+                c.truth);
     EXPECT_NEAR(v->value, c.truth, c.tolerance) << c.key;
     EXPECT_TRUE(std::isfinite(v->sigma) && v->sigma >= 0) << c.key << " sigma " << v->sigma;
     // The label shows the same number (to its displayed precision).
