@@ -208,6 +208,7 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
   w.show();
   ShotBrowser* browser = w.shotBrowser();
   w.tabs()->setCurrentWidget(browser);
+  QSignalSpy stored(&w, &MainWindow::resultsStored);
   ASSERT_EQ(browser->rows().size(), 1u);
   EXPECT_EQ(browser->rows()[0].id, "20260101-120000-0001");
 
@@ -249,6 +250,22 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
   EXPECT_EQ(w.tabs()->currentWidget(), w.replayView());
   EXPECT_GT(w.replayView()->frameCount(), 10);
   EXPECT_FALSE(w.replayView()->imageView()->image().isNull());
+
+  // Opening an unanalysed shot analyses it and stores the results in its file
+  // and catalog row, where the browser lists them.
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 1; }, 60000));
+  EXPECT_TRUE(stored.at(0).at(1).toString().isEmpty())
+      << stored.at(0).at(1).toString().toStdString();
+  browser->refresh();
+  ASSERT_EQ(browser->rows().size(), 1u);
+  ASSERT_TRUE(browser->rows()[0].analysed);
+  ASSERT_TRUE(browser->rows()[0].results.e.has_value());
+  EXPECT_NEAR(*browser->rows()[0].results.e, 0.97, 0.005);  // the profile's nylon
+
+  // Re-running the analysis of every listed shot stores them again.
+  QTest::mouseClick(child<QPushButton>(browser, "reanalyse_all"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 2; }, 60000));
+  EXPECT_TRUE(stored.at(1).at(1).toString().isEmpty());
 }
 
 TEST(MainWindowGui, RunASmallCampaign) {
