@@ -140,6 +140,7 @@ Result<vision::Burst> Camera::takeBurst() {
   burst.format = config_.format;
   burst.fps = config_.fps;
   burst.exposure_us = config_.exposure_us;
+  onTakeBurst(burst);
   return burst;
 }
 

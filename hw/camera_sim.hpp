@@ -51,6 +51,13 @@ class CameraSim final : public Camera {
   /// The spheres in view at `t_ns` (CLOCK_MONOTONIC, mid-exposure), in image
   /// pixels of the configured region. Any thread.
   std::vector<vision::SphereView> sceneAt(const SimLaunch& launch, std::int64_t t_ns) const;
+  /// The frame this camera delivers for an exposure starting at
+  /// `exposure_start_ns` (CLOCK_MONOTONIC), frame counter `sequence` (seeds
+  /// the noise): the current launch's scene, rendered with the configured
+  /// region, format, exposure, gain and noise. Lets another backend show the
+  /// simulated world (e.g. Aravis' fake camera in the peer tests). Configured;
+  /// any thread.
+  vision::Frame renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const;
 
  protected:
   Status onOpen() override { return Ok{}; }
@@ -72,7 +79,6 @@ class CameraSim final : public Camera {
   };
   void run();
   void wake();
-  vision::Frame renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const;
 
   std::shared_ptr<SimWorld> world_;
   CameraSimSettings settings_;
