@@ -71,8 +71,8 @@ std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries)
   return out;
 }
 
-Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries, int resamples,
-                                         std::uint64_t seed) {
+Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
+                                            int resamples, std::uint64_t seed) {
   const auto shots = usableShots(entries);
   auto fit = fitCampaign(shots);
   if (!fit) return fit.error();
@@ -151,7 +151,7 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
   }
 
   std::vector<NamedPlot> plots;
-  PlotSpec p1{"Tangential restitution against incidence (thesis Fig. 5.9)",
+  PlotSpec p1{"beta against -v_n/v_s (Fig. 5.9)",
               "-v_n / v_s",
               "beta",
               {beta},
@@ -159,7 +159,7 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
               std::nullopt,
               -1.0,
               1.0};
-  PlotSpec p2{"Tangent form (thesis Fig. 3.4)",
+  PlotSpec p2{"Tangent form (Fig. 3.4)",
               "-v_s / v_n",
               "-v_s' / v_n",
               {tangent},
@@ -167,7 +167,7 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
               std::nullopt,
               std::nullopt,
               std::nullopt};
-  PlotSpec p3{"Impulse ratio (thesis Fig. 5.11)",
+  PlotSpec p3{"Impulse ratio (Fig. 5.11)",
               "tan psi = -v_s / v_n",
               "f = |dP_t| / |dP_n|",
               {f},
@@ -175,15 +175,9 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
               std::nullopt,
               0.0,
               std::nullopt};
-  PlotSpec p4{"Normal restitution against incidence",
-              "tan psi = -v_s / v_n",
-              "e",
-              {e_tan},
-              0.0,
-              std::nullopt,
-              std::nullopt,
-              std::nullopt};
-  PlotSpec p5{"Normal restitution against impact speed (thesis Figs. 5.12, 5.13)",
+  PlotSpec p4{"e against incidence", "tan psi = -v_s / v_n", "e",         {e_tan}, 0.0,
+              std::nullopt,          std::nullopt,           std::nullopt};
+  PlotSpec p5{"e against |v_n| (Figs. 5.12, 5.13)",
               "|v_n| (m/s)",
               "e",
               {e_vn},
@@ -195,7 +189,9 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
     const Material m = report->fit.friction.material();
     const double K = report->fit.friction.inertia_factor_K;
     char label[160];
-    std::snprintf(label, sizeof label, "Walton: mu %.3f, beta0 %.3f, e %.3f", m.mu, m.beta0, m.e);
+    std::snprintf(label, sizeof label, ": mu %.3f, beta0 %.3f, e %.3f", m.mu, m.beta0, m.e);
+    for (PlotSpec* p : {&p1, &p2, &p3}) p->title += label;
+    std::snprintf(label, sizeof label, "Walton fit");
     const double x_hi = std::max(1.0, 1.1 * maxOr(beta.x, 1.0));
     p1.series.push_back(curve(
         label, linspace(0, x_hi), [&](double x) { return campaignBetaCurve(x, m, K); }, 1));
@@ -207,7 +203,7 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
         label, linspace(0, tf_hi), [&](double t) { return campaignImpulseRatioCurve(t, m, K); },
         1));
     const auto& mean = report->fit.restitution.e;
-    std::snprintf(label, sizeof label, "mean e = %.4f +- %.4f", mean.value, mean.sigma);
+    std::snprintf(label, sizeof label, "mean e %.4f", mean.value);
     const double te_hi = std::max(0.5, 1.1 * maxOr(e_tan.x, 0.5));
     p4.series.push_back(curve(
         label, linspace(0, te_hi), [&](double) { return mean.value; }, 1));

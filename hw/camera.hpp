@@ -3,8 +3,8 @@
 // backends plug in underneath). While running it streams frames into a
 // pre-trigger ring (BurstRecorder); a shot arms the ring, triggers it, and
 // takes the burst of pre- and post-trigger frames with its stream statistics.
-// Backends: CameraSim ("sim"), CameraReplay ("replay"), CameraV4l2 ("v4l2"),
-// CameraAravis ("aravis": GigE Vision / USB3 Vision through Aravis).
+// Backends: CameraSim ("sim"), CameraReplay ("replay"), CameraV4l2 ("v4l2")
+// and CameraAravis ("aravis": GigE Vision / USB3 Vision through Aravis).
 //
 // Threads: lifecycle calls, arm/trigger/waitBurst/takeBurst from the rig's
 // control thread, one at a time; state() from any thread. Each backend owns
@@ -124,11 +124,11 @@ class Camera {
   virtual void onArm() {}
   /// The trigger instant was set (control thread). Default: nothing.
   virtual void onTrigger(std::int64_t at_ns) {}
+  /// Live view switched on or off (any thread). Default: nothing.
+  virtual void onLiveView(bool on) {}
   /// The burst was taken (control thread): a backend adds what only it knows,
   /// e.g. its transport's packet counters. Default: nothing.
   virtual void onTakeBurst(vision::Burst& burst) {}
-  /// Live view switched on or off (any thread). Default: nothing.
-  virtual void onLiveView(bool on) {}
 
   /// The armed recorder, or null: what the acquisition thread pushes into.
   /// Any thread.

@@ -164,9 +164,10 @@ Status ModbusLink::exchange(const char* verb, const ModbusRegisterRef& ref, Op o
     if (!isLinkFailure(err)) break;  // the device answered: asking again gets the same answer
     close();
     // On a serial line a late answer may still be on its way: let it pass
-    // before the port is opened again (TCP drops it with the connection).
-    if (settings_.transport == ModbusTransport::Rtu && err == ETIMEDOUT &&
-        attempt < settings_.retries)
+    // before the port is opened again, by this call or the next one, or it
+    // could pass for the answer to another request for as many registers
+    // (TCP drops it with the connection; its transaction ids tell answers apart).
+    if (settings_.transport == ModbusTransport::Rtu && err == ETIMEDOUT)
       std::this_thread::sleep_for(std::chrono::milliseconds(settings_.timeout_ms));
   }
   if (err == 0) return fail(connect_error);  // never got as far as asking

@@ -53,6 +53,15 @@ Result<Rig> makeRig(const RigProfile& profile, const RigHooks& hooks) {
       rig.valves, build<ValveBank>(rig.profile, rig.profile.valves, hooks, rig.clock, world));
   COLLIDE_ASSIGN_OR_RETURN(rig.camera,
                            build<Camera>(rig.profile, rig.profile.camera, hooks, rig.clock, world));
+  // A real (or Modbus-simulated) regulator on an otherwise simulated rig: the
+  // simulated launches take their pressure from what it measures. The
+  // regulator lives as long as the rig, and launches happen on the rig's
+  // control thread, the regulator's own.
+  if (world && rig.regulator->info().backend != "sim") {
+    PressureRegulator* regulator = rig.regulator.get();
+    world->setPressureSource(
+        [regulator](int channel) { return regulator->readPressureKPa(channel); });
+  }
   return rig;
 }
 

@@ -58,6 +58,11 @@ double SimWorld::linePressureKPa(int channel, std::int64_t t_ns) const {
   return it == lines_.end() ? 0.0 : it->second.pressureKPa(t_ns);
 }
 
+void SimWorld::setPressureSource(std::function<Result<double>(int channel)> source) {
+  std::lock_guard lock(mutex_);
+  pressure_source_ = std::move(source);
+}
+
 double SimWorld::gaussian(double sigma) {
   std::lock_guard lock(mutex_);
   return std::normal_distribution<double>(0.0, sigma)(rng_);
@@ -81,6 +86,25 @@ std::function<double(double)> SimWorld::restitutionLaw() const {
 }
 
 Status SimWorld::launch(const std::vector<ValveEvent>& events) {
+  // A regulator outside the world is asked before taking the lock (it may be
+  // a device on a wire); the valves open right after, with the pressure
+  // settled, so "now" stands for the opening instant.
+  std::function<Result<double>(int)> source;
+  {
+    std::lock_guard lock(mutex_);
+    source = pressure_source_;
+  }
+  std::map<int, double> measured_kPa;  // per regulator channel
+  if (source) {
+    for (const LauncherProfile& l : profile_.launchers) {
+      const bool fires = std::any_of(events.begin(), events.end(),
+                                     [&](const ValveEvent& e) { return e.valve == l.valve; });
+      if (!fires || measured_kPa.count(l.regulator_channel)) continue;
+      Result<double> p = source(l.regulator_channel);
+      if (!p) return fail("reading launcher " + l.name + "'s pressure: " + p.error().message);
+      measured_kPa[l.regulator_channel] = *p;
+    }
+  }
   std::vector<std::function<void()>> callbacks;
   {
     std::lock_guard lock(mutex_);
@@ -111,7 +135,9 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
                                       [&](const ValveEvent& e) { return e.valve == l.valve; });
       if (fired == events.end()) continue;
       const auto line = lines_.find(l.regulator_channel);
-      const double p_kPa = line == lines_.end() ? 0.0 : line->second.pressureKPa(fired->opened_ns);
+      const double p_kPa = source                 ? measured_kPa.at(l.regulator_channel)
+                           : line == lines_.end() ? 0.0
+                                                  : line->second.pressureKPa(fired->opened_ns);
       const double v = curve_.speed_m_s(p_kPa) * (1.0 + sim.speed_scatter * unit(rng_));
       shot->pressure_kPa[i] = p_kPa;
       // Without pressure behind it the sphere stays in the tube.

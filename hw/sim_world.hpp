@@ -64,6 +64,13 @@ class SimWorld : public TruthSource {
   /// The line's true pressure at `t_ns` (no read-back noise), gauge kPa.
   double linePressureKPa(int channel, std::int64_t t_ns) const;
 
+  /// Where launches take their line pressure from when the rig's regulator is
+  /// not simulated (a real or Modbus regulator on an otherwise simulated rig):
+  /// `source(channel)` is the pressure the regulator measures now, gauge kPa.
+  /// launch() calls it on the firing thread, outside the world's lock, once
+  /// per launcher that fires. Null (the default): the world's own lines.
+  void setPressureSource(std::function<Result<double>(int channel)> source);
+
   /// A draw from the world's seeded random stream: normal, std dev `sigma`.
   double gaussian(double sigma);
 
@@ -104,6 +111,7 @@ class SimWorld : public TruthSource {
   std::shared_ptr<const SimLaunch> launch_;
   bool launched_in_burst_ = false;
   std::vector<std::function<void()>> launch_callbacks_;
+  std::function<Result<double>(int)> pressure_source_;
 };
 
 }  // namespace collide::hw

@@ -22,16 +22,23 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kG = 9.80665;
 
 // Systematic uncertainties, calibrated on simulated shots (rendered with dots,
-// blur and noise; tests/vision/shot_analysis_sim_test.cpp checks the pulls).
+// blur and noise; tests/vision/shot_analysis_test.cpp checks the pulls).
 // Dots passing near the limb shift the measured centre by a few thousandths
 // of a pixel, slowly, as the sphere turns: an error correlated from frame to
 // frame that the fits' residuals cannot reveal. It is carried as a random
 // drift of the centre over each track, and a random offset of each sphere's
-// centre, of this RMS in units of the radius.
-constexpr double kDriftPerRadius = 6e-5;
+// centre, of this RMS:
+// In pixels, 0.22 / radius: 0.004 px for 60 px spheres, 0.012 px at the
+// thesis' 18.5 px (where a dot covers more of the limb's few edge points).
+double systematicCentrePx(double radius_px) {
+  return 0.22 / radius_px;
+}
 // The spin fits' scatter-based uncertainties fall short by about this factor
 // for the same reason (slowly changing dot-centroid errors).
 constexpr double kSpinSigmaScale = 1.25;
+// Standard deviation given to each component of a spin that could not be
+// measured (no dot followed), rad/s.
+constexpr double kUnknownSpinSigma = 50.0;
 
 std::string fmt(const char* spec, double v) {
   char buf[64];
@@ -259,6 +266,7 @@ Vec3 drawVec(const Vec3& mean, const Eigen::Matrix3d& cov, std::mt19937_64& rng,
 
 struct Outcome {
   double t_c = 0;
+  double n_z = 0;  // z component of the line of centres
   std::array<Vec3, 2> v_before, v_after, w_before, w_after;
   WaltonMeasurement m;
   double vs_after = 0;
@@ -275,7 +283,9 @@ struct Inputs {
   std::array<double, 2> diameter, mass;
   double contact = 0;  // contact distance, m
   double t_before = 0, t_after = 0;
-  double w_before = 0.5;  // weight of the pre-impact instant in t_c
+  double w_before = 0.5;       // weight of the pre-impact instant in t_c
+  double nz_sigma = 0.01;      // prior sigma of the line of centres' z part
+  double vz_fraction = 0.005;  // prior sigma of v_z before impact, fraction of the speed
 };
 
 // The shot's properties from one draw of every fitted input (or the nominal
@@ -294,6 +304,9 @@ Outcome evaluate(const Inputs& in, std::mt19937_64& rng, bool nominal) {
   for (int s = 0; s < 2; ++s) {
     const Eigen::Vector2d p = d[s][0].pos(o.t_c);
     o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
+    if (!nominal)
+      o.v_before[s].z() =
+          in.vz_fraction * o.v_before[s].norm() * std::normal_distribution<double>()(rng);
     o.v_after[s] = Vec3(d[s][1].vel(o.t_c).x(), d[s][1].vel(o.t_c).y(), 0);
     o.w_before[s] = drawVec(in.spin[s][0], in.spin_cov[s][0], rng, nominal);
     o.w_after[s] = drawVec(in.spin[s][1], in.spin_cov[s][1], rng, nominal);
@@ -305,10 +318,49 @@ Outcome evaluate(const Inputs& in, std::mt19937_64& rng, bool nominal) {
     after[s].velocity_m_s = o.v_after[s];
     after[s].spin_rad_s = o.w_after[s];
   }
-  // Appendix B: the out-of-plane velocities after impact from the spin changes.
-  if (auto z = outOfPlaneVelocity(before, after)) {
-    o.v_after[0].z() = after[0].velocity_m_s.z() = z->v1z_m_s;
-    o.v_after[1].z() = after[1].velocity_m_s.z() = z->v2z_m_s;
+  // Out of the image plane (thesis Appendix B, generalised): the spin changes
+  // give the impulse's z part and, through friction, the line of centres'
+  // small z part, which the images cannot show (spheres launched a little out
+  // of plane meet a few tenths of a millimetre apart in z). -n x dP =
+  // (m_i d_i / 5) d omega_i, rows x and y for each sphere, is linear in
+  // (n_z, dP_z):
+  //   n_z dP_y - n_y dP_z = c_i d omega_ix,   n_x dP_z - n_z dP_x = c_i d omega_iy.
+  // A frictionless (head-on) impulse leaves n_z undetermined, so n_z has a
+  // prior N(0, line_of_centres_z_sigma^2), itself drawn in the Monte Carlo.
+  {
+    const Vec3 dr = before[0].position_m - before[1].position_m;
+    const Eigen::Vector2d n2 = dr.head<2>().normalized();
+    const double m12 = in.mass[0] * in.mass[1] / (in.mass[0] + in.mass[1]);
+    const Vec3 dp = m12 * ((o.v_after[0] - o.v_before[0]) - (o.v_after[1] - o.v_before[1]));
+    Eigen::Matrix2d ata = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d atb = Eigen::Vector2d::Zero();
+    for (int s = 0; s < 2; ++s) {
+      const double c = in.mass[s] * in.diameter[s] / 5.0;
+      const Vec3 dw = o.w_after[s] - o.w_before[s];
+      const Eigen::Matrix3d cov = in.spin_cov[s][0] + in.spin_cov[s][1];
+      for (int row = 0; row < 2; ++row) {
+        const Eigen::Vector2d a =
+            row == 0 ? Eigen::Vector2d(dp.y(), -n2.y()) : Eigen::Vector2d(-dp.x(), n2.x());
+        const double var = c * c * std::max(cov(row, row), 1e-12);
+        ata += a * a.transpose() / var;
+        atb += a * (c * dw[row]) / var;
+      }
+    }
+    const double sz = std::max(in.nz_sigma, 1e-6);
+    const double prior = nominal ? 0.0 : sz * std::normal_distribution<double>()(rng);
+    ata(0, 0) += 1.0 / (sz * sz);
+    atb[0] += prior / (sz * sz);
+    const Eigen::Vector2d x = ata.ldlt().solve(atb);
+    if (x.allFinite()) {
+      const double nz = std::clamp(x[0], -0.2, 0.2);
+      // Sphere 1 towards the camera from sphere 2 by n_z of the contact distance.
+      const double dz = nz * dr.head<2>().norm() / std::sqrt(1 - nz * nz);
+      before[0].position_m.z() = after[0].position_m.z() = 0.5 * dz;
+      before[1].position_m.z() = after[1].position_m.z() = -0.5 * dz;
+      o.v_after[0].z() = after[0].velocity_m_s.z() = o.v_before[0].z() + x[1] / in.mass[0];
+      o.v_after[1].z() = after[1].velocity_m_s.z() = o.v_before[1].z() - x[1] / in.mass[1];
+      o.n_z = nz;
+    }
   }
   auto m = measureCollision(before, after);
   if (!m) return o;
@@ -604,6 +656,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   // ---- dots and spins, per sphere and side
   Inputs in;
   in.contact = contact;
+  in.nz_sigma = set.line_of_centres_z_sigma;
+  in.vz_fraction = std::max(0.0, set.out_of_plane_speed_fraction);
   in.diameter = diam;
   for (int s = 0; s < 2; ++s)
     in.mass[s] = set.mass_kg[s] > 0 ? set.mass_kg[s]
@@ -615,15 +669,15 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
       in.fit[s][side] = &sf.fit;
       in.inflation[s][side] = sf.inflation;
       const double span = sf.fit.tLast_s() - sf.fit.tFirst_s();
-      in.drift[s][side] = span > 0 ? kDriftPerRadius * r_med[s] * px / span : 0.0;
-      in.offset[s] = kDriftPerRadius * r_med[s] * px;
+      in.drift[s][side] = span > 0 ? systematicCentrePx(r_med[s]) * px / span : 0.0;
+      in.offset[s] = systematicCentrePx(r_med[s]) * px;
       std::vector<SpinFrame> sfr;
       for (const int k : sf.frames) {
         SphereMeasurement m = *trackAt(data[k], s);
         // Lift with the track's radius: steadier than one frame's.
         m.circle.radius = r_med[s];
         dots[k][s] = findDots(burst.frames[data[k].index].image, m, max_value);
-        if (dots[k][s].dots.size() < 2) continue;
+        if (dots[k][s].dots.empty()) continue;
         SpinFrame f;
         f.t_s = data[k].t;
         for (const Dot& d : dots[k][s].dots) {
@@ -638,8 +692,11 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         in.spin[s][side] = spin->spin_rad_s;
         in.spin_cov[s][side] = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
       } else {
+        // Unknown spin: zero, with a spread wide enough for any spin these
+        // launches give, so beta and f carry the ignorance in their sigmas.
         in.spin[s][side] = Vec3::Zero();
-        in.spin_cov[s][side] = Eigen::Matrix3d::Zero();
+        in.spin_cov[s][side] =
+            Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
         addFlag(out, side == 0 ? "no_spin_before" : "no_spin_after");
       }
       SphereKinematics& kin = out.sphere[s];
@@ -696,7 +753,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
       kin.velocity_before_m_s.sigma[k] = svb[s][k].sigma();
       kin.velocity_after_m_s.sigma[k] = sva[s][k].sigma();
     }
-    kin.velocity_before_m_s.sigma.z() = 0;  // in the image plane by assumption
+    // In the image plane by assumption, within out_of_plane_speed_fraction of the speed.
+    kin.velocity_before_m_s.sigma.z() = in.vz_fraction * nominal.v_before[s].norm();
     for (int side = 0; side < 2; ++side) out.trajectory[s][side] = fits[s][side]->fit;
   }
 

@@ -40,6 +40,17 @@ struct AnalysisSettings {
   bool fix_gravity = true;
   /// Frame rate used when frames carry no usable timestamps (frames/s).
   double fps = 0.0;
+  /// Prior standard deviation of the z part (towards the camera) of the unit
+  /// line of centres at contact: how far out of one plane the spheres may
+  /// meet (0.01 = a quarter of a millimetre for 2.54 cm spheres). The images
+  /// cannot show it; the spin changes can when friction acts in the image
+  /// plane. Near head-on it limits v_s and beta (their uncertainties say so).
+  double line_of_centres_z_sigma = 0.01;
+  /// Standard deviation of each sphere's velocity component out of the image
+  /// plane before impact, as a fraction of its speed (launch misalignment; the
+  /// thesis found it below 1 %). Taken as 0 in the values, it widens the
+  /// uncertainties of v_s, beta and f.
+  double out_of_plane_speed_fraction = 0.005;
   /// Optional progress callback (frames processed, total); may be empty.
   std::function<void(int, int)> progress;
 };

@@ -72,7 +72,7 @@ bool geometricFit(const std::vector<CirclePoint>& p, const std::vector<char>& us
     c.r += step[2];
     jtj_out = jtj;
     if (!(c.r > 0)) return false;
-    if (step.cwiseAbs().maxCoeff() < 1e-7) break;
+    if (step.cwiseAbs().maxCoeff() < 1e-6) break;
   }
   return std::isfinite(c.u) && std::isfinite(c.v) && std::isfinite(c.r);
 }
@@ -358,7 +358,30 @@ struct Profile {
   double g = 0;    // cosine between the line and the radius at the limb
   double out = 0;  // background level
   double mean_in = 0, mean_x = 0, mean_x2 = 0;  // of the inside samples (x from b + 0.5)
+  // Centred moments of the inside samples y_j at x_j = j - 1/2: sum (y - mean) (x - mean_x),
+  // sum (y - mean) (x^2 - mean_x2), sum (y - mean)^2. The shading fit and the
+  // residual checks need nothing else.
+  double p1 = 0, p2 = 0, yy = 0;
   bool ok = false;
+};
+
+// Moments of the inside sample positions x_j = j - 1/2, j = 1..n (the same for
+// every profile): means, and sums of X1 = x - mean_x, X2 = x^2 - mean_x2.
+struct InsideGrid {
+  double mean_x = 0, mean_x2 = 0, a11 = 0, a12 = 0, a22 = 0;  // sums X1^2, X1 X2, X2^2
+  explicit InsideGrid(int n) {
+    for (int j = 1; j <= n; ++j) mean_x += j - 0.5, mean_x2 += (j - 0.5) * (j - 0.5);
+    mean_x /= n, mean_x2 /= n;
+    for (int j = 1; j <= n; ++j) {
+      const double x1 = j - 0.5 - mean_x, x2 = (j - 0.5) * (j - 0.5) - mean_x2;
+      a11 += x1 * x1, a12 += x1 * x2, a22 += x2 * x2;
+    }
+  }
+  // Sum of squared residuals of a profile about the shape (slope s, curvature q).
+  double residual2(const Profile& pr, double s, double q) const {
+    return std::max(
+        0.0, pr.yy - 2 * s * pr.p1 - 2 * q * pr.p2 + s * s * a11 + 2 * s * q * a12 + q * q * a22);
+  }
 };
 
 // Shape of the sphere's brightness just inside the limb, shared by all
@@ -424,14 +447,15 @@ void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
 }
 
 // Finds the crossing and checks the background and the inside of one profile.
-void screenProfile(const float* p, int len, int predicted, const EdgeContext& ctx, Profile& pr,
-                   EdgeStats& st) {
+void screenProfile(const float* p, int len, int predicted, const EdgeContext& ctx,
+                   const InsideGrid& grid, Profile& pr, EdgeStats& st) {
   pr.ok = false;
   const int first = std::max(ctx.n_out + ctx.hw + 1, predicted - ctx.search);
   const int last = std::min(len - ctx.hw - ctx.n_in - 1, predicted + ctx.search);
+  const float thr = static_cast<float>(ctx.threshold);
   int c = -1;
   for (int i = first; i <= last; ++i)
-    if (p[i - 1] < ctx.threshold && p[i] >= ctx.threshold) {
+    if (p[i - 1] < thr && p[i] >= thr) {
       c = i;
       break;
     }
@@ -444,73 +468,75 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
     out += p[i];
   }
   // Sphere just inside: bright (no dot), not clipped.
-  double sy = 0, sx = 0, sx2 = 0;
+  double sy = 0;
   for (int j = 1; j <= ctx.n_in; ++j) {
-    const double y = p[b + j];
-    if (y < ctx.threshold) return;
+    const float y = p[b + j];
+    if (y < thr) return;
     if (y >= ctx.max_value) {
       ++st.saturated;
       return;
     }
-    const double x = j - 0.5;
-    sy += y, sx += x, sx2 += x * x;
+    sy += y;
+  }
+  const double mean = sy / ctx.n_in;
+  double p1 = 0, p2 = 0, yy = 0;
+  for (int j = 1; j <= ctx.n_in; ++j) {
+    const double y = p[b + j] - mean, x = j - 0.5;
+    p1 += y * (x - grid.mean_x);
+    p2 += y * (x * x - grid.mean_x2);
+    yy += y * y;
   }
   pr.c = c;
   pr.out = out / ctx.n_out;
-  pr.mean_in = sy / ctx.n_in;
-  pr.mean_x = sx / ctx.n_in;
-  pr.mean_x2 = sx2 / ctx.n_in;
+  pr.mean_in = mean;
+  pr.mean_x = grid.mean_x;
+  pr.mean_x2 = grid.mean_x2;
+  pr.p1 = p1, pr.p2 = p2, pr.yy = yy;
   pr.ok = true;
 }
 
 // b1, b2 by least squares over every usable profile, each profile's own level
 // eliminated by centring. Profiles whose inside samples stray from the shared
 // shape (a dot edge, a highlight) are dropped and the fit repeated.
-Shading fitShading(const std::vector<float>& samples, int len, std::vector<Profile>& profiles,
-                   const EdgeContext& ctx, double radius) {
+// Per profile the model is y - mean = s X1 + q X2 with s = b1 g and
+// q = (b2 g^2 - b1 (1 - g^2) / R) / 2, i.e. linear in (b1, b2) with
+// regressors f1 = g X1 - h X2 (h = (1 - g^2) / 2R) and f2 = g^2 X2 / 2.
+Shading fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx, const InsideGrid& grid,
+                   double radius) {
   Shading sh;
   sh.radius = radius;
   for (int round = 0; round < 2; ++round) {
-    Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+    double m11 = 0, m12 = 0, m22 = 0, r1 = 0, r2 = 0;
     for (const Profile& pr : profiles) {
       if (!pr.ok) continue;
-      const float* p = samples.data() + static_cast<std::size_t>(&pr - profiles.data()) * len;
-      const int b = pr.c + ctx.hw;
-      const double g = pr.g;
-      for (int j = 1; j <= ctx.n_in; ++j) {
-        const double x = j - 0.5;
-        const double y = p[b + j] - pr.mean_in;
-        const double f1 = g * (x - pr.mean_x) - 0.5 * (1 - g * g) / radius * (x * x - pr.mean_x2);
-        const double f2 = 0.5 * g * g * (x * x - pr.mean_x2);
-        const Eigen::Vector2d f(f1, f2);
-        a += f * f.transpose();
-        rhs += f * y;
-      }
+      const double g = pr.g, h = 0.5 * (1 - g * g) / radius, k = 0.5 * g * g;
+      m11 += g * g * grid.a11 - 2 * g * h * grid.a12 + h * h * grid.a22;
+      m12 += k * (g * grid.a12 - h * grid.a22);
+      m22 += k * k * grid.a22;
+      r1 += g * pr.p1 - h * pr.p2;
+      r2 += k * pr.p2;
     }
-    Eigen::FullPivLU<Eigen::Matrix2d> lu(a);
-    if (lu.rank() == 2) {
-      const Eigen::Vector2d sol = lu.solve(rhs);
-      sh.b1 = sol[0], sh.b2 = sol[1];
+    const double det = m11 * m22 - m12 * m12;
+    if (det > 1e-12 * (m11 * m22 + 1e-300)) {
+      sh.b1 = (m22 * r1 - m12 * r2) / det;
+      sh.b2 = (m11 * r2 - m12 * r1) / det;
     } else {
       sh.b1 = sh.b2 = 0;
     }
     if (round == 1) break;
-    // Drop profiles that do not follow the shared shape.
+    // Drop profiles that do not follow the shared shape; refit if any went.
+    bool dropped = false;
     for (Profile& pr : profiles) {
       if (!pr.ok) continue;
-      const float* p = samples.data() + static_cast<std::size_t>(&pr - profiles.data()) * len;
-      const int b = pr.c + ctx.hw;
       const double s = sh.slope(pr.g), q = sh.curv(pr.g);
       const double d = pr.mean_in - s * pr.mean_x - q * pr.mean_x2;
-      double ss = 0;
-      for (int j = 1; j <= ctx.n_in; ++j) {
-        const double x = j - 0.5;
-        const double r = p[b + j] - (d + s * x + q * x * x);
-        ss += r * r;
+      const double rms = std::sqrt(grid.residual2(pr, s, q) / ctx.n_in);
+      if (rms > 3.0 * ctx.sigma + 0.03 * (d - pr.out)) {
+        pr.ok = false;
+        dropped = true;
       }
-      if (std::sqrt(ss / ctx.n_in) > 3.0 * ctx.sigma + 0.03 * (d - pr.out)) pr.ok = false;
     }
+    if (!dropped) break;
   }
   return sh;
 }
@@ -552,9 +578,10 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   profiles.reserve(static_cast<std::size_t>(6 * c.r) + 8);
   samples.reserve(profiles.capacity() * 40);
   sampleProfiles<T>(img, c, ctx, profiles, samples, len, margin, st);
+  const InsideGrid grid(ctx.n_in);
   for (std::size_t k = 0; k < profiles.size(); ++k)
-    screenProfile(samples.data() + k * len, len, margin, ctx, profiles[k], st);
-  const Shading sh = fitShading(samples, len, profiles, ctx, c.r);
+    screenProfile(samples.data() + k * len, len, margin, ctx, grid, profiles[k], st);
+  const Shading sh = fitShading(profiles, ctx, grid, c.r);
   for (std::size_t k = 0; k < profiles.size(); ++k) {
     const Profile& pr = profiles[k];
     if (!pr.ok) continue;
@@ -578,7 +605,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   const double max_r = set.max_radius_px > 0 ? set.max_radius_px : 0.5 * std::min(w, h);
   const double min_r = set.min_radius_px > 0 ? set.min_radius_px : std::min(w, h) / 40.0;
   int step = set.coarse_step;
-  if (step <= 0) step = std::clamp(static_cast<int>(min_r / 3.0), 1, 4);
+  if (step <= 0) step = std::clamp(static_cast<int>(min_r / 3.0), 1, 8);
   if (std::min(w, h) < 4 * step) step = 1;
 
   const Grid grid = sampleGrid<T>(img, step);
@@ -641,7 +668,8 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   for (const Candidate& cand : cands) {
     Circle c{cand.coarse.u, cand.coarse.v, cand.coarse.radius};
     EdgeContext local = ctx;
-    local.search = step + 2 + (cand.touching ? 4 : 0);
+    // The coarse circle is good to about half a grid cell.
+    local.search = step / 2 + 3 + (cand.touching ? 4 : 0);
     // Big spheres have edge points to spare: every other line halves the work
     // for a sqrt(2) larger (still tiny) noise.
     local.line_stride = set.line_stride > 0
@@ -736,9 +764,13 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   scratch.reserve(n);
   int kept = static_cast<int>(n);
   // Drops points beyond the rejection limit and refits until nothing changes.
+  double spread = 0;   // robust sigma of the residuals
+  bool fresh = false;  // res and spread belong to the current circle
   const auto trim = [&]() -> Status {
+    fresh = false;
     for (int round = 0; round < 4; ++round) {
       const double robust = residuals(points, use, c, res, scratch);
+      spread = robust;
       const double limit = std::max(reject_sigmas * robust, min_reject_px);
       bool changed = false;
       kept = 0;
@@ -749,7 +781,10 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
         kept += keep;
       }
       if (kept < 5) return fail("circle fit: too many outlying edge points");
-      if (!changed) break;
+      if (!changed) {
+        fresh = true;
+        break;
+      }
       if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
     }
     return Ok{};
@@ -762,7 +797,7 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   // far better than with the circle. Then search circles through triples of
   // points (RANSAC) for the one most points lie on, and trim from there.
   if (ordered && n >= 30) {
-    const double spread = residuals(points, use, c, res, scratch);
+    if (!fresh) spread = residuals(points, use, c, res, scratch);
     scratch.clear();
     for (std::size_t i = 1; i < n; ++i) scratch.push_back(std::abs(res[i] - res[i - 1]));
     std::nth_element(scratch.begin(), scratch.begin() + scratch.size() / 2, scratch.end());
@@ -803,13 +838,10 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
     }
   }
 
+  if (!fresh) residuals(points, use, c, res, scratch);
   double ss = 0;
   for (std::size_t i = 0; i < n; ++i)
-    if (use[i]) {
-      const double dx = points[i].u - c.u, dy = points[i].v - c.v;
-      const double r = std::sqrt(dx * dx + dy * dy) - c.r;
-      ss += r * r;
-    }
+    if (use[i]) ss += res[i] * res[i];
   CircleFit f;
   f.u = c.u;
   f.v = c.v;

@@ -53,7 +53,7 @@ struct SphereDetectorSettings {
   double min_radius_px = 0.0;
   double max_radius_px = 0.0;  ///< 0: half the image's smaller side
   /// Subsampling of the coarse grid in pixels; 0: automatic (a third of the
-  /// smallest radius, from 1 to 4).
+  /// smallest radius, from 1 to 8).
   int coarse_step = 0;
   /// Half-width (pixels) of the blur the edge profiles must tolerate: the
   /// transition window spans +-(edge_half_width + 1) px around the threshold

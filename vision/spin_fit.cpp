@@ -382,10 +382,27 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
   // Few dots in view: bootstrap from pairs of two (the smaller of the two
   // possible rotations is taken; the fit's residuals catch a wrong one).
   if (out.pairs == 0 && opt.min_matches > 2) matchPairs(2);
+  // One dot in view at a time: follow each dot to its nearest neighbour in the
+  // next frame (a turn of less than the gate per frame). A dot's path over
+  // several frames still fixes the spin; the fit's covariance says how well.
+  if (out.pairs == 0) {
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+      const std::vector<Match> m =
+          matchDots(frames[k], frames[k + 1], Eigen::Matrix3d::Identity(), cos_gate);
+      if (m.empty()) continue;
+      ++out.pairs;
+      for (const Match& mm : m) {
+        int& ta = out.track_of[k][mm.first];
+        if (ta < 0) ta = next_track++;
+        out.track_of[k + 1][mm.second] = ta;
+      }
+    }
+    sum_w = Vec3::Zero();
+    sum_dt = 1;
+  }
   if (out.pairs == 0)
-    return fail("spin: no two consecutive frames share " + std::to_string(opt.min_matches) +
-                " matched dots; the dots cannot be followed (too few dots, or the sphere turns "
-                "too far between frames)");
+    return fail("spin: no dot could be followed from one frame to the next (no dots in view, "
+                "or the sphere turns too far between frames)");
 
   // ---- first fit, then every dot re-assigned with it (tracks grow across
   // frames the pairwise matching skipped), and the final fit

@@ -84,14 +84,15 @@ int runFit(const Options& o) {
   std::printf("beta_0   %.4f ± %.4f\n", fr.beta0.value, fr.beta0.sigma);
   std::printf("e        %.4f ± %.4f (mean of %d shots)\n", e.value, e.sigma,
               report->fit.restitution.count);
-  std::printf("gamma_0  %.1f ± %.1f deg (sliding below, rolling above; %d sliding, %d rolling)\n",
-              fr.switch_angle_deg.value, fr.switch_angle_deg.sigma, fr.sliding_count,
-              fr.rolling_count);
+  std::printf(
+      "gamma_0  %.1f ± %.1f deg (incidence angle from head-on: rolling below, sliding above; %d "
+      "sliding, %d rolling shots)\n",
+      fr.switch_angle_deg.value, fr.switch_angle_deg.sigma, fr.sliding_count, fr.rolling_count);
   if (report->fit.laws) {
     const auto& laws = *report->fit.laws;
-    std::printf("e(|v_n|) %s preferred (%s evidence, delta BIC %.1f)\n",
-                collide::restitutionLawName(laws.preferred).c_str(),
-                collide::evidenceName(laws.evidence).c_str(), laws.bic_margin);
+    std::printf("e(|v_n|) %s law preferred (delta BIC %.1f; evidence: %s)\n",
+                collide::restitutionLawName(laws.preferred).c_str(), laws.bic_margin,
+                collide::evidenceName(laws.evidence).c_str());
   } else {
     std::printf("e(|v_n|) not fitted: %s\n", report->fit.laws.error().message.c_str());
   }

@@ -52,6 +52,7 @@ CalibrationDialog::CalibrationDialog(ProfilePtr profile, QString profile_path, Q
   chart_->setMinimumSize(420, 300);
   splitter->addWidget(chart_);
   splitter->setStretchFactor(1, 2);
+  table_->setMinimumWidth(380);
   layout->addWidget(splitter, 1);
   status_ = new QLabel;
   status_->setObjectName("calibration_status");
@@ -90,6 +91,7 @@ void CalibrationDialog::setLaunches(std::vector<MeasuredLaunch> launches) {
             : QString::number(m.speed_m_s, 'f', 3)};
     for (int c = 0; c < 4; ++c) table_->setItem(i, c, new QTableWidgetItem(cells[c]));
   }
+  table_->resizeColumnsToContents();
   status_->setText(launches_.empty()
                        ? tr("No measured launches yet: fire and analyse shots at several pressures "
                             "(a campaign does), then open this dialog again.")

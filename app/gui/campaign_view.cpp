@@ -86,10 +86,13 @@ QChartView* makeChartView(const app::PlotSpec& spec) {
     for (std::size_t i = 0; i < n; ++i) {
       if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
       s->append(series.x[i], series.y[i]);
+      // The range takes in the error bars too.
+      const double e =
+          i < series.y_err.size() && std::isfinite(series.y_err[i]) ? series.y_err[i] : 0;
       xmin = std::min(xmin, series.x[i]);
       xmax = std::max(xmax, series.x[i]);
-      ymin = std::min(ymin, series.y[i]);
-      ymax = std::max(ymax, series.y[i]);
+      ymin = std::min(ymin, series.y[i] - e);
+      ymax = std::max(ymax, series.y[i] + e);
     }
     attach(s, !series.label.empty());
     // One-sigma error bars: a short vertical line per point.

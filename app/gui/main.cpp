@@ -2,15 +2,23 @@
 // the simulated rig.
 #include <QApplication>
 #include <QCommandLineParser>
+#include <cstring>
+#include <memory>
 
 #include "app/gui/main_window.hpp"
 #include "app/version.hpp"
 
 int main(int argc, char** argv) {
-  QApplication app(argc, argv);
-  QApplication::setOrganizationName("collide");
-  QApplication::setApplicationName("collide-gui");
-  QApplication::setApplicationVersion(collide::kVersion);
+  // --help and --version need no display: answer them without a GUI.
+  bool text_only = false;
+  for (int i = 1; i < argc; ++i)
+    for (const char* flag : {"--help", "-h", "--help-all", "--version", "-v"})
+      text_only = text_only || std::strcmp(argv[i], flag) == 0;
+  std::unique_ptr<QCoreApplication> app(text_only ? new QCoreApplication(argc, argv)
+                                                  : new QApplication(argc, argv));
+  QCoreApplication::setOrganizationName("collide");
+  QCoreApplication::setApplicationName("collide-gui");
+  QCoreApplication::setApplicationVersion(collide::kVersion);
 
   QCommandLineParser parser;
   parser.setApplicationDescription(
@@ -27,12 +35,12 @@ int main(int argc, char** argv) {
                            "DIR");
   parser.addOption(rig);
   parser.addOption(shots);
-  parser.process(app);
+  parser.process(*app);  // exits after --help / --version
 
   collide::gui::MainWindowOptions options;
   options.rig_profile = parser.value(rig);
   options.shots_dir = parser.value(shots);
   collide::gui::MainWindow window(options);
   window.show();
-  return app.exec();
+  return app->exec();
 }

@@ -84,7 +84,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   auto* scroll = new QScrollArea;
   scroll->setWidget(rig_panel_);
   scroll->setWidgetResizable(true);
-  scroll->setMinimumWidth(rig_panel_->sizeHint().width() + 24);  // no sideways scrolling
+  // The panel fits its dock's width (no sideways scrolling); it scrolls down only.
+  scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  scroll->setMinimumWidth(500);
   auto* dock = new QDockWidget(tr("Rig"));
   dock->setObjectName("rig_dock");
   dock->setWidget(scroll);
@@ -262,9 +264,8 @@ void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QSt
 void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file) {
   if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
   const QString id = shot ? qs(shot->id) : QString();
-  // A failed analysis is a result too (the catalog shows why); a build
-  // without the vision core has nothing to say about the shot.
-  if (shot && analysisAvailable() && shot->status == hw::ShotStatus::Ok && tag != "overlay")
+  // A failed analysis is a result too: the catalog shows why.
+  if (shot && shot->status == hw::ShotStatus::Ok && tag != "overlay")
     storeResults(file, shot->id, app::failedResultsJson(message.toStdString()));
   if (shot && replay_view_->shot() && replay_view_->shot()->id == shot->id && tag != "overlay")
     replay_view_->resultCard()->setMessage(id, message);

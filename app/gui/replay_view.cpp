@@ -131,6 +131,8 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   play_ = button(tr("Play"), "play");
   auto* next = button(">", "next_frame");
   auto* last = button(">|", "last_frame");
+  for (auto* b : {first, prev, next, last}) b->setMaximumWidth(44);
+  play_->setMaximumWidth(70);
   frame_label_ = new QLabel;
   frame_label_->setObjectName("frame_label");
   row->addWidget(frame_label_, 1);
@@ -144,6 +146,7 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   splitter->addWidget(left);
 
   card_ = new ResultCard;
+  splitter->setChildrenCollapsible(false);
   splitter->addWidget(card_);
   splitter->setStretchFactor(0, 3);
   splitter->setStretchFactor(1, 1);
@@ -240,11 +243,10 @@ void ReplayView::redraw() {
                   .arg(t_ms, 0, 'f', 2)
                   .arg(f.status == vision::FrameStatus::Good ? QString() : tr("  [bad frame]"));
   view_->setOverlay(std::move(o));
-  QString label = tr("frame %1 / %2").arg(index_ + 1).arg(frameCount());
-  if (analysis_) {
-    const double tc = analysis_->collision.t_collision_s.value;
-    label += tr("; collision at %1 ms on the analysis clock").arg(tc * 1e3, 0, 'f', 2);
-  }
+  QString label = tr("%1 / %2").arg(index_ + 1).arg(frameCount());
+  if (analysis_ && std::isfinite(analysis_->collision.t_collision_s.value))
+    label +=
+        tr(", contact at %1 ms").arg(analysis_->collision.t_collision_s.value * 1e3, 0, 'f', 2);
   frame_label_->setText(label);
 }
 

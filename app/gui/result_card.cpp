@@ -1,5 +1,6 @@
 #include "app/gui/result_card.hpp"
 
+#include <QFontMetrics>
 #include <QGridLayout>
 #include <QLabel>
 #include <cmath>
@@ -55,6 +56,9 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
     QFont f = value->font();
     f.setFamily("monospace");
     value->setFont(f);
+    // Room for "value ± uncertainty" at the precision withSigma() uses.
+    value->setMinimumWidth(
+        QFontMetrics(f).horizontalAdvance(QString::fromUtf8("-0.0000000 ± 0.0000000")));
     grid->addWidget(name, r, 0);
     grid->addWidget(value, r, 1);
     grid->addWidget(new QLabel(row.unit), r, 2);

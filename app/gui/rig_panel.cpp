@@ -39,7 +39,8 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   devices_->setObjectName("device_table");
   devices_->setHorizontalHeaderLabels({tr("backend"), tr("device"), tr("state")});
   devices_->setVerticalHeaderLabels({tr("regulator"), tr("valves"), tr("camera")});
-  devices_->horizontalHeader()->setSectionResizeMode(QHeaderView::Stretch);
+  devices_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  devices_->horizontalHeader()->setStretchLastSection(true);
   devices_->setEditTriggers(QAbstractItemView::NoEditTriggers);
   devices_->setMaximumHeight(devices_->verticalHeader()->length() +
                              devices_->horizontalHeader()->height() + 6);
@@ -148,7 +149,11 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
       "QPushButton:enabled { background: #c0392b; color: white; font-weight: bold; }");
   cancel_ = new QPushButton(tr("Cancel"));
   cancel_->setObjectName("cancel_button");
-  for (auto* b : {arm_, disarm_, fire_, cancel_}) buttons->addWidget(b);
+  for (auto* b : {arm_, disarm_, fire_, cancel_}) {
+    b->setMinimumWidth(60);
+    b->setSizePolicy(QSizePolicy::Preferred, QSizePolicy::Fixed);
+    buttons->addWidget(b);
+  }
   layout->addLayout(buttons);
   connect(arm_, &QPushButton::clicked, this, [this] { emit armRequested(wantedSpeeds()); });
   connect(disarm_, &QPushButton::clicked, this, [this] { emit disarmRequested(); });
@@ -237,9 +242,8 @@ void RigPanel::setStatus(const RigStatus& s) {
     }
   }
   for (int i = 0; i < 2; ++i)
-    readback_[i]->setText(tr("%1 kPa (setpoint %2)")
-                              .arg(s.readback_kPa[i], 0, 'f', 2)
-                              .arg(s.setpoint_kPa[i], 0, 'f', 2));
+    readback_[i]->setText(
+        tr("%1 kPa (set %2)").arg(s.readback_kPa[i], 0, 'f', 2).arg(s.setpoint_kPa[i], 0, 'f', 2));
   state_->setText(s.busy      ? tr("<b>busy</b>: firing")
                   : !s.armed  ? tr("disarmed")
                   : s.settled ? tr("<b>armed and settled</b>: ready to fire")

@@ -3,9 +3,12 @@
 // and compared with the recording frame by frame.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
+#include "app/analyze.hpp"
 #include "app/replay.hpp"
+#include "app/results_json.hpp"
 #include "app/shot_file.hpp"
 #include "hw/replay_profile.hpp"
 #include "tests/app/shot_fixtures.hpp"
@@ -56,11 +59,24 @@ TEST(ReplayData, EveryRecordedShotReplaysFrameForFrame) {
                     double(a[i].timestamp_ns - a[0].timestamp_ns), 1000.0);
       testing::expectSameImage(a[i].image, b[i].image, "frame " + std::to_string(a[i].id));
     }
-    // Saved like a live shot, and readable.
+    // Saved like a live shot, then analysed like one: the material the
+    // recording was simulated with comes back out of the replayed frames.
+    auto outcome = analyzeShotFile(replayed->file);
+    ASSERT_TRUE(outcome.analysed) << outcome.message;
     auto saved = readShot(replayed->file, {.frames = false});
     ASSERT_TRUE(saved.ok()) << saved.error().message;
     EXPECT_EQ(saved->id, shot.id);
     EXPECT_EQ(saved->camera.backend, "replay");
+    EXPECT_EQ(saved->results_json, outcome.results_json);
+    auto r = parseResultsJson(saved->results_json);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_TRUE(recorded->truth.has_value());
+    const auto& c = r->collision;
+    EXPECT_GT(c.e.sigma, 0.0);
+    EXPECT_LT(std::abs(c.e.value - recorded->truth->material.e), 4 * c.e.sigma + 1e-3)
+        << "e " << c.e.value << " +- " << c.e.sigma;
+    // Both recordings are oblique (25-55 degrees from head-on), so beta is measured.
+    EXPECT_TRUE(std::isfinite(c.beta.value));
   }
 }
 

@@ -16,6 +16,7 @@
 #include <QTabWidget>
 #include <QTableWidget>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <numbers>
 
@@ -30,6 +31,7 @@
 #include "app/gui/shot_browser.hpp"
 #include "app/rig_setup.hpp"
 #include "app/save.hpp"
+#include "app/shot_file.hpp"
 #include "gui_test_support.hpp"
 #include "hw/sequencer.hpp"
 
@@ -151,13 +153,6 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
   QTest::mouseClick(child<QPushButton>(replay, "previous_frame"), Qt::LeftButton);
   EXPECT_EQ(replay->frameIndex(), at);
 
-  if (!analysisAvailable()) {
-    EXPECT_FALSE(card->hasResult());
-    EXPECT_TRUE(card->message().contains("analysis not available"))
-        << card->message().toStdString();
-    EXPECT_TRUE(screenshot(replay, "replay"));
-    GTEST_SKIP() << "this build has no vision::analyzeBurst: the result card cannot be checked";
-  }
   ASSERT_TRUE(card->hasResult()) << card->message().toStdString();
   EXPECT_TRUE(screenshot(replay, "replay"));
 
@@ -169,18 +164,23 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
     double tolerance;
   };
   const double gamma_deg = truth.before.gamma_rad * 180.0 / std::numbers::pi;
+  // Tolerances: issue 4's per-shot accuracy targets (|error of e| <= 0.005,
+  // |error of beta| <= 0.03), and 1 % on the contact velocities.
   const Check checks[] = {
       {"vn_m_s", "result_vn_m_s", truth.before.v_n_m_s,
-       0.03 * std::abs(truth.before.v_n_m_s) + 0.01},
-      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.05 * truth.before.v_s_m_s + 0.02},
-      {"gamma_deg", "result_gamma_deg", gamma_deg, 2.0},
-      {"e", "result_e", truth.e, 0.02},
-      {"beta", "result_beta", truth.beta, 0.1},
-      {"f", "result_f", truth.f, 0.05},
+       0.01 * std::abs(truth.before.v_n_m_s) + 0.005},
+      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.01 * truth.before.v_s_m_s + 0.005},
+      {"gamma_deg", "result_gamma_deg", gamma_deg, 0.5},
+      {"e", "result_e", truth.e, 0.005},
+      {"beta", "result_beta", truth.beta, 0.03},
+      {"f", "result_f", truth.f, 0.01},
   };
+
   for (const Check& c : checks) {
     const auto v = card->value(c.key);
     ASSERT_TRUE(v.has_value()) << c.key;
+    std::printf("result card %-10s %12.6f +- %9.6f   truth %12.6f\n", c.key, v->value, v->sigma,
+                c.truth);
     EXPECT_NEAR(v->value, c.truth, c.tolerance) << c.key;
     EXPECT_TRUE(std::isfinite(v->sigma) && v->sigma >= 0) << c.key << " sigma " << v->sigma;
     // The label shows the same number (to its displayed precision).
@@ -208,6 +208,7 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
   w.show();
   ShotBrowser* browser = w.shotBrowser();
   w.tabs()->setCurrentWidget(browser);
+  QSignalSpy stored(&w, &MainWindow::resultsStored);
   ASSERT_EQ(browser->rows().size(), 1u);
   EXPECT_EQ(browser->rows()[0].id, "20260101-120000-0001");
 
@@ -249,6 +250,22 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
   EXPECT_EQ(w.tabs()->currentWidget(), w.replayView());
   EXPECT_GT(w.replayView()->frameCount(), 10);
   EXPECT_FALSE(w.replayView()->imageView()->image().isNull());
+
+  // Opening an unanalysed shot analyses it and stores the results in its file
+  // and catalog row, where the browser lists them.
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 1; }, 60000));
+  EXPECT_TRUE(stored.at(0).at(1).toString().isEmpty())
+      << stored.at(0).at(1).toString().toStdString();
+  browser->refresh();
+  ASSERT_EQ(browser->rows().size(), 1u);
+  ASSERT_TRUE(browser->rows()[0].analysed);
+  ASSERT_TRUE(browser->rows()[0].results.e.has_value());
+  EXPECT_NEAR(*browser->rows()[0].results.e, 0.97, 0.005);  // the profile's nylon
+
+  // Re-running the analysis of every listed shot stores them again.
+  QTest::mouseClick(child<QPushButton>(browser, "reanalyse_all"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 2; }, 60000));
+  EXPECT_TRUE(stored.at(1).at(1).toString().isEmpty());
 }
 
 TEST(MainWindowGui, RunASmallCampaign) {
@@ -260,7 +277,7 @@ TEST(MainWindowGui, RunASmallCampaign) {
   ASSERT_TRUE(waitUntilRigRunning(w));
   CampaignView* view = w.campaignView();
   w.tabs()->setCurrentWidget(view);
-  const int shots = 6;
+  const int shots = 10;  // enough for both regimes of the friction fit at 10..80 degrees
   child<QSpinBox>(view, "campaign_shots")->setValue(shots);
   QSignalSpy finished(w.rigWorker(), &RigWorker::campaignFinished);
   QSignalSpy stored(&w, &MainWindow::resultsStored);
@@ -272,8 +289,7 @@ TEST(MainWindowGui, RunASmallCampaign) {
   // Wait for the analyses, their results in the files, and the plots to catch up.
   int fired_ok = 0;
   for (const auto& row : w.shotBrowser()->rows()) fired_ok += row.status == hw::ShotStatus::Ok;
-  if (analysisAvailable())
-    ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= fired_ok; }, 240000));
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= fired_ok; }, 240000));
   ASSERT_TRUE(QTest::qWaitFor(
       [&] { return w.analysisRunner()->pending() == 0 && !view->refreshing(); }, 240000));
   view->refresh();
@@ -288,8 +304,6 @@ TEST(MainWindowGui, RunASmallCampaign) {
   for (const auto& c : view->charts())
     for (const char* ext : {".png", ".svg", ".csv"})
       EXPECT_TRUE(std::filesystem::file_size(out + "/" + c.name + ext) > 0) << c.name << ext;
-  if (!analysisAvailable())
-    GTEST_SKIP() << "no vision::analyzeBurst in this build: no points to plot";
   // Every analysed shot whose flags do not rule it out is a point, as the
   // catalog (filled by the analyses) lists them.
   w.shotBrowser()->refresh();
@@ -304,6 +318,45 @@ TEST(MainWindowGui, RunASmallCampaign) {
   EXPECT_GE(2 * usable, ok) << "most shots should be usable: " << view->summary().toStdString();
   EXPECT_EQ(view->pointCount("e_vs_vn"), usable) << view->summary().toStdString();
   EXPECT_GT(view->pointCount("beta_vs_cot"), 0);
+  // With shots on both sides of the switch the fitted Walton line is drawn.
+  const auto& beta_plot = view->charts().front().plot;
+  EXPECT_EQ(view->charts().front().name, "beta_vs_cot");
+  bool has_line = false;
+  for (const auto& series : beta_plot.series)
+    has_line = has_line || series.style == app::Series::Style::Line;
+  EXPECT_TRUE(has_line) << view->summary().toStdString();
+  // The calibration dialog finds the measured exit speeds of the folder's
+  // shots: each within 1 % of the speed the simulation launched at (the
+  // horizontal velocity, which gravity leaves alone).
+  w.openCalibrationDialog();
+  auto* dialog = w.findChild<CalibrationDialog*>();
+  ASSERT_NE(dialog, nullptr);
+  ASSERT_TRUE(
+      QTest::qWaitFor([&] { return dialog->launches().size() >= std::size_t(2 * usable); }, 30000));
+  int checked = 0;
+  for (const auto& m : dialog->launches()) {
+    auto recorded =
+        app::readShot(dir + "/" + app::shotFileName(m.shot_id.toStdString()), {.frames = false});
+    ASSERT_TRUE(recorded) << recorded.error().message;
+    ASSERT_TRUE(recorded->truth);
+    // The truth's last sample before the contact: launched, not yet hit.
+    const hw::TruthRecord& tr = *recorded->truth;
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < tr.t_s.size(); ++i)
+      if (tr.t_s[i] < tr.t_collision_s) k = i;
+    const double truth = std::abs(tr.states[k][m.launcher].velocity_m_s.x());
+    EXPECT_NEAR(m.speed_m_s, truth, 0.01 * truth) << m.shot_id.toStdString() << " " << m.launcher;
+    EXPECT_EQ(m.pressure_kPa, recorded->launchers[m.launcher].readback_kPa);
+    ++checked;
+  }
+  EXPECT_GE(checked, 2 * usable);
+  // (A campaign's speeds span only ~30..45 kPa: whether a cubic over the whole
+  // 10..150 kPa range can be refitted from them depends on the scatter, so
+  // the refit itself is tested on known data in calibration_dialog_gui_test.)
+  (void)dialog->refit();
+  EXPECT_TRUE(screenshot(dialog, "calibration"));
+  dialog->close();
+
   // The CSV holds the plotted points.
   std::ifstream csv(out + "/e_vs_vn.csv");
   int lines = 0;

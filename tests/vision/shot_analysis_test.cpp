@@ -41,7 +41,11 @@ TEST(AnalyzeBurst, SimulatedShotsAreMeasuredAccuratelyWithHonestUncertainties) {
     ShotSpec spec;
     spec.seed = 500 + i;
     spec.contact_angle_rad = -0.7 + 1.4 * (i % 8) / 7.0;
-    spec.spin_max_rad_s = 60;
+    spec.spin_max_rad_s = 20;  // at launch, as config/sim.toml
+    // Spheres meeting a little out of one plane and flying slightly out of it,
+    // as the analysis assumes by default.
+    spec.contact_z_sigma = 0.01;
+    spec.out_of_plane_fraction = 0.005;
     spec.speed1_m_s = 1.6 + 0.1 * (i % 5);
     spec.speed2_m_s = 2.4 - 0.1 * (i % 3);
     const SimulatedShot shot = simulateShot(spec);
@@ -53,15 +57,20 @@ TEST(AnalyzeBurst, SimulatedShotsAreMeasuredAccuratelyWithHonestUncertainties) {
         "shot %2d: vn %.2f vs %.2f  e %+.5f (sigma %.5f)  beta %+.4f (sigma %.4f)  t %+.1e s\n", i,
         c.vn_m_s.value, c.vs_m_s.value, de, c.e.sigma, db, c.beta.sigma,
         c.t_collision_s.value - shot.t_collision_s);
-    EXPECT_NEAR(c.vn_m_s.value, shot.truth.before.v_n_m_s, 0.002);
-    EXPECT_NEAR(c.vs_m_s.value, shot.truth.before.v_s_m_s, 0.002);
+    EXPECT_NEAR(c.vn_m_s.value, shot.truth.before.v_n_m_s, 5 * c.vn_m_s.sigma + 1e-4);
+    EXPECT_NEAR(c.vs_m_s.value, shot.truth.before.v_s_m_s, 5 * c.vs_m_s.sigma + 1e-4);
     EXPECT_LE(std::abs(de), 0.005);
-    if (std::abs(c.vn_m_s.value) >= 0.3 && c.vs_m_s.value >= 0.3) {
+    EXPECT_LE(std::abs(db), 5 * c.beta.sigma + 1e-4);
+    // The target where the geometry allows it: near head-on, the
+    // unseen z offset of the line of centres (contact_z_sigma) limits beta,
+    // and the stated uncertainty says so.
+    if (std::abs(c.vn_m_s.value) >= 0.3 && c.vs_m_s.value >= 0.3 && c.beta.sigma < 0.01) {
       EXPECT_LE(std::abs(db), 0.03);
     }
     EXPECT_NEAR(c.t_collision_s.value, shot.t_collision_s, 5 * c.t_collision_s.sigma + 1e-7);
-    EXPECT_NEAR(c.gamma_deg.value, shot.truth.before.gamma_rad * 180 / 3.14159265358979, 0.1);
-    EXPECT_NEAR(c.f.value, shot.truth.f, 0.01);
+    EXPECT_NEAR(c.gamma_deg.value, shot.truth.before.gamma_rad * 180 / 3.14159265358979,
+                5 * c.gamma_deg.sigma + 0.01);
+    EXPECT_NEAR(c.f.value, shot.truth.f, 5 * c.f.sigma + 1e-3);
     EXPECT_FALSE(hasFlag(*r, "no_spin_before"));
     EXPECT_FALSE(hasFlag(*r, "no_spin_after"));
     EXPECT_FALSE(hasFlag(*r, "collision_instant_disagree"));

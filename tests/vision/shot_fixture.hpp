@@ -30,6 +30,11 @@ struct ShotSpec {
   /// Angle (rad) between the line of centres at contact and the horizontal.
   double contact_angle_rad = 0.3;
   double spin_max_rad_s = 20;  ///< each sphere's spin: random axis, magnitude up to this
+  /// Standard deviation of the z part of the unit line of centres at contact
+  /// (the spheres fly in two planes this far apart, times the diameter).
+  double contact_z_sigma = 0.0;
+  /// Standard deviation of each sphere's z velocity, as a fraction of its speed.
+  double out_of_plane_fraction = 0.0;
   Material material{0.97, 0.176, 0.44};
   std::uint64_t seed = 1;
 };
@@ -61,10 +66,16 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   const double d = spec.diameter_m;
   // Contact at flight time tm, at the world origin (image centre).
   const double tm = 0.05;
-  const Vec3 n(std::cos(spec.contact_angle_rad), std::sin(spec.contact_angle_rad), 0);
+  const double nz = spec.contact_z_sigma * std::normal_distribution<double>()(rng);
+  const Vec3 n = Vec3(std::cos(spec.contact_angle_rad), std::sin(spec.contact_angle_rad), 0) *
+                     std::sqrt(1 - nz * nz) +
+                 Vec3(0, 0, nz);
   const Vec3 c1 = -0.5 * d * n, c2 = 0.5 * d * n;
-  const Vec3 v1(spec.speed1_m_s, 0.15 * (uni(rng) - 0.5), 0);
-  const Vec3 v2(-spec.speed2_m_s, 0.15 * (uni(rng) - 0.5), 0);
+  std::normal_distribution<double> nd;
+  const Vec3 v1(spec.speed1_m_s, 0.15 * (uni(rng) - 0.5),
+                spec.out_of_plane_fraction * spec.speed1_m_s * nd(rng));
+  const Vec3 v2(-spec.speed2_m_s, 0.15 * (uni(rng) - 0.5),
+                spec.out_of_plane_fraction * spec.speed2_m_s * nd(rng));
   FlightSetup setup;
   setup.material = spec.material;
   for (int i = 0; i < 2; ++i) {
@@ -145,6 +156,8 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   as.origin_u_px = ou;
   as.origin_v_px = ov;
   as.fps = spec.fps;
+  as.line_of_centres_z_sigma = std::max(spec.contact_z_sigma, 1e-4);
+  as.out_of_plane_speed_fraction = spec.out_of_plane_fraction;
   return shot;
 }
 

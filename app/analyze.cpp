@@ -1,0 +1,129 @@
+#include "app/analyze.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include "app/results_json.hpp"
+#include "app/save.hpp"
+#include "app/shot_file.hpp"
+
+namespace collide::app {
+namespace fs = std::filesystem;
+
+vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
+  vision::AnalysisSettings s;
+  s.pixel_size_m = shot.scene.pixel_size_m;
+  s.diameter_m = shot.scene.diameter_m;
+  s.mass_kg = shot.scene.mass_kg;
+  s.origin_u_px = shot.scene.origin_u_px;
+  s.origin_v_px = shot.scene.origin_v_px;
+  s.fps = shot.burst.fps > 0 ? shot.burst.fps : shot.camera.fps;
+  return s;
+}
+
+namespace {
+
+// Shared by one-file and folder analysis; `store_mutex` serialises the writes
+// (the catalog is one SQLite file) while the analyses run in parallel.
+AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mutex& store_mutex) {
+  AnalyzeOutcome out;
+  out.file = path;
+  auto shot = readShot(path);
+  if (!shot) {
+    out.message = shot.error().message;
+    return out;
+  }
+  out.id = shot->id;
+  if (shot->status == hw::ShotStatus::Failed) {
+    out.skipped = true;
+    out.message = "failed shot (" + shot->failure_reason + "): nothing to analyse";
+    return out;
+  }
+  if (skip_analysed && !shot->results_json.empty()) {
+    out.skipped = true;
+    out.message = "already analysed";
+    return out;
+  }
+  auto analysis = vision::analyzeBurst(shot->burst, analysisSettingsFor(*shot));
+  if (analysis) {
+    out.results_json = resultsToJson(*analysis);
+    out.analysed = true;
+  } else {
+    out.results_json = failedResultsJson(analysis.error().message);
+    out.message = analysis.error().message;
+  }
+  const std::string dir = fs::path(path).parent_path().string();
+  std::lock_guard lock(store_mutex);
+  // A file not named <id>.h5 is not in a catalog by that name: store in the file only.
+  const bool catalogued = fs::path(path).filename() == shotFileName(shot->id);
+  Status stored = catalogued ? saveResults(dir.empty() ? "." : dir, shot->id, out.results_json)
+                             : storeResults(path, out.results_json);
+  if (!stored) {
+    out.analysed = false;
+    out.message = "results not stored: " + stored.error().message;
+  }
+  return out;
+}
+
+}  // namespace
+
+AnalyzeOutcome analyzeShotFile(const std::string& path) {
+  std::mutex m;
+  return analyzeOne(path, false, m);
+}
+
+Result<AnalyzeFolderReport> analyzeFolder(const std::string& dir,
+                                          const AnalyzeFolderOptions& options,
+                                          const AnalyzeProgress& progress, std::stop_token cancel) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return fail(dir + ": no such folder");
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && e.path().extension() == ".h5") files.push_back(e.path().string());
+  if (ec) return fail(dir + ": cannot list the folder: " + ec.message());
+  if (files.empty()) return fail(dir + ": no shot files (*.h5) in this folder");
+  std::sort(files.begin(), files.end());
+
+  AnalyzeFolderReport report;
+  report.outcomes.resize(files.size());
+  std::atomic<std::size_t> next{0};
+  std::mutex store_mutex, progress_mutex;
+  int done = 0;
+  auto worker = [&] {
+    for (std::size_t i; !cancel.stop_requested() && (i = next++) < files.size();) {
+      AnalyzeOutcome o = analyzeOne(files[i], options.skip_analysed, store_mutex);
+      std::lock_guard lock(progress_mutex);
+      report.outcomes[i] = std::move(o);
+      ++done;
+      if (progress) progress(done, static_cast<int>(files.size()), report.outcomes[i]);
+    }
+  };
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t jobs =
+      std::min<std::size_t>(files.size(), options.jobs > 0 ? options.jobs : cores);
+  std::vector<std::jthread> threads;
+  for (std::size_t t = 1; t < jobs; ++t) threads.emplace_back(worker);
+  worker();
+  threads.clear();  // joins
+
+  report.cancelled = cancel.stop_requested() && done < static_cast<int>(files.size());
+  std::vector<AnalyzeOutcome> kept;
+  for (auto& o : report.outcomes) {
+    if (o.file.empty()) continue;  // not reached before a cancel
+    if (o.analysed) {
+      ++report.analysed;
+    } else if (o.skipped) {
+      ++report.skipped;
+    } else {
+      ++report.failed;
+    }
+    kept.push_back(std::move(o));
+  }
+  report.outcomes = std::move(kept);
+  return report;
+}
+
+}  // namespace collide::app

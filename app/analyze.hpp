@@ -1,0 +1,56 @@
+#pragma once
+// Analysing recorded shots: one shot file, or every shot of a campaign folder
+// in parallel. The results go back into each shot file and its catalog row
+// (app/save.hpp), so `collide shots`, `collide fit` and the GUI see them.
+// A shot whose analysis fails keeps its frames untouched and gets results that
+// say why (results_json.hpp failedResultsJson), so nothing is lost or hidden.
+#include <functional>
+#include <stop_token>
+#include <string>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "hw/shot.hpp"
+#include "vision/shot_analysis.hpp"
+
+namespace collide::app {
+
+/// The analysis settings a recorded shot implies: its scene (pixel size,
+/// diameters, masses, world origin) and frame rate.
+vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot);
+
+/// What happened to one shot file.
+struct AnalyzeOutcome {
+  std::string file;
+  std::string id;            ///< empty if the file could not be read
+  bool analysed = false;     ///< results computed and stored
+  bool skipped = false;      ///< not analysed: failed shot, or already analysed
+  std::string message;       ///< why it failed or was skipped (what to do)
+  std::string results_json;  ///< what was stored (empty if nothing was)
+};
+
+/// Reads `path`, analyses its burst, stores the results in the file and its
+/// catalog row. A failed shot (status failed) is skipped: it has no collision.
+/// When the analysis itself fails, failedResultsJson is stored and the
+/// outcome says why (analysed = false). Never throws.
+AnalyzeOutcome analyzeShotFile(const std::string& path);
+
+struct AnalyzeFolderOptions {
+  int jobs = 0;                ///< worker threads; 0 = one per core
+  bool skip_analysed = false;  ///< leave shots that already have results
+};
+struct AnalyzeFolderReport {
+  std::vector<AnalyzeOutcome> outcomes;  ///< in file-name order
+  int analysed = 0, failed = 0, skipped = 0;
+  bool cancelled = false;
+};
+using AnalyzeProgress = std::function<void(int done, int total, const AnalyzeOutcome& last)>;
+
+/// Every *.h5 shot file in `dir`, in parallel. `progress` is called from one
+/// thread at a time. Errors: `dir` missing or not a folder, no shot files.
+Result<AnalyzeFolderReport> analyzeFolder(const std::string& dir,
+                                          const AnalyzeFolderOptions& options = {},
+                                          const AnalyzeProgress& progress = {},
+                                          std::stop_token cancel = {});
+
+}  // namespace collide::app

@@ -1,0 +1,240 @@
+// `collide analyze`: shot files or campaign folders (results stored in the
+// files and the catalog), or footage recorded elsewhere (--frames, JSON out).
+#include "app/analyze.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "app/atomic_file.hpp"
+#include "app/cli/command.hpp"
+#include "app/cli/interrupt.hpp"
+#include "app/cli/progress.hpp"
+#include "app/results_json.hpp"
+#include "vision/frame_io.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using collide::cli::kExitBadInput;
+using collide::cli::kExitFailure;
+using collide::cli::kExitOk;
+
+struct Options {
+  std::vector<std::string> paths;
+  int jobs = 0;
+  bool skip_analysed = false;
+  std::string frames;
+  double fps = 0;
+  double diameter_mm = 0, diameter2_mm = 0;
+  std::string json_out;
+  std::string gravity_dir = "down";
+};
+
+std::string pm(const collide::vision::Measured& m, int decimals) {
+  if (!std::isfinite(m.value)) return "-";
+  char buf[64];
+  if (std::isfinite(m.sigma)) {
+    std::snprintf(buf, sizeof buf, "%.*f±%.2g", decimals, m.value, m.sigma);
+  } else {
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, m.value);
+  }
+  return buf;
+}
+
+// One line per shot: what a physicist scans first.
+std::string summaryLine(const collide::app::ShotResults& r) {
+  const auto& c = r.collision;
+  std::string flags;
+  for (const auto& f : r.quality_flags) flags += (flags.empty() ? "" : ",") + f;
+  return "e " + pm(c.e, 4) + "  beta " + pm(c.beta, 3) + "  f " + pm(c.f, 3) + "  gamma " +
+         pm(c.gamma_deg, 1) + " deg  vn " + pm(c.vn_m_s, 3) + " m/s  vs " + pm(c.vs_m_s, 3) +
+         " m/s" + (flags.empty() ? "" : "  [" + flags + "]");
+}
+
+std::string describe(const collide::app::AnalyzeOutcome& o) {
+  const std::string name = o.id.empty() ? o.file : o.id;
+  if (o.skipped) return name + ": skipped, " + o.message;
+  if (!o.analysed) return name + ": NOT analysed: " + o.message;
+  auto r = collide::app::parseResultsJson(o.results_json);
+  return name + ": " + (r ? summaryLine(*r) : r.error().message);
+}
+
+// "down", "up", "left", "right", or "U,V" (image axes: u right, v down).
+bool parseGravity(const std::string& s, std::array<double, 2>& out) {
+  if (s == "down")
+    out = {0, 1};
+  else if (s == "up")
+    out = {0, -1};
+  else if (s == "left")
+    out = {-1, 0};
+  else if (s == "right")
+    out = {1, 0};
+  else {
+    double u = 0, v = 0;
+    char comma = 0;
+    std::istringstream in(s);
+    if (!(in >> u >> comma >> v) || comma != ',' || !in.eof()) return false;
+    const double n = std::hypot(u, v);
+    if (!(n > 0) || !std::isfinite(n)) return false;
+    out = {u / n, v / n};
+  }
+  return true;
+}
+
+int writeJson(const std::string& text, const std::string& out) {
+  if (out.empty() || out == "-") {
+    std::cout << text << "\n";
+    return kExitOk;
+  }
+  auto file = collide::app::AtomicFile::create(out);
+  if (!file) {
+    std::cerr << "collide analyze: " << file.error().message << "\n";
+    return kExitFailure;
+  }
+  {
+    std::ofstream os(file->tempPath());
+    os << text << "\n";
+    if (!os.flush()) {
+      std::cerr << "collide analyze: cannot write " << out << " (disk full?)\n";
+      return kExitFailure;
+    }
+  }
+  if (auto st = file->commit(); !st) {
+    std::cerr << "collide analyze: " << st.error().message << "\n";
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+int analyzeFootage(const Options& o) {
+  if (!(o.diameter_mm > 0 && o.diameter_mm < 1000)) {
+    std::cerr << "collide analyze: --diameter-mm is required with --frames (the spheres' "
+                 "diameter in millimetres, e.g. 25.4)\n";
+    return kExitBadInput;
+  }
+  if (o.diameter2_mm < 0 || o.diameter2_mm >= 1000) {
+    std::cerr << "collide analyze: --diameter2-mm must be a diameter in millimetres\n";
+    return kExitBadInput;
+  }
+  collide::vision::AnalysisSettings settings;
+  if (!parseGravity(o.gravity_dir, settings.gravity_dir_image)) {
+    std::cerr << "collide analyze: --gravity-dir '" << o.gravity_dir
+              << "': use down, up, left, right, or U,V in image axes (u right, v down)\n";
+    return kExitBadInput;
+  }
+  std::error_code ec;
+  const bool is_video = fs::is_regular_file(o.frames, ec);
+  if (!is_video && !(o.fps > 0)) {
+    std::cerr << "collide analyze: --fps is required with a folder of frames (frames per "
+                 "second the camera recorded at)\n";
+    return kExitBadInput;
+  }
+  auto burst = is_video ? collide::vision::loadVideo(o.frames, o.fps)
+                        : collide::vision::loadFrameFolder(o.frames, o.fps);
+  if (!burst) {
+    std::cerr << "collide analyze: " << burst.error().message << "\n";
+    return kExitBadInput;
+  }
+  if (!burst->note.empty()) std::cerr << "collide analyze: note: " << burst->note << "\n";
+  settings.pixel_size_m = 0;  // from the measured radius and the given diameter
+  settings.diameter_m = {o.diameter_mm * 1e-3,
+                         (o.diameter2_mm > 0 ? o.diameter2_mm : o.diameter_mm) * 1e-3};
+  settings.fps = burst->fps;
+  collide::cli::ProgressBar bar("frames", static_cast<int>(burst->frames.size()));
+  if (isatty(fileno(stderr))) settings.progress = [&](int done, int) { bar.update(done); };
+  auto analysis = collide::vision::analyzeBurst(*burst, settings);
+  if (!analysis) {
+    std::cerr << "collide analyze: " << o.frames << ": " << analysis.error().message << "\n";
+    return kExitFailure;
+  }
+  const std::string text = collide::app::resultsToJson(*analysis);
+  if (!o.json_out.empty() && o.json_out != "-") {
+    auto r = collide::app::parseResultsJson(text);
+    if (r) std::cout << o.frames << ": " << summaryLine(*r) << "\n";
+  }
+  return writeJson(text, o.json_out);
+}
+
+int analyzeShots(const Options& o) {
+  int failed = 0, bad = 0;
+  collide::cli::StopOnInterrupt stop;
+  for (const auto& path : o.paths) {
+    if (stop.interrupted()) break;
+    std::error_code ec;
+    if (fs::is_directory(path, ec)) {
+      collide::app::AnalyzeFolderOptions fo{o.jobs, o.skip_analysed};
+      std::unique_ptr<collide::cli::ProgressBar> bar;
+      auto report = collide::app::analyzeFolder(
+          path, fo,
+          [&](int done, int total, const collide::app::AnalyzeOutcome& last) {
+            if (!bar) bar = std::make_unique<collide::cli::ProgressBar>("analyze", total);
+            bar->update(done, last.id.empty() ? fs::path(last.file).filename().string() : last.id);
+          },
+          stop.token());
+      if (!report) {
+        std::cerr << "collide analyze: " << report.error().message << "\n";
+        ++bad;
+        continue;
+      }
+      for (const auto& out : report->outcomes) std::cout << describe(out) << "\n";
+      std::cout << path << ": " << report->analysed << " analysed, " << report->failed
+                << " could not be analysed, " << report->skipped << " skipped"
+                << (report->cancelled ? " (stopped on request)" : "") << "\n";
+      failed += report->failed;
+    } else if (fs::is_regular_file(path, ec)) {
+      auto out = collide::app::analyzeShotFile(path);
+      std::cout << describe(out) << "\n";
+      if (!out.analysed && !out.skipped) ++failed;
+    } else {
+      std::cerr << "collide analyze: " << path << ": no such file or folder\n";
+      ++bad;
+    }
+  }
+  if (bad) return kExitBadInput;
+  return failed ? kExitFailure : kExitOk;
+}
+
+void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
+  auto o = std::make_shared<Options>();
+  sub.add_option("paths", o->paths, "Shot files (.h5) or campaign folders");
+  sub.add_option("-j,--jobs", o->jobs, "Shots analysed in parallel (default: one per core)")
+      ->check(CLI::NonNegativeNumber);
+  sub.add_flag("--skip-analysed", o->skip_analysed, "Leave shots that already have results");
+  sub.add_option("--frames", o->frames,
+                 "Footage recorded elsewhere: a folder of grey PNG/TIFF frames (name order) or "
+                 "a video file (AVI/MP4)");
+  sub.add_option("--fps", o->fps, "Frame rate of --frames, frames/s (a video's own by default)")
+      ->check(CLI::PositiveNumber);
+  sub.add_option("--diameter-mm", o->diameter_mm, "Sphere diameter, mm (sets the pixel scale)");
+  sub.add_option("--diameter2-mm", o->diameter2_mm, "Second sphere's diameter, mm, if different");
+  sub.add_option("--json", o->json_out, "Write the results JSON here (default: stdout)");
+  sub.add_option("--gravity-dir", o->gravity_dir,
+                 "Gravity in the image: down (default), up, left, right, or U,V");
+  sub.footer(
+      "Shot files: the results are stored in each file and its catalog row; a shot that\n"
+      "cannot be analysed keeps its frames and gets results saying why. Ctrl-C stops after\n"
+      "the shots in progress. Exit status: 0 all analysed, 1 some could not be, 2 bad input.");
+  run = [o] {
+    if (!o->frames.empty()) {
+      if (!o->paths.empty()) {
+        std::cerr << "collide analyze: give either shot files/folders or --frames, not both\n";
+        return kExitBadInput;
+      }
+      return analyzeFootage(*o);
+    }
+    if (o->paths.empty()) {
+      std::cerr << "collide analyze: name shot files or folders, or --frames DIR (see --help)\n";
+      return kExitBadInput;
+    }
+    return analyzeShots(*o);
+  };
+}
+
+}  // namespace
+
+COLLIDE_COMMAND(analyze, "Measure e, beta, f from shot files, campaign folders or footage",
+                setupAnalyze);
