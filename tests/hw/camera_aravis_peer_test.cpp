@@ -340,11 +340,13 @@ TEST_F(GigeLoopback, OpensByAddressAndStreamsTheCamerasPictureBitExact) {
   start();
   CameraAravisSettings settings;
   settings.packet_size_bytes = 1500;
+  settings.packet_delay_ns = 800;
   CameraAravis cam(GigeFake::kAddress, settings);
   // 10 ms exposure and no gain: the fake's ramp is then exactly (x + y + id) mod 255.
   bringUp(cam, config160(PixelFormat::Mono8, 50.0, 10000.0));
   EXPECT_EQ(*cam.feature("DeviceID"), fake_->serial());
   EXPECT_EQ(*cam.feature("ArvGevSCPSPacketSize"), "1500");
+  EXPECT_EQ(*cam.feature("ArvGevSCPD"), "800");  // ticks of the fake's 1 GHz clock
   const Taken s = shoot(cam, 5, 20);
   const Burst& b = s.burst;
   ASSERT_TRUE(b.complete) << b.note;
@@ -364,6 +366,19 @@ TEST_F(GigeLoopback, OpensByAddressAndStreamsTheCamerasPictureBitExact) {
     }
   }
   ASSERT_TRUE(cam.close());
+}
+
+TEST_F(GigeLoopback, GigeSettingsTheCameraCannotTakeAreRefusedNamingTheField) {
+  start();
+  CameraAravisSettings settings;
+  settings.packet_delay_ns = 2000;  // the fake allows at most 1000 ticks of 1 ns
+  CameraAravis cam(GigeFake::kAddress, settings);
+  ASSERT_TRUE(cam.open());
+  const auto s = cam.configure(config160());
+  ASSERT_FALSE(s);
+  EXPECT_THAT(s.error().message, HasSubstr("did not take inter-packet delay 2000 ns"));
+  EXPECT_THAT(s.error().message, HasSubstr("check camera.packet_delay_ns"));
+  EXPECT_EQ(cam.state(), DeviceState::Open);
 }
 
 TEST_F(GigeLoopback, StreamsMono16) {
