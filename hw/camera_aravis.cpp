@@ -232,7 +232,10 @@ struct CameraAravis::Impl {
   void run();
   void refreshStreamCounters();
   void markLost(const std::string& why);
-  void checkStall(std::int64_t silent_ns);
+  // The stream has been silent for `silent_ns`: is the camera still there?
+  // `frames_expected`: it should have sent frames (free run, software
+  // trigger), so a silent camera that answers has a stalled stream.
+  void checkStall(std::int64_t silent_ns, bool frames_expected);
 
   static void onControlLost(ArvDevice*, gpointer self) {
     static_cast<Impl*>(self)->markLost("its control link stopped answering (heartbeat lost)");
@@ -648,7 +651,7 @@ void CameraAravis::Impl::markLost(const std::string& why) {
   if (auto r = owner.recorder()) r->endOfStream(what);
 }
 
-void CameraAravis::Impl::checkStall(std::int64_t silent_ns) {
+void CameraAravis::Impl::checkStall(std::int64_t silent_ns, bool frames_expected) {
   guint32 value = 0;
   GError* e = nullptr;
   bool answers = false;
@@ -663,6 +666,7 @@ void CameraAravis::Impl::checkStall(std::int64_t silent_ns) {
     return;
   }
   g_clear_error(&e);
+  if (!frames_expected) return;  // line trigger: simply no pulses
   const std::string what = "the stream stalled: no frame for " + silent +
                            " although the camera answers; check the packet size against the "
                            "link's MTU, the firewall (UDP), rp_filter and socket buffers (" +
@@ -679,7 +683,9 @@ void CameraAravis::Impl::run() {
   const std::int64_t stall = settings.stall_timeout_ms > 0
                                  ? std::llround(settings.stall_timeout_ms * 1e6)
                                  : std::max<std::int64_t>(1'000'000'000, 20 * period);
-  const bool watch_stall = settings.trigger != AravisTrigger::Line;
+  // With a hardware line the camera only sends frames when pulsed: silence is
+  // then only checked for a lost camera.
+  const bool frames_expected = settings.trigger != AravisTrigger::Line;
   const bool software = settings.trigger == AravisTrigger::Software;
   const int bpp = bytesPerPixel(config.format);
   const ArvPixelFormat want_format = toArv(config.format);
@@ -714,8 +720,8 @@ void CameraAravis::Impl::run() {
     refreshStreamCounters();
     now = monotonicNowNs();
     if (!b) {
-      if (watch_stall && !lost && now - last_frame_at > stall) {
-        checkStall(now - last_frame_at);
+      if (!lost && now - last_frame_at > stall) {
+        checkStall(now - last_frame_at, frames_expected);
         last_frame_at = now;
       }
       continue;

@@ -21,8 +21,8 @@
 // With the live view on (Camera::setLiveView) every good frame is also
 // published, armed or not.
 //
-// A camera lost mid-burst (the control link's heartbeat fails, or a free-run
-// stream stalls and the camera no longer answers) ends the burst: it keeps
+// A camera lost mid-burst (the control link's heartbeat fails, or the
+// stream falls silent and the camera no longer answers) ends the burst: it keeps
 // the frames that arrived, is marked incomplete, and its note says what
 // happened and what to check; the sequencer then fails the shot with that
 // reason and stores the frames.
@@ -66,8 +66,10 @@ struct CameraAravisSettings {
   double frame_retention_ms = 0.0;   ///< GigE: give up on an incomplete frame; 0: Aravis default
   /// Start of exposure to arrival of the fastest frame, us; < 0: the exposure time.
   double timestamp_latency_us = -1.0;
-  /// Free run / software trigger: a stream silent this long is checked (camera
-  /// lost, or stalled); 0: max(1 s, 20 frame periods).
+  /// A stream silent this long is checked: a camera that no longer answers is
+  /// lost; in free run / software trigger one that answers has a stalled
+  /// stream (with a hardware line it simply had no pulses). 0: max(1 s, 20
+  /// frame periods).
   double stall_timeout_ms = 0.0;
   std::vector<GenicamFeature> features;
 

@@ -525,6 +525,28 @@ TEST_F(GigeLoopback, SoftwareTriggersPaceTheFrames) {
   EXPECT_EQ(s.burst.stats.dropped, 0u);
 }
 
+TEST_F(GigeLoopback, ACameraLostWhileWaitingForLinePulsesIsNoticed) {
+  start();
+  CameraAravisSettings settings;
+  settings.trigger = AravisTrigger::Line;  // the fake pulses its line 25 times a second
+  settings.stall_timeout_ms = 300;
+  CameraAravis cam(GigeFake::kAddress, settings);
+  bringUp(cam, config160(PixelFormat::Mono8, 25.0, 1000.0));
+  ASSERT_TRUE(cam.arm(2, 100000));
+  ASSERT_TRUE(cam.trigger(monotonicNowNs() + 200'000'000));
+  (void)cam.waitBurst(monotonicNowNs() + 500'000'000);  // some frames arrive
+  fake_->kill();
+  const auto ended = cam.waitBurst(monotonicNowNs() + 30 * kSecond);
+  ASSERT_TRUE(ended);
+  EXPECT_TRUE(*ended) << "the burst never learned that the camera was gone";
+  auto b = cam.takeBurst();
+  ASSERT_TRUE(b) << b.error().message;
+  EXPECT_FALSE(b->complete);
+  EXPECT_THAT(b->note, HasSubstr("camera lost"));
+  EXPECT_THAT(b->note, HasSubstr("no longer answers"));
+  (void)cam.close();
+}
+
 TEST_F(GigeLoopback, ACameraLostDuringAShotFailsItSayingWhyAndKeepsTheFrames) {
   start();
   // The simulated rig with its camera on the GigE simulator; a long burst
