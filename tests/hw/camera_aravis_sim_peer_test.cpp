@@ -231,20 +231,24 @@ TEST(AravisSimCollision, TheShotComesThroughAravisAsTheSimulatorDrewIt) {
   // time; on a heavily loaded machine it skips frame slots (ids stay
   // consecutive). Beyond 5 ms a 2 m/s sphere jumps half its diameter between
   // frames (a real camera never does), which the vision core's tracker is not
-  // built for: then this check is not meaningful here.
+  // built for: if it then cannot follow the spheres, the check is not
+  // meaningful here. Whenever it does measure the shot, the result must be right.
   std::int64_t widest_gap = 0;  // between frames that show the spheres
   for (std::size_t i = 1; i < in_view.size(); ++i)
     widest_gap = std::max(widest_gap, in_view[i] - in_view[i - 1]);
-  if (widest_gap > 5 * period)
+  const auto analysed = vision::analyzeBurst(b, settings);
+  if (!analysed && widest_gap > 5 * period)
     GTEST_SKIP() << "frames arrived, bit-exact and aligned with the truth, but the fake camera "
                     "could not hold its frame rate on this loaded machine (a gap of "
-                 << widest_gap / 1e6 << " ms): e and beta not checked";
-  const auto analysed = vision::analyzeBurst(b, settings);
+                 << widest_gap / 1e6 << " ms) and the spheres could not be tracked ("
+                 << analysed.error().message << "): e and beta not checked";
   ASSERT_TRUE(analysed) << analysed.error().message;
   const vision::CollisionProperties& c = analysed->collision;
-  std::printf("e %.4f (sigma %.4f, true %.4f)  beta %.4f (sigma %.4f, true %.4f)  frames %zu\n",
-              c.e.value, c.e.sigma, exact->e, c.beta.value, c.beta.sigma, exact->beta,
-              b.frames.size());
+  std::printf(
+      "e %.4f (sigma %.4f, true %.4f)  beta %.4f (sigma %.4f, true %.4f)  frames %zu, widest gap "
+      "%.1f ms\n",
+      c.e.value, c.e.sigma, exact->e, c.beta.value, c.beta.sigma, exact->beta, b.frames.size(),
+      widest_gap / 1e6);
   // The accuracy the vision core promises per shot (issue 4: |error of e| <=
   // 0.005, |error of beta| <= 0.03 for |v_n|, v_s >= 0.3 m/s), here on frames
   // that crossed Aravis' stream code with host-mapped timestamps. (Its
