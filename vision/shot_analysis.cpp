@@ -504,6 +504,11 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
           std::abs(r / r_expect[0] - 1) < 0.15 || std::abs(r / r_expect[1] - 1) < 0.15;
       if (fits) {
         f.candidates.push_back(i);
+      } else if (f.found.spheres[i].cut_by_border) {
+        // A sliver at the frame's edge (a sphere entering or leaving) measures
+        // a poor radius: left out, nothing to report.
+        f.found.notes.push_back("a blob cut by the frame's edge measures " + fmt("%.1f", r) +
+                                " px in radius: left out");
       } else {
         ++third_blobs;
         f.found.notes.push_back("a round blob of radius " + fmt("%.1f", r) +
