@@ -705,6 +705,9 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         in.spin_cov[s][side] =
             Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
         addFlag(out, side == 0 ? "no_spin_before" : "no_spin_after");
+        out.notes.push_back("sphere " + std::to_string(s + 1) + ", " +
+                            (side == 0 ? "before" : "after") +
+                            " the impact: " + spin.error().message);
       }
       SphereKinematics& kin = out.sphere[s];
       const Vec3 sigma =
@@ -828,9 +831,23 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
                                 out.sphere[1].frames_before, out.sphere[1].frames_after});
   if (relativeVelocityError(g, c.vn_m_s.value) > 0.05) addFlag(out, "e_untrustworthy_geometry");
   if (relativeVelocityError(g, c.vs_m_s.value) > 0.05) addFlag(out, "beta_untrustworthy_geometry");
-  if (saturated > 0) addFlag(out, "saturated_frames");
-  if (third_blobs > 0) addFlag(out, "extra_blobs_ignored");
-  if (good.size() < burst.frames.size() || burst.stats.dropped > 0) addFlag(out, "frames_lost");
+  if (saturated > 0) {
+    addFlag(out, "saturated_frames");
+    out.notes.push_back(std::to_string(saturated) +
+                        " frame(s) mostly at full scale: lower the exposure or the gain");
+  }
+  if (third_blobs > 0) {
+    addFlag(out, "extra_blobs_ignored");
+    out.notes.push_back(std::to_string(third_blobs) +
+                        " round blob(s) that are not this shot's spheres were ignored (see the "
+                        "frames' notes)");
+  }
+  if (good.size() < burst.frames.size() || burst.stats.dropped > 0) {
+    addFlag(out, "frames_lost");
+    out.notes.push_back(std::to_string(burst.frames.size() - good.size()) +
+                        " frame(s) failed or incomplete, " + std::to_string(burst.stats.dropped) +
+                        " dropped: the fits used the rest");
+  }
   // Gravity as a check of the scale and the clock: a free fit's acceleration
   // along gravity should be g.
   {
@@ -862,11 +879,9 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
       const double a = sum / wsum, sa = 1 / std::sqrt(wsum);
       if (std::abs(a - kG) > std::max(0.1 * kG, 5 * sa) && sa < 0.05 * kG) {
         addFlag(out, "gravity_scale_mismatch");
-        if (!out.frames.empty())
-          out.frames.front().notes.push_back(
-              "the spheres fall at " + fmt("%.2f", a) +
-              " m/s^2 along gravity instead of 9.81: the pixel size, the diameter or the frame "
-              "rate is probably wrong");
+        out.notes.push_back("the spheres fall at " + fmt("%.2f", a) +
+                            " m/s^2 along gravity instead of 9.81: the pixel size, a diameter or "
+                            "the frame rate is probably wrong");
       }
     }
   }
