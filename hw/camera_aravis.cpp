@@ -57,6 +57,24 @@ std::int64_t realtimeNowNs() {
   return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
 }
 
+// CLOCK_REALTIME minus CLOCK_MONOTONIC, now. Read between two real-time
+// readings taken close together: a thread preempted between its readings
+// would otherwise bias the result by however long it waited.
+std::int64_t realtimeMinusMonotonicNs() {
+  std::int64_t best = 0, best_spread = std::numeric_limits<std::int64_t>::max();
+  for (int i = 0; i < 5; ++i) {
+    const std::int64_t r1 = realtimeNowNs();
+    const std::int64_t m = monotonicNowNs();
+    const std::int64_t r2 = realtimeNowNs();
+    if (r2 - r1 < best_spread) {
+      best_spread = r2 - r1;
+      best = r1 + (r2 - r1) / 2 - m;
+    }
+    if (best_spread < 20'000) break;
+  }
+  return best;
+}
+
 // The camera's clock against CLOCK_MONOTONIC. Every frame arrives some time
 // after its exposure started; the fastest arrival is the best estimate of the
 // fixed offset (plus the link's minimum latency). A minimum over a sliding
@@ -230,8 +248,7 @@ struct CameraAravis::Impl {
     q.frame_id = arv_buffer_get_frame_id(buffer);
     // The fake stamps frames with the host's real-time clock.
     const auto stamped = static_cast<std::int64_t>(arv_buffer_get_timestamp(buffer));
-    q.exposure_start_ns =
-        stamped > 0 ? stamped - realtimeNowNs() + monotonicNowNs() : monotonicNowNs();
+    q.exposure_start_ns = stamped > 0 ? stamped - realtimeMinusMonotonicNs() : monotonicNowNs();
     q.width = arv_buffer_get_image_width(buffer);
     q.height = arv_buffer_get_image_height(buffer);
     q.format = *f;
@@ -729,7 +746,7 @@ void CameraAravis::Impl::run() {
     // Start of exposure on CLOCK_MONOTONIC.
     const auto device_ts = static_cast<std::int64_t>(arv_buffer_get_timestamp(b));
     const auto system_ts = static_cast<std::int64_t>(arv_buffer_get_system_timestamp(b));
-    const std::int64_t arrival = system_ts > 0 ? system_ts - realtimeNowNs() + now : now;
+    const std::int64_t arrival = system_ts > 0 ? system_ts - realtimeMinusMonotonicNs() : now;
     std::int64_t ts = 0;
     if (device_ts > 0) {
       clock_map.add(arrival - device_ts);
@@ -765,7 +782,8 @@ void CameraAravis::Impl::run() {
     // pulses expose at no steady rate).
     std::shared_ptr<BurstRecorder> rec = owner.recorder();
     if (rec == finished) rec.reset();
-    if (good && rec) {
+    const bool live = owner.liveView();
+    if (good && (rec || live)) {
       std::size_t size = 0;
       const auto* data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(b, &size));
       const std::size_t row = static_cast<std::size_t>(w) * bpp;
@@ -801,6 +819,7 @@ void CameraAravis::Impl::run() {
                     static_cast<int>(status));
     // A failed frame is handed on without an image, marked, so the burst
     // counts it where it belongs; vision never sees it as good.
+    if (live && good) owner.publishFrame(frame);  // shares the image; nobody writes it again
     if (rec && !rec->push(*seq, std::move(frame))) finished = rec;
   }
 }

@@ -18,6 +18,9 @@
 // Timestamps: the camera's clock, mapped to CLOCK_MONOTONIC through the
 // fastest frame's arrival (see docs/camera-aravis.md).
 //
+// With the live view on (Camera::setLiveView) every good frame is also
+// published, armed or not.
+//
 // A camera lost mid-burst (the control link's heartbeat fails, or a free-run
 // stream stalls and the camera no longer answers) ends the burst: it keeps
 // the frames that arrived, is marked incomplete, and its note says what

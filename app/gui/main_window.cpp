@@ -264,9 +264,8 @@ void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QSt
 void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file) {
   if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
   const QString id = shot ? qs(shot->id) : QString();
-  // A failed analysis is a result too (the catalog shows why); a build
-  // without the vision core has nothing to say about the shot.
-  if (shot && analysisAvailable() && shot->status == hw::ShotStatus::Ok && tag != "overlay")
+  // A failed analysis is a result too: the catalog shows why.
+  if (shot && shot->status == hw::ShotStatus::Ok && tag != "overlay")
     storeResults(file, shot->id, app::failedResultsJson(message.toStdString()));
   if (shot && replay_view_->shot() && replay_view_->shot()->id == shot->id && tag != "overlay")
     replay_view_->resultCard()->setMessage(id, message);

@@ -1,7 +1,7 @@
 #include "app/gui/result_card.hpp"
 
-#include <QGridLayout>
 #include <QFontMetrics>
+#include <QGridLayout>
 #include <QLabel>
 #include <cmath>
 

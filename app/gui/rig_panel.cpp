@@ -242,9 +242,8 @@ void RigPanel::setStatus(const RigStatus& s) {
     }
   }
   for (int i = 0; i < 2; ++i)
-    readback_[i]->setText(tr("%1 kPa (set %2)")
-                              .arg(s.readback_kPa[i], 0, 'f', 2)
-                              .arg(s.setpoint_kPa[i], 0, 'f', 2));
+    readback_[i]->setText(
+        tr("%1 kPa (set %2)").arg(s.readback_kPa[i], 0, 'f', 2).arg(s.setpoint_kPa[i], 0, 'f', 2));
   state_->setText(s.busy      ? tr("<b>busy</b>: firing")
                   : !s.armed  ? tr("disarmed")
                   : s.settled ? tr("<b>armed and settled</b>: ready to fire")

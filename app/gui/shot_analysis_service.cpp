@@ -4,26 +4,12 @@
 #include <cmath>
 #include <filesystem>
 
+#include "app/analyze.hpp"
 #include "app/catalog.hpp"
 #include "app/results_json.hpp"
 #include "app/shot_file.hpp"
 
 namespace collide::gui {
-
-bool analysisAvailable() {
-  return COLLIDE_HAVE_SHOT_ANALYSIS != 0;
-}
-
-vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
-  vision::AnalysisSettings s;
-  s.pixel_size_m = shot.scene.pixel_size_m;
-  s.diameter_m = shot.scene.diameter_m;
-  s.mass_kg = shot.scene.mass_kg;
-  s.origin_u_px = shot.scene.origin_u_px;
-  s.origin_v_px = shot.scene.origin_v_px;
-  s.fps = shot.burst.fps;
-  return s;
-}
 
 Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot) {
   if (shot.status != hw::ShotStatus::Ok)
@@ -31,13 +17,7 @@ Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot) {
                 "): there is no burst to analyse");
   if (shot.burst.frames.empty() || shot.burst.frames.front().image.empty())
     return fail("shot " + shot.id + " has no frame images: open the shot file with its frames");
-#if COLLIDE_HAVE_SHOT_ANALYSIS
-  return vision::analyzeBurst(shot.burst, analysisSettingsFor(shot));
-#else
-  return fail(
-      "analysis not available: this build has no vision core (vision::analyzeBurst); the shot is "
-      "recorded and can be analysed later");
-#endif
+  return vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
 }
 
 std::optional<CampaignShot> campaignPoint(const vision::ShotAnalysis& a) {

@@ -22,15 +22,9 @@ namespace collide::gui {
 using ShotPtr = std::shared_ptr<const hw::Shot>;
 using AnalysisPtr = std::shared_ptr<const vision::ShotAnalysis>;
 
-/// Whether this build has the vision core's analyzeBurst.
-bool analysisAvailable();
-
-/// The vision settings for a recorded shot: pixel size, origin, sphere
-/// diameters and masses from its scene record, the frame rate from its burst.
-vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot);
-
-/// Analyses the shot's burst. Errors: the shot failed or has no frames, the
-/// analysis failed (its message), or this build has no analysis.
+/// Analyses the shot's burst with the settings its record implies
+/// (app::analysisSettingsFor). Errors: the shot failed or has no frames, the
+/// analysis failed (its message).
 Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot);
 
 /// The campaign fits' view of one analysed shot; nothing when the shot has no

@@ -16,6 +16,7 @@
 #include <QTabWidget>
 #include <QTableWidget>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <numbers>
 
@@ -152,13 +153,6 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
   QTest::mouseClick(child<QPushButton>(replay, "previous_frame"), Qt::LeftButton);
   EXPECT_EQ(replay->frameIndex(), at);
 
-  if (!analysisAvailable()) {
-    EXPECT_FALSE(card->hasResult());
-    EXPECT_TRUE(card->message().contains("analysis not available"))
-        << card->message().toStdString();
-    EXPECT_TRUE(screenshot(replay, "replay"));
-    GTEST_SKIP() << "this build has no vision::analyzeBurst: the result card cannot be checked";
-  }
   ASSERT_TRUE(card->hasResult()) << card->message().toStdString();
   EXPECT_TRUE(screenshot(replay, "replay"));
 
@@ -170,18 +164,23 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
     double tolerance;
   };
   const double gamma_deg = truth.before.gamma_rad * 180.0 / std::numbers::pi;
+  // Tolerances: issue 4's per-shot accuracy targets (|error of e| <= 0.005,
+  // |error of beta| <= 0.03), and 1 % on the contact velocities.
   const Check checks[] = {
       {"vn_m_s", "result_vn_m_s", truth.before.v_n_m_s,
-       0.03 * std::abs(truth.before.v_n_m_s) + 0.01},
-      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.05 * truth.before.v_s_m_s + 0.02},
-      {"gamma_deg", "result_gamma_deg", gamma_deg, 2.0},
-      {"e", "result_e", truth.e, 0.02},
-      {"beta", "result_beta", truth.beta, 0.1},
-      {"f", "result_f", truth.f, 0.05},
+       0.01 * std::abs(truth.before.v_n_m_s) + 0.005},
+      {"vs_m_s", "result_vs_m_s", truth.before.v_s_m_s, 0.01 * truth.before.v_s_m_s + 0.005},
+      {"gamma_deg", "result_gamma_deg", gamma_deg, 0.5},
+      {"e", "result_e", truth.e, 0.005},
+      {"beta", "result_beta", truth.beta, 0.03},
+      {"f", "result_f", truth.f, 0.01},
   };
+
   for (const Check& c : checks) {
     const auto v = card->value(c.key);
     ASSERT_TRUE(v.has_value()) << c.key;
+    std::printf("result card %-10s %12.6f +- %9.6f   truth %12.6f\n", c.key, v->value, v->sigma,
+                c.truth);
     EXPECT_NEAR(v->value, c.truth, c.tolerance) << c.key;
     EXPECT_TRUE(std::isfinite(v->sigma) && v->sigma >= 0) << c.key << " sigma " << v->sigma;
     // The label shows the same number (to its displayed precision).
@@ -209,6 +208,7 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
   w.show();
   ShotBrowser* browser = w.shotBrowser();
   w.tabs()->setCurrentWidget(browser);
+  QSignalSpy stored(&w, &MainWindow::resultsStored);
   ASSERT_EQ(browser->rows().size(), 1u);
   EXPECT_EQ(browser->rows()[0].id, "20260101-120000-0001");
 
@@ -250,6 +250,22 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
   EXPECT_EQ(w.tabs()->currentWidget(), w.replayView());
   EXPECT_GT(w.replayView()->frameCount(), 10);
   EXPECT_FALSE(w.replayView()->imageView()->image().isNull());
+
+  // Opening an unanalysed shot analyses it and stores the results in its file
+  // and catalog row, where the browser lists them.
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 1; }, 60000));
+  EXPECT_TRUE(stored.at(0).at(1).toString().isEmpty())
+      << stored.at(0).at(1).toString().toStdString();
+  browser->refresh();
+  ASSERT_EQ(browser->rows().size(), 1u);
+  ASSERT_TRUE(browser->rows()[0].analysed);
+  ASSERT_TRUE(browser->rows()[0].results.e.has_value());
+  EXPECT_NEAR(*browser->rows()[0].results.e, 0.97, 0.005);  // the profile's nylon
+
+  // Re-running the analysis of every listed shot stores them again.
+  QTest::mouseClick(child<QPushButton>(browser, "reanalyse_all"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 2; }, 60000));
+  EXPECT_TRUE(stored.at(1).at(1).toString().isEmpty());
 }
 
 TEST(MainWindowGui, RunASmallCampaign) {
@@ -273,8 +289,7 @@ TEST(MainWindowGui, RunASmallCampaign) {
   // Wait for the analyses, their results in the files, and the plots to catch up.
   int fired_ok = 0;
   for (const auto& row : w.shotBrowser()->rows()) fired_ok += row.status == hw::ShotStatus::Ok;
-  if (analysisAvailable())
-    ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= fired_ok; }, 240000));
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= fired_ok; }, 240000));
   ASSERT_TRUE(QTest::qWaitFor(
       [&] { return w.analysisRunner()->pending() == 0 && !view->refreshing(); }, 240000));
   view->refresh();
@@ -289,8 +304,6 @@ TEST(MainWindowGui, RunASmallCampaign) {
   for (const auto& c : view->charts())
     for (const char* ext : {".png", ".svg", ".csv"})
       EXPECT_TRUE(std::filesystem::file_size(out + "/" + c.name + ext) > 0) << c.name << ext;
-  if (!analysisAvailable())
-    GTEST_SKIP() << "no vision::analyzeBurst in this build: no points to plot";
   // Every analysed shot whose flags do not rule it out is a point, as the
   // catalog (filled by the analyses) lists them.
   w.shotBrowser()->refresh();

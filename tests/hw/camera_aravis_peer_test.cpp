@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "aravis_profile.hpp"
 #include "camera_conformance.hpp"
@@ -20,6 +21,7 @@
 #include "hw/camera_aravis.hpp"
 #include "hw/clock.hpp"
 #include "hw/rig.hpp"
+#include "hw/sequencer.hpp"
 
 using namespace collide;
 using namespace collide::hw;
@@ -200,6 +202,27 @@ TEST_P(InProcessFake, FramesArriveBitExactAndInOrder) {
 INSTANTIATE_TEST_SUITE_P(Formats, InProcessFake,
                          ::testing::Values(PixelFormat::Mono8, PixelFormat::Mono16),
                          [](const auto& info) { return collide::vision::toString(info.param); });
+
+TEST(CameraAravisFake, LiveViewPublishesFramesWhetherArmedOrNot) {
+  CameraAravis cam("Fake_1", {});
+  ASSERT_TRUE(cam.open());
+  ASSERT_TRUE(cam.setFakeFill(&fillPattern));
+  ASSERT_TRUE(cam.configure(config160()));
+  ASSERT_TRUE(cam.start());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(cam.publishedFrames(), 0u);  // nobody watches: nothing published
+  cam.setLiveView(true);
+  const std::int64_t deadline = monotonicNowNs() + 5 * kSecond;
+  while (cam.publishedFrames() < 5 && monotonicNowNs() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(cam.publishedFrames(), 5u);
+  const auto latest = cam.latestFrame();
+  ASSERT_TRUE(latest);
+  ASSERT_TRUE(latest->good());
+  EXPECT_TRUE(identical(latest->image,
+                        patternFrame(patternId(latest->image), 160, 120, PixelFormat::Mono8)));
+  cam.setLiveView(false);
+}
 
 TEST(CameraAravisFake, RefusesMono12WhichTheFakeCannotDeliver) {
   CameraAravis cam("Fake_1", {});
@@ -485,4 +508,37 @@ TEST_F(GigeLoopback, SoftwareTriggersPaceTheFrames) {
   EXPECT_GT(mean_gap_ms, 80.0) << s.describe();
   EXPECT_LT(mean_gap_ms, 120.0) << s.describe();
   EXPECT_EQ(s.burst.stats.dropped, 0u);
+}
+
+TEST_F(GigeLoopback, ACameraLostDuringAShotFailsItSayingWhyAndKeepsTheFrames) {
+  start();
+  // The simulated rig with its camera on the GigE simulator; a long burst
+  // (1 s of post-trigger frames) so the camera can be pulled during it.
+  auto lines = aravisCameraLines(GigeFake::kAddress);
+  lines[2] = "roi = [0, 0, 640, 480]";  // sim.toml's field of view
+  std::string text = aravisProfileText(lines);
+  text = withKey(text, "burst", "pre_trigger_frames", "5");
+  text = withKey(text, "burst", "post_trigger_frames", "100");
+  auto profile = parseRigProfile(text, "lab.toml");
+  ASSERT_TRUE(profile) << profile.error().message;
+  auto rig = makeRig(*profile);
+  ASSERT_TRUE(rig) << rig.error().message;
+  Sequencer sequencer(*rig);
+  std::thread puller;
+  const Shot shot = sequencer.fire(ShotRequest::atSpeeds(2.0, 2.0), [&](const StepStamp& step) {
+    if (step.name == "fired")  // frames are flowing into the burst: pull the plug
+      puller = std::thread([this] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(150));
+        fake_->kill();
+      });
+  });
+  if (puller.joinable()) puller.join();
+  (void)shutDown(*rig);
+  ASSERT_EQ(shot.status, ShotStatus::Failed);
+  std::printf("the user reads: %s\n", shot.failure_reason.c_str());
+  EXPECT_THAT(shot.failure_reason, HasSubstr("camera lost"));
+  EXPECT_THAT(shot.failure_reason, HasSubstr("check its power and cable"));
+  EXPECT_FALSE(shot.burst.complete);
+  EXPECT_GT(shot.burst.frames.size(), 5u) << "the frames that arrived are kept";
+  EXPECT_THAT(shot.burst.note, HasSubstr("post-trigger frames arrived"));
 }

@@ -10,11 +10,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <mutex>
 #include <optional>
 
+#include "analysis/flight.hpp"
+#include "analysis/walton.hpp"
 #include "aravis_profile.hpp"
 #include "hw/camera_aravis.hpp"
 #include "hw/camera_sim.hpp"
@@ -23,6 +26,7 @@
 #include "hw/sequencer.hpp"
 #include "hw/sim_world.hpp"
 #include "hw/valve_bank_sim.hpp"
+#include "vision/shot_analysis.hpp"
 
 using namespace collide;
 using namespace collide::hw;
@@ -49,18 +53,21 @@ struct AravisSimRig {
   std::shared_ptr<Drawn> drawn = std::make_shared<Drawn>();
 };
 
-// sim.toml with the camera on Aravis' fake: 320 x 240 Mono8 at 250 frames/s,
+// sim.toml with the camera on Aravis' fake: 320 x 240 Mono8 at 1000 frames/s,
 // half sim.toml's resolution over the same field of view (2.54 cm spheres
 // ~60 px across), so the fake's stream thread can render every frame in real
 // time, motion blur included, even on a loaded machine.
 std::string profileText() {
   std::string text = aravisProfileText({"backend = \"aravis\"", "device = \"Fake_1\"",
                                         "roi = [0, 0, 320, 240]", "format = \"Mono8\"",
-                                        "fps = 250.0", "exposure_us = 100.0", "gain_db = 0.0",
+                                        "fps = 1000.0", "exposure_us = 100.0", "gain_db = 0.0",
                                         // The fake stamps a frame as it fills it.
                                         "timestamp_latency_us = 0"});
   text = withKey(text, "geometry", "pixel_size_m", "4.2334e-4");
-  return withKey(text, "geometry", "origin_px", "[159.5, 119.5]");
+  text = withKey(text, "geometry", "origin_px", "[159.5, 119.5]");
+  // The right tube 10 mm higher: an oblique impact (about 23 degrees off
+  // head-on), so the tangential restitution beta is measurable.
+  return withKey(text, "launcher", "exit_m", "[0.085, 0.016, 0.0]", 2);
 }
 
 AravisSimRig makeAravisSimRig() {
@@ -135,6 +142,7 @@ TEST(AravisSimCollision, TheShotComesThroughAravisAsTheSimulatorDrewIt) {
   ASSERT_TRUE(launch);
   const std::int64_t half_exposure = std::llround(a.rig.profile.camera_config.exposure_us * 500.0);
   int seen = 0;  // spheres found where the truth puts them at the frame's timestamp
+  std::vector<std::int64_t> in_view;  // timestamps of the frames showing a sphere
   for (const auto& f : b.frames) {
     ASSERT_TRUE(f.good()) << "frame " << f.id;
     // Find the drawn frame this is (each is unique: sensor noise).
@@ -157,6 +165,7 @@ TEST(AravisSimCollision, TheShotComesThroughAravisAsTheSimulatorDrewIt) {
     // wherever the simulation has one (its dots cover ~5 %, so the median of
     // its middle is bright), and only background where it has none.
     const auto views = a.renderer->sceneAt(*launch, f.timestamp_ns + half_exposure);
+    if (!views.empty()) in_view.push_back(f.timestamp_ns);
     for (const auto& v : views) {
       const double r = v.radius_px;
       if (v.centre_px.x() < r || v.centre_px.y() < r || v.centre_px.x() > f.image.cols - r ||
@@ -184,7 +193,65 @@ TEST(AravisSimCollision, TheShotComesThroughAravisAsTheSimulatorDrewIt) {
   // The collision happened inside the burst, as the simulator's truth says.
   const auto truth = a.world->truthFor(b);
   ASSERT_TRUE(truth);
-  const double t_first = 0.0 - pre / b.fps, t_last = (post - 1) / b.fps;
+  // (On the truth's clock: seconds after frame 0's mid-exposure; the frames'
+  // own timestamps, which need not be evenly spaced.)
+  const auto zero = std::find_if(b.frames.begin(), b.frames.end(),
+                                 [](const collide::vision::Frame& f) { return f.id == 0; });
+  ASSERT_NE(zero, b.frames.end());
+  const double t_first = (b.frames.front().timestamp_ns - zero->timestamp_ns) * 1e-9;
+  const double t_last = (b.frames.back().timestamp_ns - zero->timestamp_ns) * 1e-9;
   EXPECT_GT(truth->t_collision_s, t_first);
   EXPECT_LT(truth->t_collision_s, t_last);
+
+  // Analysed to the right e and beta: vision's analysis of the frames that
+  // came through Aravis, against Walton's inverse operator applied to the
+  // simulation's exact states just before and after the contact.
+  const Flight& flight = launch->flight;
+  ASSERT_TRUE(flight.collides());
+  const SpheresProfile& sp = a.rig.profile.spheres;
+  auto spheresOf = [&](const std::array<SphereState, 2>& st) {
+    std::array<Sphere, 2> out;
+    for (int i = 0; i < 2; ++i)
+      out[i] = {sp.mass_kg[i], sp.diameter_m[i], st[i].position_m, st[i].velocity_m_s,
+                st[i].spin_rad_s};
+    return out;
+  };
+  const auto exact =
+      measureCollision(spheresOf(flight.justBefore()), spheresOf(flight.justAfter()));
+  ASSERT_TRUE(exact) << exact.error().message;
+  vision::AnalysisSettings settings;
+  const GeometryProfile& g = a.rig.profile.geometry;
+  settings.pixel_size_m = g.pixel_size_m;
+  settings.diameter_m = sp.diameter_m;
+  settings.mass_kg = sp.mass_kg;
+  settings.origin_u_px = g.origin_u_px;
+  settings.origin_v_px = g.origin_v_px;
+  settings.fps = b.fps;
+  // The fake's stream thread keeps its frame rate only when it gets a CPU in
+  // time; on a heavily loaded machine it skips frame slots (ids stay
+  // consecutive). Beyond 5 ms a 2 m/s sphere jumps half its diameter between
+  // frames (a real camera never does), which the vision core's tracker is not
+  // built for: then this check is not meaningful here.
+  std::int64_t widest_gap = 0;  // between frames that show the spheres
+  for (std::size_t i = 1; i < in_view.size(); ++i)
+    widest_gap = std::max(widest_gap, in_view[i] - in_view[i - 1]);
+  if (widest_gap > 5 * period)
+    GTEST_SKIP() << "frames arrived, bit-exact and aligned with the truth, but the fake camera "
+                    "could not hold its frame rate on this loaded machine (a gap of "
+                 << widest_gap / 1e6 << " ms): e and beta not checked";
+  const auto analysed = vision::analyzeBurst(b, settings);
+  ASSERT_TRUE(analysed) << analysed.error().message;
+  const vision::CollisionProperties& c = analysed->collision;
+  std::printf("e %.4f (sigma %.4f, true %.4f)  beta %.4f (sigma %.4f, true %.4f)  frames %zu\n",
+              c.e.value, c.e.sigma, exact->e, c.beta.value, c.beta.sigma, exact->beta,
+              b.frames.size());
+  // The accuracy the vision core promises per shot (issue 4: |error of e| <=
+  // 0.005, |error of beta| <= 0.03 for |v_n|, v_s >= 0.3 m/s), here on frames
+  // that crossed Aravis' stream code with host-mapped timestamps. (Its
+  // uncertainties do not cover the timestamp jitter of a software-timed fake
+  // on a loaded machine, so they are not the yardstick here.)
+  ASSERT_GE(std::abs(c.vn_m_s.value), 0.3);
+  ASSERT_GE(c.vs_m_s.value, 0.3);
+  EXPECT_NEAR(c.e.value, exact->e, 0.005);
+  EXPECT_NEAR(c.beta.value, exact->beta, 0.03);
 }
