@@ -107,10 +107,26 @@ struct ShotAnalysis {
   std::array<std::array<std::optional<TrajectoryFit>, 2>, 2> trajectory;
   std::array<SphereKinematics, 2> sphere;
   CollisionProperties collision;
-  /// Machine-readable reasons to distrust the shot, e.g. "few_frames_before",
-  /// "few_frames_after", "collision_instant_disagree", "large_residuals",
-  /// "e_untrustworthy_geometry", "beta_untrustworthy_geometry", "no_spin_before".
+  /// Machine-readable reasons to distrust the shot:
+  ///  "few_frames_before", "few_frames_after": a sphere has fewer than 5 frames
+  ///    on that side of the impact;
+  ///  "collision_instant_disagree": the pre- and post-impact instants differ by
+  ///    more than 4 sigma (of every error source) and 1 % of a frame;
+  ///  "large_residuals": a track's weighted residual RMS exceeds 0.1 px and 10
+  ///    times the detector's typical centre uncertainty;
+  ///  "e_untrustworthy_geometry", "beta_untrustworthy_geometry": SPEC eq. 5.1
+  ///    (with the residual scatter as s) gives |v_n| or v_s a relative error > 5 %;
+  ///  "no_spin_before", "no_spin_after": a sphere's spin could not be measured
+  ///    on that side (taken as 0 +- 50 rad/s per axis, so sigmas show it);
+  ///  "saturated_frames": some frames were mostly at full scale;
+  ///  "extra_blobs_ignored": round blobs that are not this shot's spheres;
+  ///  "frames_lost": frames missing or incomplete in the burst;
+  ///  "gravity_scale_mismatch": a free fit's fall differs from g by > 10 % (and
+  ///    5 sigma): the pixel size, a diameter or the frame rate is wrong.
   std::vector<std::string> quality_flags;
+  /// Sentences explaining flags and what was set aside (e.g. why a spin could
+  /// not be had, the fall rate behind gravity_scale_mismatch).
+  std::vector<std::string> notes;
 };
 
 /// Analyses one burst. Bad frames (status not Good) are skipped and counted.

@@ -703,6 +703,18 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
     }
     out.spheres.push_back(m);
   }
+  // One sphere found twice (a blob split in two that both refine onto it):
+  // keep the circle with more edge points.
+  for (std::size_t i = 0; i < out.spheres.size(); ++i)
+    for (std::size_t j = i + 1; j < out.spheres.size();) {
+      const CircleFit &a = out.spheres[i].circle, &b = out.spheres[j].circle;
+      if (std::hypot(a.u - b.u, a.v - b.v) < 0.5 * std::min(a.radius, b.radius)) {
+        if (b.points > a.points) out.spheres[i] = out.spheres[j];
+        out.spheres.erase(out.spheres.begin() + static_cast<std::ptrdiff_t>(j));
+      } else {
+        ++j;
+      }
+    }
   // Spheres whose outlines (nearly) meet count as touching even when their blobs
   // were apart on the grid.
   for (std::size_t i = 0; i < out.spheres.size(); ++i)

@@ -401,8 +401,9 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
     sum_dt = 1;
   }
   if (out.pairs == 0)
-    return fail("spin: no dot could be followed from one frame to the next (no dots in view, "
-                "or the sphere turns too far between frames)");
+    return fail(
+        "spin: no dot could be followed from one frame to the next (no dots in view, "
+        "or the sphere turns too far between frames)");
 
   // ---- first fit, then every dot re-assigned with it (tracks grow across
   // frames the pairwise matching skipped), and the final fit

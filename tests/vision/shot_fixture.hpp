@@ -3,6 +3,7 @@
 // spheres in free flight (analysis/flight.hpp, Walton's operator at contact),
 // drawn frame by frame by vision/render.hpp the way the simulated camera draws
 // them (state at mid-exposure, motion blur over the exposure, noise).
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -64,8 +65,9 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   SimulatedShot shot;
   const double dt = 1.0 / spec.fps;
   const double d = spec.diameter_m;
-  // Contact at flight time tm, at the world origin (image centre).
-  const double tm = 0.05;
+  // Contact at flight time tm, at the world origin (image centre), with the
+  // launch (t = 0) before the first frame.
+  const double tm = std::max(0.05, (spec.frames_before + 5) * dt);
   const double nz = spec.contact_z_sigma * std::normal_distribution<double>()(rng);
   const Vec3 n = Vec3(std::cos(spec.contact_angle_rad), std::sin(spec.contact_angle_rad), 0) *
                      std::sqrt(1 - nz * nz) +
