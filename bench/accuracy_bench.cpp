@@ -24,6 +24,7 @@
 
 #include "analysis/campaign.hpp"
 #include "analysis/walton.hpp"
+#include "app/analyze.hpp"
 #include "app/campaign.hpp"
 #include "app/rig_setup.hpp"
 #include "app/save.hpp"
@@ -97,17 +98,6 @@ bool truthAtContact(const hw::Shot& shot, std::array<Sphere, 2>& before,
   return true;
 }
 
-vision::AnalysisSettings settingsFor(const hw::Shot& shot) {
-  vision::AnalysisSettings s;
-  s.pixel_size_m = shot.scene.pixel_size_m;
-  s.diameter_m = shot.scene.diameter_m;
-  s.mass_kg = shot.scene.mass_kg;
-  s.origin_u_px = shot.scene.origin_u_px;
-  s.origin_v_px = shot.scene.origin_v_px;
-  s.fps = shot.burst.fps;
-  return s;
-}
-
 struct SectionResult {
   std::vector<CampaignShot> points;
   Material truth;
@@ -146,7 +136,7 @@ SectionResult runSection(const char* title, const hw::RigProfile& base, int shot
     }
     const hw::Shot& shot = *fired;
     const auto t0 = std::chrono::steady_clock::now();
-    auto r = vision::analyzeBurst(shot.burst, settingsFor(shot));
+    auto r = vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
     analysis_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     frames_total += static_cast<int>(shot.burst.frames.size());
     std::array<Sphere, 2> tb, ta;
@@ -307,7 +297,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "%s\n", shot ? "no truth in the shot" : shot.error().message.c_str());
         return 1;
       }
-      auto r = vision::analyzeBurst(shot->burst, settingsFor(*shot));
+      auto r = vision::analyzeBurst(shot->burst, app::analysisSettingsFor(*shot));
       std::array<Sphere, 2> tb, ta;
       if (!r || !truthAtContact(*shot, tb, ta)) {
         std::fprintf(stderr, "%s\n", r ? "no collision in the truth" : r.error().message.c_str());

@@ -20,6 +20,7 @@
 #include <chrono>
 #include <thread>
 
+#include "app/analyze.hpp"
 #include "hw/camera_aravis.hpp"
 #include "hw/clock.hpp"
 #include "hw/rig.hpp"
@@ -49,17 +50,6 @@ const Shot& workloadShot() {
   return shot;
 }
 
-vision::AnalysisSettings settingsFor(const Shot& shot) {
-  vision::AnalysisSettings s;
-  s.pixel_size_m = shot.scene.pixel_size_m;
-  s.diameter_m = shot.scene.diameter_m;
-  s.mass_kg = shot.scene.mass_kg;
-  s.origin_u_px = shot.scene.origin_u_px;
-  s.origin_v_px = shot.scene.origin_v_px;
-  s.fps = shot.burst.fps;
-  return s;
-}
-
 // Analyses the workload shot until told to stop, on the last CPU.
 class VisionWorkload {
  public:
@@ -70,7 +60,7 @@ class VisionWorkload {
       CPU_ZERO(&set);
       CPU_SET(static_cast<int>(std::thread::hardware_concurrency()) - 1, &set);
       pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
-      const vision::AnalysisSettings settings = settingsFor(shot);
+      const vision::AnalysisSettings settings = app::analysisSettingsFor(shot);
       const double cpu0 = threadCpuS();
       while (!stop_) {
         auto r = vision::analyzeBurst(shot.burst, settings);
