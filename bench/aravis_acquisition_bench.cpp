@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "app/analyze.hpp"
+#include "app/rig_setup.hpp"
 #include "hw/camera_aravis.hpp"
 #include "hw/clock.hpp"
 #include "hw/rig.hpp"
@@ -40,12 +41,9 @@ constexpr double kMeasureS = 10.0;
 // workload, fired once.
 const Shot& workloadShot() {
   static const Shot shot = [] {
-    auto rig = makeRig(*defaultRigProfile());
-    if (!rig) throw std::runtime_error(rig.error().message);
-    Sequencer sequencer(*rig);
-    Shot s = sequencer.fire(ShotRequest::atSpeeds(2.0, 2.2));
-    (void)shutDown(*rig);
-    return s;
+    auto s = app::fireShot(*defaultRigProfile(), ShotRequest::atSpeeds(2.0, 2.2), "workload");
+    if (!s) throw std::runtime_error(s.error().message);
+    return std::move(*s);
   }();
   return shot;
 }
