@@ -1,5 +1,5 @@
 #pragma once
-// Fits over a campaign of shots of one material (SPEC.md "Measuring a material";
+// Fits over a campaign of shots of one material (docs/SPEC.md "Measuring a material";
 // thesis chapter 5): Walton's friction mu and largest tangential restitution
 // beta_0 from beta against x = -v_n/v_s (Fig. 5.9), the normal restitution e as a
 // constant and as a function of the normal impact speed (Figs. 5.12, 5.13), and

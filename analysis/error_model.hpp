@@ -1,5 +1,5 @@
 #pragma once
-// How accurate a velocity component can be (SPEC.md, thesis eq. 5.1):
+// How accurate a velocity component can be (docs/SPEC.md, thesis eq. 5.1):
 //   dv/v = s / ((v/d) n_s q dt sqrt(N))
 // s: centre uncertainty (pixels); n_s: pixels per diameter d; q dt: time between
 // the frames used; N: frames per side.

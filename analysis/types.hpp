@@ -9,7 +9,7 @@ namespace collide {
 using Vec3 = Eigen::Vector3d;
 using Quat = Eigen::Quaterniond;
 
-/// Walton's three material properties (SPEC.md).
+/// Walton's three material properties (docs/SPEC.md).
 struct Material {
   double e = 0.97;      ///< normal restitution, [0, 1]
   double mu = 0.176;    ///< sliding friction coefficient, >= 0

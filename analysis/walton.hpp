@@ -1,10 +1,10 @@
 #pragma once
-// Walton's collision operator (SPEC.md "Walton's collision operator", thesis
+// Walton's collision operator (docs/SPEC.md "Walton's collision operator", thesis
 // ch. 3 and appendices A, B), both ways:
 //  - forward: pre-collision spheres + material -> post-collision spheres;
 //  - inverse: pre- and post-collision kinematics -> e, beta, f, ... of one shot;
 //  - the out-of-plane velocity after impact from the spin changes (appendix B).
-// Sign conventions as in SPEC.md: n points from sphere 2 to sphere 1, the
+// Sign conventions as in docs/SPEC.md: n points from sphere 2 to sphere 1, the
 // impulse dP acts on sphere 1, v_n = v_c . n < 0 while approaching.
 //
 // Field names in error messages: the two spheres are "spheres[0]" and
@@ -29,7 +29,7 @@ struct Wall {
   Vec3 normal = Vec3::UnitY();  ///< plane normal, non-zero
 };
 
-/// Relative motion at the contact point of two bodies (SPEC.md symbols).
+/// Relative motion at the contact point of two bodies (docs/SPEC.md symbols).
 struct ContactKinematics {
   Vec3 normal = Vec3::Zero();       ///< n, unit, from body 2 towards body 1
   Vec3 v_c_m_s = Vec3::Zero();      ///< contact-point (sliding) velocity of 1 relative to 2
@@ -70,7 +70,7 @@ Status validateSphere(const Sphere& s, std::string_view name);
 Status validateMaterial(const Material& m);
 
 /// Contact kinematics of two spheres whose centres are at their positions
-/// (SPEC.md: n, v_c, v_n, v_s, t, gamma). Exact head-on (v_s = 0) gives t = 0,
+/// (docs/SPEC.md: n, v_c, v_n, v_s, t, gamma). Exact head-on (v_s = 0) gives t = 0,
 /// gamma = pi. Precondition: distinct centres (else n is NaN); no validation.
 ContactKinematics contactKinematics(const Sphere& s1, const Sphere& s2);
 
@@ -88,7 +88,7 @@ Result<Collision> collideSpheres(const Sphere& s1, const Sphere& s2, const Mater
 /// radius from the plane within 1 % ("spheres[0].position_m"); not approaching.
 Result<WallCollision> collideWithWall(const Sphere& s, const Wall& wall, const Material& material);
 
-/// One shot measured from kinematics at the contact instant (SPEC.md step 6).
+/// One shot measured from kinematics at the contact instant (docs/SPEC.md step 6).
 struct WaltonMeasurement {
   ContactKinematics before;  ///< n, v_c, v_n, v_s, t, gamma before the impact
   ContactKinematics after;   ///< the same after the impact (same n)

@@ -1,5 +1,5 @@
 #pragma once
-// A campaign folder's analysed shots fitted as one material (SPEC.md
+// A campaign folder's analysed shots fitted as one material (docs/SPEC.md
 // "Measuring a material"): the shots read back from their results, which
 // shots the fits use and why others are left out, the fits, the thesis' five
 // plots (as PlotSpec, drawn to PNG/SVG by `collide fit` and to Qt Charts by

@@ -21,7 +21,7 @@ struct LaunchPlan {
   double contact_s = 0.0;
   Vec3 contact_point_m = Vec3::Zero();   ///< midway between the centres at contact
   Eigen::Vector2d contact_px{0.0, 0.0};  ///< where that is in the image (u, v)
-  /// Unit line of centres at contact, n = (r1 - r2)/|r1 - r2| (SPEC.md).
+  /// Unit line of centres at contact, n = (r1 - r2)/|r1 - r2| (docs/SPEC.md).
   Vec3 contact_normal = Vec3::UnitX();
   /// v1 - v2 just before contact, m/s (spins aside, the approach velocity).
   Vec3 relative_velocity_m_s = Vec3::Zero();

@@ -21,7 +21,7 @@ struct DotPattern {
 
   /// Random, reproducible from `seed`: dots of diameter `dot_diameter_fraction`
   /// of the sphere's diameter covering about `coverage` of the surface
-  /// (SPEC.md: 1/10 and 5 %, about 20 dots), kept apart so they do not touch.
+  /// (docs/SPEC.md: 1/10 and 5 %, about 20 dots), kept apart so they do not touch.
   /// Diameter means the face-on diameter: sin(angular_radius) = fraction. Centres
   /// are uniform on the sphere with at least one dot radius of bare surface
   /// between dots; a request too dense to place gets as many dots as fit.

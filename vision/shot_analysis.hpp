@@ -1,5 +1,5 @@
 #pragma once
-// From a burst to a shot's kinematics and collision properties (SPEC.md steps
+// From a burst to a shot's kinematics and collision properties (docs/SPEC.md steps
 // 1-6): spheres and dots in every frame, tracks, trajectory fits, the
 // collision instant from both sides, spins, then analysis/'s inverse Walton
 // operator. This header is the contract between vision (which implements it)

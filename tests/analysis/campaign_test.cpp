@@ -1,5 +1,5 @@
 // Campaign fits against simulated campaigns with known truth. The simulator
-// writes Walton's rule and the e laws straight from SPEC.md, independently of
+// writes Walton's rule and the e laws straight from docs/SPEC.md, independently of
 // the fitting code; the statistical tests check that the reported 1-sigma
 // intervals cover the truth about 68 % of the time over many seeds.
 #include "analysis/campaign.hpp"
@@ -26,17 +26,17 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 struct Truth {
   double mu, beta0, e;
 };
-// Thesis, 2.54 cm Nylon (SPEC.md).
+// Thesis, 2.54 cm Nylon (docs/SPEC.md).
 constexpr Truth kNylon{0.176, 0.44, 0.97};
 
-// SPEC.md, Walton's rule: sliding beta = -1 - mu (1 + 1/K)(1 + e) v_n/v_s,
+// docs/SPEC.md, Walton's rule: sliding beta = -1 - mu (1 + 1/K)(1 + e) v_n/v_s,
 // rolling beta = beta_0, "take whichever of the two gives the smaller beta".
 double waltonBeta(double v_n, double v_s, const Truth& m) {
   const double sliding = -1.0 - m.mu * (1.0 + 1.0 / kK) * (1.0 + m.e) * v_n / v_s;
   return std::min(sliding, m.beta0);
 }
 
-// The switch from SPEC.md: tan gamma_0 = mu (1 + 1/K)(1 + e)/(1 + beta_0), with
+// The switch from docs/SPEC.md: tan gamma_0 = mu (1 + 1/K)(1 + e)/(1 + beta_0), with
 // gamma_0 the thesis' acute angle; x0 = -v_n/v_s at the switch = 1/tan gamma_0.
 double trueSwitchTan(const Truth& m) {
   return m.mu * (1.0 + 1.0 / kK) * (1.0 + m.e) / (1.0 + m.beta0);
@@ -383,7 +383,7 @@ TEST(CampaignRestitution, MeanScatterAndErrors) {
 
 namespace {
 
-// The e laws as SPEC.md and the thesis state them, v = |v_n| in m/s.
+// The e laws as docs/SPEC.md and the thesis state them, v = |v_n| in m/s.
 struct LawTruth {
   RestitutionLaw law;
   std::vector<double> params;
@@ -515,7 +515,7 @@ TEST(CampaignCurves, BetaCurveIsWaltonsRule) {
 }
 
 TEST(CampaignCurves, ImpulseRatioAndBetaSatisfyTheModelIdentity) {
-  // SPEC.md: beta = -1 - (1 + 1/K)(1 + e) f cot gamma, cot gamma = v_n/v_s = -x,
+  // docs/SPEC.md: beta = -1 - (1 + 1/K)(1 + e) f cot gamma, cot gamma = v_n/v_s = -x,
   // with f at tan psi = 1/x.
   const Material m{0.9, 0.3, 0.1};
   for (double x : {0.05, 0.3, 0.8, 1.5, 3.0, 10.0}) {
@@ -532,7 +532,7 @@ TEST(CampaignCurves, ImpulseRatioAndBetaSatisfyTheModelIdentity) {
 TEST(CampaignCurves, TangentFormLinesAreThoseOfFigure34) {
   const Material m{kNylon.e, kNylon.mu, kNylon.beta0};
   const TangentFormLines lines = campaignTangentFormLines(m);
-  // SPEC.md, K = 2/5: sliding -v_s'/v_n = -v_s/v_n - (7/2) mu (1 + e);
+  // docs/SPEC.md, K = 2/5: sliding -v_s'/v_n = -v_s/v_n - (7/2) mu (1 + e);
   // rolling v_s'/v_n = -beta_0 v_s/v_n.
   EXPECT_NEAR(lines.sliding_intercept, -3.5 * m.mu * (1 + m.e), 1e-15);
   EXPECT_DOUBLE_EQ(lines.rolling_slope, -m.beta0);

@@ -7,7 +7,7 @@
 using namespace collide;
 
 // The thesis' own numbers: s ~ 1.5 sub-pixels of 1/4 px, d = 2.54 cm imaged on
-// ~37 px, 1000 frames/s, ~10 frames per side -> velocity std ~ 4 cm/s (SPEC.md).
+// ~37 px, 1000 frames/s, ~10 frames per side -> velocity std ~ 4 cm/s (docs/SPEC.md).
 TEST(ErrorModel, ThesisImagingGivesCentimetresPerSecond) {
   ImagingGeometry g{.position_sigma_px = 1.5 * 0.25,
                     .pixels_per_diameter = 37.2,

@@ -12,7 +12,7 @@ using ::testing::HasSubstr;
 
 namespace {
 
-// Independent restatements of SPEC.md, written out here rather than taken
+// Independent restatements of docs/SPEC.md, written out here rather than taken
 // from the code under test.
 Vec3 contactVelocity(const Sphere& s1, const Sphere& s2, const Vec3& n) {
   return s1.velocity_m_s - s2.velocity_m_s -

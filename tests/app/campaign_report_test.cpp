@@ -1,7 +1,7 @@
 // collide fit's library: a folder of analysed shot files is read back, shots
 // that cannot be used are left out with the reason, the fit recovers the
 // material the shots were made from (Walton's rule written out here from
-// SPEC.md, independently of the fitting code), and the plots hold the points.
+// docs/SPEC.md, independently of the fitting code), and the plots hold the points.
 #include "app/campaign_report.hpp"
 
 #include <gtest/gtest.h>
@@ -19,7 +19,7 @@ namespace {
 
 constexpr double kMu = 0.176, kBeta0 = 0.44, kE = 0.97, kK = 0.4;
 
-// SPEC.md: beta = min(-1 - mu (1 + 1/K)(1 + e) v_n / v_s, beta_0).
+// docs/SPEC.md: beta = min(-1 - mu (1 + 1/K)(1 + e) v_n / v_s, beta_0).
 double waltonBeta(double v_n, double v_s) {
   return std::min(-1.0 - kMu * (1.0 + 1.0 / kK) * (1.0 + kE) * v_n / v_s, kBeta0);
 }
