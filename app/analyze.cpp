@@ -31,7 +31,7 @@ namespace {
 AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mutex& store_mutex) {
   AnalyzeOutcome out;
   out.file = path;
-  auto shot = readShot(path);
+  auto shot = readShot(path, {.contained = true});
   if (!shot) {
     out.message = shot.error().message;
     return out;

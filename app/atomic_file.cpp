@@ -1,9 +1,11 @@
 #include "app/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>  // renameat2, RENAME_NOREPLACE
 #include <cstring>
 #include <filesystem>
 #include <random>
@@ -143,16 +145,117 @@ AtomicFile::~AtomicFile() {
   if (!temp_path_.empty()) ::unlink(temp_path_.c_str());
 }
 
-Status AtomicFile::commit() {
+Status AtomicFile::syncTemp() {
   if (int err = syncPath(temp_path_, O_RDONLY)) return ioError(err, "writing", final_path_);
-  if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0)
-    return ioError(errno, "renaming a temporary file to", final_path_);
-  temp_path_.clear();
+  return Ok{};
+}
+
+Status AtomicFile::syncFolder() {
   // The data is safe under its name already; failing to sync the folder only
   // risks the rename itself after a power cut, which is still worth reporting.
   if (int err = syncPath(folderOf(final_path_), O_RDONLY | O_DIRECTORY))
     return ioError(err, "syncing the folder of", final_path_);
   return Ok{};
+}
+
+Status AtomicFile::commit() {
+  if (auto s = syncTemp(); !s) return s;
+  if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0)
+    return ioError(errno, "renaming a temporary file to", final_path_);
+  temp_path_.clear();
+  return syncFolder();
+}
+
+Result<AtomicFile::Outcome> AtomicFile::commitIfAbsent() {
+  if (auto s = syncTemp(); !s) return s.error();
+  if (::renameat2(AT_FDCWD, temp_path_.c_str(), AT_FDCWD, final_path_.c_str(), RENAME_NOREPLACE) !=
+      0) {
+    const int err = errno;
+    if (err == EEXIST) return Outcome::NameTaken;
+    // File systems without RENAME_NOREPLACE (some network ones): a hard link
+    // is created only if the name is free, equally atomically.
+    if (err != EINVAL && err != ENOSYS) return ioError(err, "naming", final_path_);
+    if (::link(temp_path_.c_str(), final_path_.c_str()) != 0) {
+      if (errno == EEXIST) return Outcome::NameTaken;
+      return ioError(errno, "naming", final_path_);
+    }
+    ::unlink(temp_path_.c_str());
+  }
+  temp_path_.clear();
+  if (auto s = syncFolder(); !s) return s.error();
+  return Outcome::Committed;
+}
+
+namespace {
+
+/// Writes all of `text` to the open descriptor; 0 or errno.
+int writeAll(int fd, const std::string& text) {
+  for (std::size_t done = 0; done < text.size();) {
+    const ssize_t w = ::write(fd, text.data() + done, text.size() - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w < 0) return errno;
+    done += static_cast<std::size_t>(w);
+  }
+  return 0;
+}
+
+Status writeThrough(const std::string& path, const std::string& text) {
+  // No O_CREAT, no O_TRUNC: the node exists and is not ours to replace.
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) return ioError(errno, "opening", path);
+  int err = writeAll(fd, text);
+  if (::close(fd) != 0 && err == 0) err = errno;
+  if (err != 0) return ioError(err, "writing", path);
+  return Ok{};
+}
+
+Status replaceRegular(const std::string& path, const std::string& text) {
+  auto file = AtomicFile::create(path);
+  if (!file) return file.error();
+  const int fd = ::open(file->tempPath().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  if (fd < 0) return ioError(errno, "writing", path);
+  int err = writeAll(fd, text);
+  if (::close(fd) != 0 && err == 0) err = errno;
+  if (err != 0) return ioError(err, "writing", path);
+  return file->commit();
+}
+
+}  // namespace
+
+Status writeTextFile(const std::string& path, const std::string& text) {
+  namespace fs = std::filesystem;
+  std::string target = path;
+  // Follow a chain of links ourselves so a dangling link still gets its target
+  // written (as a shell's `>` would) and the link itself stays.
+  for (int hops = 0;; ++hops) {
+    struct stat st {};
+    if (::lstat(target.c_str(), &st) != 0) {
+      if (errno == ENOENT) return replaceRegular(target, text);
+      return ioError(errno, "checking", path);
+    }
+    if (S_ISLNK(st.st_mode)) {
+      if (hops >= 40)
+        return fail(path +
+                    " is a chain of more than 40 symbolic links (a loop?): give a file name");
+      std::error_code ec;
+      const fs::path link_target = fs::read_symlink(target, ec);
+      if (ec) return ioError(ec.value(), "reading the link", path);
+      target =
+          (link_target.is_absolute() ? link_target : fs::path(target).parent_path() / link_target)
+              .string();
+      continue;
+    }
+    if (S_ISREG(st.st_mode)) return replaceRegular(target, text);
+    if (S_ISDIR(st.st_mode))
+      return fail(path + " is a folder: give a file name, e.g. " +
+                  (fs::path(path) / "results.json").string());
+    if (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode)) return writeThrough(target, text);
+    if (S_ISBLK(st.st_mode))
+      return fail(path +
+                  " is a block device (a disk or partition): refusing to write to it; give "
+                  "a file name");
+    return fail(path + " is a socket or other special file: give a file name");
+  }
 }
 
 }  // namespace collide::app

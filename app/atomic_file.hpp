@@ -42,12 +42,38 @@ class AtomicFile {
   /// destructor.
   Status commit();
 
+  /// What commitIfAbsent() did.
+  enum class Outcome { Committed, NameTaken };
+
+  /// As commit(), but never replaces anything: when `finalPath()` already
+  /// exists (another shot, another writer that got there first) nothing is
+  /// renamed, NameTaken is returned and the temporary file is left for the
+  /// destructor to remove. The check and the rename are one atomic step
+  /// (renameat2 RENAME_NOREPLACE; link + unlink where the file system lacks
+  /// it), so two processes saving under one name cannot both succeed.
+  Result<Outcome> commitIfAbsent();
+
  private:
+  /// fsync's the temporary file; errors name the final path.
+  Status syncTemp();
+  /// fsync's the folder of the final path after a rename.
+  Status syncFolder();
+
   AtomicFile(std::string final_path, std::string temp_path)
       : final_path_(std::move(final_path)), temp_path_(std::move(temp_path)) {}
 
   std::string final_path_;
   std::string temp_path_;  ///< empty once committed or moved from
 };
+
+/// Writes `text` to `path` as a user asked for an output file (--json, fit
+/// output, a profile): a new or regular file is replaced atomically (complete
+/// or not at all); a symbolic link is followed and its target written the same
+/// way (the link stays a link); a FIFO or character device (a pipe, a
+/// terminal, /dev/null, /dev/full) is written through, never replaced by a
+/// file. Refused with a message naming `path`: a folder, a block device (a
+/// disk), a socket, a link loop. Errors from writing name `path` and say what
+/// to do (disk full, permission denied, ...).
+Status writeTextFile(const std::string& path, const std::string& text);
 
 }  // namespace collide::app

@@ -31,7 +31,7 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool inc
   for (const auto& file : files) {
     CampaignEntry entry;
     entry.file = file;
-    auto shot = readShot(file, ReadOptions{.frames = false});
+    auto shot = readShot(file, ReadOptions{.frames = false, .contained = true});
     if (!shot) {
       entry.excluded_because = shot.error().message;
       entries.push_back(std::move(entry));

@@ -374,7 +374,7 @@ Result<RebuildReport> rebuildCatalog(const std::string& dir) {
   std::vector<CatalogRow> rows;
   std::map<std::string, std::string> file_of_id;
   for (const auto& name : names) {
-    auto shot = readShot((fs::path(dir) / name).string(), {.frames = false});
+    auto shot = readShot((fs::path(dir) / name).string(), {.frames = false, .contained = true});
     if (!shot) {
       report.unreadable.push_back({name, shot.error().message});
       continue;

@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
@@ -17,6 +18,13 @@
 namespace collide::app::h5 {
 
 void silenceErrorPrinting() {
+  // Before the library's first call: no clean-up at exit. HDF5 1.10's exit
+  // handler re-closes any file whose H5Fclose failed (a disk that filled up
+  // during the final flush) and crashes on it (SIGSEGV after a clean error
+  // message). Every file here is closed by its owner, and a file whose close
+  // failed is a temporary one that is deleted anyway.
+  static std::once_flag once;
+  std::call_once(once, [] { H5dont_atexit(); });
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
 }
 
@@ -301,13 +309,29 @@ bool Reader::exists(const std::string& path) {
   while (start <= path.size()) {
     const std::size_t end = std::min(path.find('/', start), path.size());
     prefix = path.substr(0, end);
-    if (H5Lexists(file_, prefix.c_str(), H5P_DEFAULT) <= 0) {
-      H5Eclear2(H5E_DEFAULT);
+    const htri_t found = H5Lexists(file_, prefix.c_str(), H5P_DEFAULT);
+    if (found < 0) {
+      // Not "absent": the group could not be read (a checksum mismatch in
+      // the 1.10 format, a damaged B-tree).
+      failHdf5("looking up " + prefix);
       return false;
     }
+    if (found == 0) return false;
     start = end + 1;
   }
   return true;
+}
+
+bool Reader::attributeExists(const std::string& object, const char* name) {
+  const htri_t found = H5Aexists_by_name(file_, object.c_str(), name, H5P_DEFAULT);
+  if (found < 0) {
+    failHdf5("reading the attributes of " + object);
+    return false;
+  }
+  if (found == 0)
+    fail(collide::fail("shot file " + display_path_ + " lacks attribute '" + name + "' of " +
+                       object + ": the file is incomplete or was not written by collide"));
+  return found > 0;
 }
 
 Handle Reader::openDataset(const std::string& path, hid_t dapl) {
@@ -324,12 +348,7 @@ Handle Reader::openDataset(const std::string& path, hid_t dapl) {
 
 std::string Reader::stringAttribute(const std::string& object, const char* name) {
   if (!ok_) return {};
-  if (H5Aexists_by_name(file_, object.c_str(), name, H5P_DEFAULT) <= 0) {
-    H5Eclear2(H5E_DEFAULT);
-    fail(collide::fail("shot file " + display_path_ + " lacks attribute '" + name + "' of " +
-                       object + ": the file is incomplete or was not written by collide"));
-    return {};
-  }
+  if (!attributeExists(object, name)) return {};
   Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
   Handle type(attr.valid() ? H5Aget_type(attr.get()) : H5I_INVALID_HID, H5Tclose);
   Handle space(attr.valid() ? H5Aget_space(attr.get()) : H5I_INVALID_HID, H5Sclose);
@@ -355,12 +374,7 @@ std::string Reader::stringAttribute(const std::string& object, const char* name)
 
 std::int32_t Reader::intAttribute(const std::string& object, const char* name) {
   if (!ok_) return 0;
-  if (H5Aexists_by_name(file_, object.c_str(), name, H5P_DEFAULT) <= 0) {
-    H5Eclear2(H5E_DEFAULT);
-    fail(collide::fail("shot file " + display_path_ + " lacks attribute '" + name + "' of " +
-                       object + ": the file is incomplete or was not written by collide"));
-    return 0;
-  }
+  if (!attributeExists(object, name)) return 0;
   std::int32_t value = 0;
   Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
   if (!attr.valid() || H5Aread(attr.get(), H5T_NATIVE_INT32, &value) < 0)

@@ -119,6 +119,9 @@ class Reader {
   const Error& error() const { return error_; }
   void failHdf5(const std::string& what);
   void failHdf5(const std::string& what, const Cause& cause);
+  /// True if `object` has attribute `name`; otherwise records why not: absent
+  /// ("lacks attribute") or unreadable (corrupt).
+  bool attributeExists(const std::string& object, const char* name);
   void fail(Error error);
 
   /// Whether a group or dataset exists at `path` (every component checked).

@@ -106,15 +106,7 @@ Status writeProfileFile(const std::string& path, const std::string& text,
     if (Status s = copy->commit(); !s) return s;
     if (backup_path) *backup_path = backup;
   }
-  auto file = AtomicFile::create(path);
-  if (!file) return file.error();
-  {
-    std::ofstream out(file->tempPath(), std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) return ioError(errno ? errno : EIO, "writing", path);
-  }
-  return file->commit();
+  return writeTextFile(path, text);
 }
 
 }  // namespace collide::app

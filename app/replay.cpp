@@ -29,7 +29,9 @@ Result<ReplayedShot> replayShotFile(const std::string& path, const ReplayOptions
   }
   auto shot = fireShot(*profile, request, makeShotId(wallTimeUnixNs(), options.sequence), cancel);
   if (!shot) return shot.error();
-  if (Status saved = saveShot(options.out_dir, *shot); !saved) return saved.error();
+  auto saved = saveShot(options.out_dir, *shot);
+  if (!saved) return saved.error();
+  shot->id = *saved;
   ReplayedShot out;
   out.source = path;
   out.file = (std::filesystem::path(options.out_dir) / shotFileName(shot->id)).string();

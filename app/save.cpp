@@ -4,12 +4,16 @@
 
 #include "app/atomic_file.hpp"
 #include "app/catalog.hpp"
+#include "app/shot_id.hpp"
 
 namespace collide::app {
 
 namespace fs = std::filesystem;
 
 namespace {
+
+/// How many ids saveShot tries after the shot's own before giving up.
+constexpr int kMaxIdAttempts = 10000;
 
 Result<std::string> shotPath(const std::string& dir, const std::string& id) {
   // Ids are "YYYYMMDD-HHMMSS-NNNN"; refuse anything that would land outside
@@ -31,18 +35,43 @@ std::string shotFileName(const std::string& id) {
   return id + ".h5";
 }
 
-Status saveShot(const std::string& dir, const hw::Shot& shot, const WriteOptions& options) {
-  auto path = shotPath(dir, shot.id);
-  if (!path) return path.error();
+Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
+                             const WriteOptions& options) {
+  if (auto path = shotPath(dir, shot.id); !path) return path.error();
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return ioError(ec.value(), "creating the folder", dir);
-  if (auto written = writeShot(*path, shot, options); !written) return written;
-  auto catalog = Catalog::open(dir);
-  if (!catalog) return catalogError(dir, *path, catalog.error());
-  if (auto s = catalog->upsert(catalogRow(shot, shotFileName(shot.id))); !s)
-    return catalogError(dir, *path, s.error());
-  return Ok{};
+  // Skip the names already taken before writing (cheap); a writer that takes
+  // the chosen name between this check and our rename makes us write again
+  // under the next one, because the rename itself never replaces.
+  hw::Shot renamed;
+  const hw::Shot* to_write = &shot;
+  std::string id = shot.id;
+  for (int attempt = 0; attempt < kMaxIdAttempts; ++attempt) {
+    if (fs::exists(fs::path(dir) / shotFileName(id), ec)) {
+      id = nextShotId(id);
+      continue;
+    }
+    if (id != shot.id) {
+      if (to_write == &shot) renamed = shot;  // frames share their pixels
+      renamed.id = id;
+      to_write = &renamed;
+    }
+    const std::string path = (fs::path(dir) / shotFileName(id)).string();
+    auto written = writeShotIfAbsent(path, *to_write, options);
+    if (!written) return written.error();
+    if (*written == WriteOutcome::NameTaken) {
+      id = nextShotId(id);
+      continue;
+    }
+    auto catalog = Catalog::open(dir);
+    if (!catalog) return catalogError(dir, path, catalog.error());
+    if (auto s = catalog->upsert(catalogRow(*to_write, shotFileName(id))); !s)
+      return catalogError(dir, path, s.error());
+    return id;
+  }
+  return fail("cannot save shot " + shot.id + " in " + dir + ": " + std::to_string(kMaxIdAttempts) +
+              " ids after it are all taken; save into another folder (--out)");
 }
 
 Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json) {

@@ -13,12 +13,17 @@ namespace collide::app {
 /// "<id>.h5": the file name of shot `id` in its folder.
 std::string shotFileName(const std::string& id);
 
-/// Writes `shot` to `dir`/<id>.h5 (creating `dir` if needed), then adds or
-/// replaces its row in `dir`/catalog.sqlite. Errors: an id that cannot be a
-/// file name, the folder cannot be created, any writeShot error (nothing is
-/// left behind), the catalog cannot be updated (the file is then complete and
-/// the message says to run `collide catalog rebuild DIR`).
-Status saveShot(const std::string& dir, const hw::Shot& shot, const WriteOptions& options = {});
+/// Writes `shot` to `dir`/<id>.h5 (creating `dir` if needed), then adds its
+/// row to `dir`/catalog.sqlite, and returns the id it was saved under.
+/// A shot never replaces another: when <id>.h5 exists (an earlier campaign in
+/// the same second, another process saving into the same folder at once) the
+/// shot takes the next free id (nextShotId) and is stored with it, file and
+/// row alike. Errors: an id that cannot be a file name, the folder cannot be
+/// created, any writeShot error (nothing is left behind), the catalog cannot
+/// be updated (the file is then complete and the message says to run
+/// `collide catalog rebuild DIR`).
+Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
+                             const WriteOptions& options = {});
 
 /// Stores the analysis results of shot `id` (in `dir`/<id>.h5, see
 /// storeResults), then updates its catalog row. Same error rules as saveShot.

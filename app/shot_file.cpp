@@ -1,13 +1,21 @@
 #include "app/shot_file.hpp"
 
 #include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
 
 #include "app/atomic_file.hpp"
 #include "app/h5.hpp"
 #include "app/results_summary.hpp"
+#include "hw/memory.hpp"
 
 namespace collide::app {
 
@@ -16,6 +24,14 @@ namespace {
 using h5::Handle;
 
 constexpr const char* kFormatName = "collide-shot";
+
+/// Held around every whole read, write and update of a shot file. HDF5
+/// serialises its calls anyway, so this costs no parallelism; it lets a
+/// contained read fork while no thread of ours is inside the library.
+std::recursive_mutex& hdf5Mutex() {
+  static std::recursive_mutex m;
+  return m;
+}
 constexpr const char* kImages = "/frames/images";
 
 /// Size and OpenCV type shared by every frame that has an image.
@@ -285,6 +301,24 @@ void writeResults(h5::Writer& w, const std::string& results_json) {
     if (numbers[i].second) w.scalar(numbers[i].first, *numbers[i].second, units[i]);
 }
 
+/// Refuses to start a write the folder has no room for (frames plus 1 MB of
+/// metadata), with the figures, rather than fill the disk and fail half-way.
+Status checkRoom(const std::string& path, const FrameGeometry& g, std::size_t frames) {
+  const double needed = static_cast<double>(g.rows) * g.cols * (g.cv_type == CV_8UC1 ? 1 : 2) *
+                            static_cast<double>(frames) +
+                        1e6;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  struct statvfs fs {};
+  if (::statvfs(folder.empty() ? "." : folder.c_str(), &fs) != 0)
+    return Ok{};  // the write will say
+  const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+  if (free_bytes < needed)
+    return fail("not enough space to write " + path + ": the shot needs " +
+                hw::formatBytes(needed) + ", " + hw::formatBytes(free_bytes) +
+                " are free: free space or choose another folder (--out)");
+  return Ok{};
+}
+
 /// Error for a failure to create or open `path` itself.
 Error fileError(const std::string& action, const std::string& path) {
   const h5::Cause cause = h5::lastCause();
@@ -401,6 +435,23 @@ void readImages(h5::Reader& r, vision::Burst& burst, const std::vector<std::uint
                        std::to_string(burst.frames.size()) + " frames of " + (mono8 ? "8" : "16") +
                        "-bit pixels (pixel format " + vision::toString(burst.format) +
                        "); the file is corrupt"));
+  // The file's dimensions are not trusted with memory: a corrupt or hostile
+  // header must give a message, not a multi-gigabyte allocation.
+  if (dims[1] > vision::kMaxFrameSidePx || dims[2] > vision::kMaxFrameSidePx)
+    return r.fail(fail("shot file " + path + ": " + kImages + " declares frames of " +
+                       std::to_string(dims[2]) + " x " + std::to_string(dims[1]) +
+                       " pixels, larger than any camera (at most " +
+                       std::to_string(vision::kMaxFrameSidePx) + " a side); the file is corrupt"));
+  const double frame_bytes = static_cast<double>(dims[1]) * dims[2] * (mono8 ? 1 : 2);
+  const double images = static_cast<double>(
+      std::count_if(has_image.begin(), has_image.end(), [](std::uint8_t h) { return h != 0; }));
+  if (const auto avail = hw::availableMemoryBytes(); avail && frame_bytes * images > *avail * 0.9)
+    return r.fail(fail("shot file " + path + " holds " + std::to_string(dims[0]) + " frames of " +
+                       std::to_string(dims[2]) + " x " + std::to_string(dims[1]) + " pixels (" +
+                       hw::formatBytes(frame_bytes * images) + "), more than the " +
+                       hw::formatBytes(static_cast<double>(*avail)) +
+                       " of memory free here: read it on a machine with more memory "
+                       "(or the file is corrupt)"));
   const hsize_t mem_dims[3] = {1, dims[1], dims[2]};
   Handle mem_space(H5Screate_simple(3, mem_dims, nullptr), H5Sclose);
   const int cv_type = vision::cvType(burst.format);
@@ -529,14 +580,21 @@ std::optional<hw::ShotStatus> parseShotStatus(std::string_view text) {
   return std::nullopt;
 }
 
-Status writeShot(const std::string& path, const hw::Shot& shot, const WriteOptions& options) {
+Result<WriteOutcome> writeShotIfAbsent(const std::string& path, const hw::Shot& shot,
+                                       const WriteOptions& options) {
+  std::lock_guard lock(hdf5Mutex());
   h5::silenceErrorPrinting();
   auto geometry = checkShot(path, shot);
   if (!geometry) return geometry.error();
+  if (auto room = checkRoom(path, *geometry, shot.burst.frames.size()); !room) return room.error();
   auto temp = AtomicFile::create(path);
   if (!temp) return temp.error();
   {
     Handle fapl = fileAccess();
+    // The 1.10 file format: superblock v3 and v2 object headers carry
+    // checksums, so a damaged header is reported as such rather than read as
+    // data. Files stay readable by HDF5 >= 1.10 (h5py, MATLAB, HDFView).
+    H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_V110, H5F_LIBVER_V110);
     Handle file(H5Fcreate(temp->tempPath().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()),
                 H5Fclose);
     if (!file.valid()) return fileError("create", path);
@@ -552,10 +610,25 @@ Status writeShot(const std::string& path, const hw::Shot& shot, const WriteOptio
     closeFile(w, file);
     if (!w.ok()) return w.error();  // ~AtomicFile removes the temporary file
   }
-  return temp->commit();
+  auto committed = temp->commitIfAbsent();
+  if (!committed) return committed.error();
+  return *committed == AtomicFile::Outcome::Committed ? WriteOutcome::Written
+                                                      : WriteOutcome::NameTaken;
 }
 
-Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
+Status writeShot(const std::string& path, const hw::Shot& shot, const WriteOptions& options) {
+  auto written = writeShotIfAbsent(path, shot, options);
+  if (!written) return written.error();
+  if (*written == WriteOutcome::NameTaken)
+    return fail(path +
+                " already exists: a shot file is never replaced; "
+                "write to another name or move the existing file away first");
+  return Ok{};
+}
+
+namespace {
+
+Result<hw::Shot> readShotLocked(const std::string& path, const ReadOptions& options) {
   h5::silenceErrorPrinting();
   auto file = openShotFile(path, H5F_ACC_RDONLY);
   if (!file) return file.error();
@@ -576,6 +649,38 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
   return shot;
 }
 
+/// Reads `path` in a forked child and reports whether the child died of a
+/// signal. The caller holds hdf5Mutex(), so no other thread of ours is inside
+/// HDF5 at the fork and the child cannot inherit a held library lock.
+Status probeInChild(const std::string& path, const ReadOptions& options) {
+  const pid_t pid = ::fork();
+  if (pid < 0) return Ok{};  // cannot fork: read unprotected rather than not at all
+  if (pid == 0) {
+    ReadOptions inner = options;
+    inner.contained = false;
+    const bool ok = readShotLocked(path, inner).ok();
+    ::_exit(ok ? 0 : 1);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" +
+                sigabbrev_np(sig) + "); restore it from a backup, or move it out of the folder");
+  }
+  return Ok{};
+}
+
+}  // namespace
+
+Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
+  std::lock_guard lock(hdf5Mutex());
+  if (options.contained)
+    if (auto probe = probeInChild(path, options); !probe) return probe.error();
+  return readShotLocked(path, options);
+}
+
 // Why a copy rather than an in-place update: HDF5 1.10 has no journal. Replacing
 // /results in place rewrites object headers, the group B-tree, the local heap
 // and the superblock's end-of-file in several separate writes; a crash, a full
@@ -584,6 +689,7 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
 // recorded data safe at every instant, at the cost of one sequential copy per
 // analysis (~0.3 s for a 92 MB burst), which is small next to the analysis.
 Status storeResults(const std::string& path, const std::string& results_json) {
+  std::lock_guard lock(hdf5Mutex());
   h5::silenceErrorPrinting();
   if (!results_json.empty()) {
     auto summary = summarizeResults(results_json);

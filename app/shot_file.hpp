@@ -29,25 +29,43 @@ struct WriteOptions {
   int deflate_level = 1;
 };
 
-/// Writes `shot` to `path` (conventionally "<dir>/<shot.id>.h5"), replacing a
-/// previous file of that name only once the new one is complete.
-/// Errors (one line naming `path`): folder missing or read-only, disk full
-/// ("no space left on device writing shots/x.h5: free space or ..."), frames
-/// of different sizes or of a type that does not match the pixel format,
-/// truth arrays of different lengths, results that are not JSON. On error
-/// nothing is left under `path` or in a temporary file.
+/// Writes `shot` to a new file `path` (conventionally "<dir>/<shot.id>.h5").
+/// An existing file is never replaced: a recorded shot is lost only by the
+/// user's hand. Errors (one line naming `path`): a file of that name exists,
+/// folder missing or read-only, disk full ("no space left on device writing
+/// shots/x.h5: free space or ..."), frames of different sizes or of a type
+/// that does not match the pixel format, truth arrays of different lengths,
+/// results that are not JSON. On error nothing is left under `path` (an
+/// existing file is untouched) or in a temporary file.
 Status writeShot(const std::string& path, const hw::Shot& shot, const WriteOptions& options = {});
+
+/// What writeShotIfAbsent did.
+enum class WriteOutcome { Written, NameTaken };
+
+/// writeShot, except that a name already taken (checked atomically with the
+/// final rename, so also against other processes) is an outcome, not an
+/// error: nothing is written and the caller may choose another name.
+Result<WriteOutcome> writeShotIfAbsent(const std::string& path, const hw::Shot& shot,
+                                       const WriteOptions& options = {});
 
 struct ReadOptions {
   /// Read the images. Without them every frame's id, timestamp and status are
   /// still read and Frame::image stays empty: enough for listing and
   /// cataloguing, and fast (only metadata is touched).
   bool frames = true;
+  /// Read the file once in a child process first, so that a file corrupt in a
+  /// way that crashes the HDF5 library (a damaged global heap makes
+  /// libhdf5 1.10 read out of bounds) gives an error naming the file instead
+  /// of ending this process. Folder scans set it: one bad file must not stop
+  /// the rest. Costs a fork and a second read (from the page cache).
+  bool contained = false;
 };
 
 /// Reads a shot file. Errors (one line naming `path`): no such file, not an
 /// HDF5 file, an HDF5 file that is not a shot file, a newer format, a
-/// truncated or corrupt file, a required dataset missing (named).
+/// truncated or corrupt file, a required dataset missing (named), frames
+/// larger than any camera or than the free memory, and (with
+/// `options.contained`) a file whose reading crashed the HDF5 library.
 Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options = {});
 
 /// Replaces the analysis results stored in the shot file at `path` (empty

@@ -16,6 +16,18 @@ std::string makeShotId(std::int64_t wall_time_unix_ns, int sequence) {
   return buf;
 }
 
+std::string nextShotId(const std::string& id) {
+  const std::size_t dash = id.find_last_of('-');
+  const std::size_t start = dash == std::string::npos ? 0 : dash + 1;
+  const std::string tail = id.substr(start);
+  const bool numeric = !tail.empty() && tail.size() <= 9 &&
+                       tail.find_first_not_of("0123456789") == std::string::npos;
+  if (!numeric || dash == std::string::npos) return id + "-0001";
+  const std::string next = std::to_string(std::stol(tail) + 1);
+  return id.substr(0, start) +
+         std::string(tail.size() > next.size() ? tail.size() - next.size() : 0, '0') + next;
+}
+
 std::int64_t wallTimeUnixNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::system_clock::now().time_since_epoch())

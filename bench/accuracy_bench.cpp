@@ -41,10 +41,10 @@ std::string g_save_bad;  // --save-bad DIR: shots with an error beyond 5 sigma a
 
 void saveBad(const hw::Shot& shot, const std::string& why) {
   if (g_save_bad.empty()) return;
-  if (Status st = app::saveShot(g_save_bad, shot); !st)
+  if (auto st = app::saveShot(g_save_bad, shot); !st)
     std::printf("  (could not save: %s)\n", st.error().message.c_str());
   else
-    std::printf("  saved %s to %s: %s\n", shot.id.c_str(), g_save_bad.c_str(), why.c_str());
+    std::printf("  saved %s to %s: %s\n", st->c_str(), g_save_bad.c_str(), why.c_str());
 }
 
 struct Stat {

@@ -25,6 +25,11 @@ const char* toString(PixelFormat f);
 /// "Mono8", "Mono12", "Mono16" (case-insensitive); false if unknown.
 bool parsePixelFormat(const std::string& s, PixelFormat& out);
 
+/// The largest frame side (pixels) any reader or profile accepts: larger than
+/// any scientific camera's sensor, small enough that a corrupt header's
+/// dimensions are caught before they size an allocation.
+inline constexpr int kMaxFrameSidePx = 32768;
+
 enum class FrameStatus : std::uint8_t {
   Good = 0,        ///< complete frame, safe to analyse
   Failed = 1,      ///< transport reported a failed frame (image content unusable)

@@ -90,20 +90,7 @@ int writeJson(const std::string& text, const std::string& out) {
     std::cout << text << "\n";
     return kExitOk;
   }
-  auto file = collide::app::AtomicFile::create(out);
-  if (!file) {
-    std::cerr << "collide analyze: " << file.error().message << "\n";
-    return kExitFailure;
-  }
-  {
-    std::ofstream os(file->tempPath());
-    os << text << "\n";
-    if (!os.flush()) {
-      std::cerr << "collide analyze: cannot write " << out << " (disk full?)\n";
-      return kExitFailure;
-    }
-  }
-  if (auto st = file->commit(); !st) {
+  if (auto st = collide::app::writeTextFile(out, text + "\n"); !st) {
     std::cerr << "collide analyze: " << st.error().message << "\n";
     return kExitFailure;
   }

@@ -25,14 +25,7 @@ struct Options {
 };
 
 collide::Status writeText(const std::string& path, const std::string& text) {
-  auto file = collide::app::AtomicFile::create(path);
-  if (!file) return file.error();
-  {
-    std::ofstream os(file->tempPath());
-    os << text << "\n";
-    if (!os.flush()) return collide::app::ioError(ENOSPC, "writing", path);
-  }
-  return file->commit();
+  return collide::app::writeTextFile(path, text + "\n");
 }
 
 int runFit(const Options& o) {

@@ -1,6 +1,7 @@
 // `collide`: the command-line program. Subcommands register themselves from
 // their own files in this folder (see command.hpp).
 #include <algorithm>
+#include <csignal>
 #include <iostream>
 #include <memory>
 
@@ -9,6 +10,9 @@
 
 int main(int argc, char** argv) {
   using namespace collide::cli;
+  // A file size limit (ulimit -f) must fail the write with EFBIG, which
+  // becomes a message naming the file, not kill the program mid-save.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{
       "collide: fire, record and measure sphere collisions (Walton's model).\n"
       "Every device has a simulated backend: try `collide campaign --rig config/sim.toml`."};

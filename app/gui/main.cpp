@@ -2,6 +2,7 @@
 // the simulated rig.
 #include <QApplication>
 #include <QCommandLineParser>
+#include <csignal>
 #include <cstring>
 #include <memory>
 
@@ -9,6 +10,8 @@
 #include "app/version.hpp"
 
 int main(int argc, char** argv) {
+  // A file size limit (ulimit -f) fails a save with a message, not the GUI.
+  std::signal(SIGXFSZ, SIG_IGN);
   // --help and --version need no display: answer them without a GUI.
   bool text_only = false;
   for (int i = 1; i < argc; ++i)

@@ -268,9 +268,10 @@ void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
   shot.id = app::makeShotId(app::wallTimeUnixNs(), shot_counter_++);
   shot.program_version = kVersion;
   QString file, save_error;
-  if (Status saved = app::saveShot(out_dir.toStdString(), shot); saved)
+  if (auto saved = app::saveShot(out_dir.toStdString(), shot); saved) {
+    shot.id = *saved;
     file = QDir(out_dir).filePath(qs(app::shotFileName(shot.id)));
-  else
+  } else
     save_error = qs(saved.error().message);
   if (shot.status == hw::ShotStatus::Failed && profile_->safety.vent_on_failure)
     status_.armed = false;  // the sequencer vented the lines

@@ -71,7 +71,8 @@ Result<std::vector<MeasuredLaunch>> measuredLaunchesInFolder(const std::string& 
   int bad = 0;
   for (const app::CatalogRow& row : *rows) {
     if (!row.analysed) continue;
-    auto shot = app::readShot((std::filesystem::path(dir) / row.file).string(), {.frames = false});
+    auto shot = app::readShot((std::filesystem::path(dir) / row.file).string(),
+                              {.frames = false, .contained = true});
     if (!shot) {
       ++bad;
       continue;

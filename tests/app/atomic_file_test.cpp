@@ -6,6 +6,8 @@
 
 #include <cerrno>
 #include <filesystem>
+#include <fstream>
+#include <thread>
 
 #include "tests/app/shot_fixtures.hpp"
 
@@ -80,6 +82,95 @@ TEST(AtomicFile, MissingFolderIsNamed) {
   ASSERT_FALSE(file.ok());
   EXPECT_THAT(file.error().message,
               AllOf(StartsWith("no such file or folder"), HasSubstr(dir.file("nope/s.h5"))));
+}
+
+}  // namespace
+
+namespace {
+
+using collide::app::writeTextFile;
+
+TEST(AtomicFile, CommitIfAbsentNeverReplacesAnExistingFile) {
+  ScratchDir dir;
+  const std::string path = dir.file("shot.h5");
+  { std::ofstream(path) << "first"; }
+  {
+    auto file = AtomicFile::create(path);
+    ASSERT_TRUE(file.ok());
+    { std::ofstream(file->tempPath()) << "second"; }
+    auto outcome = file->commitIfAbsent();
+    ASSERT_TRUE(outcome.ok()) << outcome.error().message;
+    EXPECT_EQ(*outcome, AtomicFile::Outcome::NameTaken);
+    EXPECT_EQ(readAll(path), "first");
+  }
+  auto other = AtomicFile::create(dir.file("other.h5"));
+  ASSERT_TRUE(other.ok());
+  auto outcome = other->commitIfAbsent();
+  ASSERT_TRUE(outcome.ok());
+  EXPECT_EQ(*outcome, AtomicFile::Outcome::Committed);
+  EXPECT_EQ(dir.entries(), (std::vector<std::string>{"other.h5", "shot.h5"}))
+      << "the refused temporary file is gone";
+}
+
+TEST(WriteTextFile, NewAndRegularFilesAreWrittenWhole) {
+  ScratchDir dir;
+  const std::string path = dir.file("out.json");
+  ASSERT_TRUE(writeTextFile(path, "one\n").ok());
+  EXPECT_EQ(readAll(path), "one\n");
+  ASSERT_TRUE(writeTextFile(path, "two\n").ok());
+  EXPECT_EQ(readAll(path), "two\n");
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"out.json"});
+}
+
+TEST(WriteTextFile, ASymlinkStaysALinkAndItsTargetIsWritten) {
+  ScratchDir dir;
+  const std::string target = dir.file("real.json");
+  const std::string link = dir.file("link.json");
+  { std::ofstream(target) << "old"; }
+  std::filesystem::create_symlink("real.json", link);  // relative, as users make them
+  ASSERT_TRUE(writeTextFile(link, "new\n").ok());
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
+  EXPECT_EQ(readAll(target), "new\n");
+  // A dangling link gets its target created, as a shell's `>` does.
+  const std::string dangling = dir.file("dangling.json");
+  std::filesystem::create_symlink("made.json", dangling);
+  ASSERT_TRUE(writeTextFile(dangling, "x\n").ok());
+  EXPECT_TRUE(std::filesystem::is_symlink(dangling));
+  EXPECT_EQ(readAll(dir.file("made.json")), "x\n");
+}
+
+TEST(WriteTextFile, DevicesAndFifosAreWrittenThroughNotReplaced) {
+  ScratchDir dir;
+  // /dev/null takes the text and stays a device.
+  ASSERT_TRUE(writeTextFile("/dev/null", "text\n").ok());
+  struct stat st {};
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  // /dev/full reports a full disk, named.
+  const auto full = writeTextFile("/dev/full", "text\n");
+  ASSERT_FALSE(full.ok());
+  EXPECT_THAT(full.error().message, AllOf(HasSubstr("no space left"), HasSubstr("/dev/full")));
+  ASSERT_EQ(::stat("/dev/full", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode)) << "/dev/full was replaced by a file";
+  // A FIFO is written through to its reader.
+  const std::string fifo = dir.file("pipe");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string received;
+  std::thread reader([&] { received = readAll(fifo); });
+  const auto written = writeTextFile(fifo, "through the pipe\n");
+  reader.join();
+  ASSERT_TRUE(written.ok()) << written.error().message;
+  EXPECT_EQ(received, "through the pipe\n");
+  ASSERT_EQ(::lstat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+}
+
+TEST(WriteTextFile, AFolderIsRefusedWithAFileNameToUse) {
+  ScratchDir dir;
+  const auto s = writeTextFile(dir.path(), "x");
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.error().message,
+              AllOf(HasSubstr(dir.path() + " is a folder"), HasSubstr("give a file name")));
 }
 
 }  // namespace

@@ -16,11 +16,13 @@ struct CommandRun {
 };
 
 /// Runs `collide ARGS` through the shell (`args` already quoted, see q());
-/// stderr goes through a file in `scratch`.
-inline CommandRun runCollide(const std::string& args, const ScratchDir& scratch) {
+/// stderr goes through a file in `scratch`. `shell_prefix` runs first in the
+/// same shell (e.g. "ulimit -f 2000;").
+inline CommandRun runCollide(const std::string& args, const ScratchDir& scratch,
+                             const std::string& shell_prefix = "") {
   const std::string err_file = scratch.file("stderr.txt");
-  const std::string command =
-      std::string(COLLIDE_BINARY_DIR) + "/app/collide " + args + " 2>'" + err_file + "'";
+  const std::string command = shell_prefix + std::string(COLLIDE_BINARY_DIR) + "/app/collide " +
+                              args + " 2>'" + err_file + "'";
   CommandRun run;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return run;

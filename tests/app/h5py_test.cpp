@@ -125,4 +125,52 @@ print(json.dumps({"datasets": datasets, "without_units": without_units}))
                                        "results/gamma_deg", "launchers/readback_kPa"}));
 }
 
+// Files edited by another program: a dataset deleted is named; frames whose
+// declared size no camera has are refused before any allocation, while the
+// metadata (listing, cataloguing) still reads.
+TEST_F(H5py, AMissingDatasetIsNamed) {
+  const std::string path = dir.file("shot.h5");
+  ASSERT_TRUE(collide::app::writeShot(path, makeShot()).ok());
+  runPython(python, dir, R"(
+import h5py, sys
+with h5py.File(sys.argv[1], "r+") as f:
+    del f["frames/timestamp_ns"]
+print("{}")
+)",
+            path);
+  const auto read = collide::app::readShot(path, {.frames = false});
+  ASSERT_FALSE(read.ok());
+  EXPECT_THAT(read.error().message,
+              ::testing::AllOf(::testing::HasSubstr(path),
+                               ::testing::HasSubstr("lacks dataset /frames/timestamp_ns")));
+}
+
+TEST_F(H5py, FramesLargerThanAnyCameraAreRefusedBeforeAllocating) {
+  const std::string path = dir.file("shot.h5");
+  ShotSpec spec;
+  spec.frames = 70;
+  ASSERT_TRUE(collide::app::writeShot(path, makeShot(spec)).ok());
+  // 70 frames of 60000 x 60000 (252 GB declared), chunked so the file stays small.
+  runPython(python, dir, R"(
+import h5py, sys
+with h5py.File(sys.argv[1], "r+") as f:
+    attrs = dict(f["frames/images"].attrs)
+    del f["frames/images"]
+    d = f.create_dataset("frames/images", shape=(70, 60000, 60000), dtype="u1",
+                         chunks=(1, 600, 600))
+    for k, v in attrs.items():
+        d.attrs[k] = v
+print("{}")
+)",
+            path);
+  const auto read = collide::app::readShot(path);
+  ASSERT_FALSE(read.ok());
+  EXPECT_THAT(
+      read.error().message,
+      ::testing::AllOf(::testing::HasSubstr(path),
+                       ::testing::HasSubstr("60000 x 60000 pixels, larger than any camera")));
+  const auto listed = collide::app::readShot(path, {.frames = false});
+  EXPECT_TRUE(listed.ok()) << listed.error().message;
+}
+
 }  // namespace

@@ -2,8 +2,11 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
+#include <set>
 
 #include "app/catalog.hpp"
 #include "tests/app/shot_fixtures.hpp"
@@ -45,6 +48,81 @@ TEST(SaveShot, WritesTheFileThenItsRow) {
   ASSERT_EQ(rows->size(), 1u);
   EXPECT_EQ((*rows)[0].id, shot.id);
   EXPECT_EQ((*rows)[0].file, shot.id + ".h5");
+}
+
+// Every file in `dir` holds the shot its name says, and the catalog has
+// exactly one row per file, pointing at it: nothing was overwritten.
+void expectEveryShotKept(const std::string& dir, std::size_t expected) {
+  std::set<std::string> ids;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.path().extension() != ".h5") continue;
+    const auto shot = collide::app::readShot(e.path().string(), {.frames = false});
+    ASSERT_TRUE(shot.ok()) << shot.error().message;
+    EXPECT_EQ(shot->id + ".h5", e.path().filename().string()) << "file holds another shot";
+    ids.insert(shot->id);
+  }
+  EXPECT_EQ(ids.size(), expected);
+  auto rows = Catalog::open(dir)->query();
+  ASSERT_TRUE(rows.ok()) << rows.error().message;
+  std::set<std::string> row_ids;
+  for (const auto& r : *rows) {
+    EXPECT_EQ(r.file, r.id + ".h5");
+    row_ids.insert(r.id);
+  }
+  EXPECT_EQ(row_ids, ids);
+}
+
+TEST(SaveShot, ASecondShotWithTheSameIdTakesTheNextIdAndReplacesNothing) {
+  ScratchDir dir;
+  ShotSpec a_spec;
+  a_spec.rig_name = "first";
+  const auto a = makeShot(a_spec);
+  ShotSpec b_spec;  // same id, different content
+  b_spec.rig_name = "second";
+  b_spec.seed = 11;
+  const auto b = makeShot(b_spec);
+  ASSERT_EQ(a.id, b.id);
+  const auto saved_a = saveShot(dir.path(), a);
+  ASSERT_TRUE(saved_a.ok()) << saved_a.error().message;
+  EXPECT_EQ(*saved_a, a.id);
+  const auto saved_b = saveShot(dir.path(), b);
+  ASSERT_TRUE(saved_b.ok()) << saved_b.error().message;
+  EXPECT_EQ(*saved_b, "20260314-101500-0002");
+  const auto read_a = collide::app::readShot(dir.file(a.id + ".h5"));
+  ASSERT_TRUE(read_a.ok());
+  expectSameShot(a, *read_a);
+  const auto read_b = collide::app::readShot(dir.file(*saved_b + ".h5"));
+  ASSERT_TRUE(read_b.ok());
+  EXPECT_EQ(read_b->id, *saved_b);
+  EXPECT_EQ(read_b->rig_name, "second");
+  expectEveryShotKept(dir.path(), 2);
+}
+
+TEST(SaveShot, TwoProcessesSavingTheSameIdsIntoOneFolderKeepEveryShot) {
+  ScratchDir dir;
+  constexpr int kWriters = 2, kShots = 12;
+  std::vector<pid_t> children;
+  for (int w = 0; w < kWriters; ++w) {
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      int failures = 0;
+      for (int i = 0; i < kShots; ++i) {
+        ShotSpec spec;  // both writers use the same ids, as two campaigns in one second do
+        spec.id = "20260314-101500-" + std::to_string(1000 + i);
+        spec.seed = static_cast<unsigned>(100 * w + i);
+        if (!saveShot(dir.path(), makeShot(spec)).ok()) ++failures;
+      }
+      _exit(failures);
+    }
+    children.push_back(pid);
+  }
+  for (pid_t pid : children) {
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "a writer failed to save";
+  }
+  expectEveryShotKept(dir.path(), kWriters * kShots);
 }
 
 TEST(SaveShot, DiskFillingUpGivesAClearErrorAndLeavesNoFileNorRow) {

@@ -12,11 +12,14 @@ namespace {
 
 using collide::app::readShot;
 using collide::app::storeResults;
+using collide::app::WriteOutcome;
 using collide::app::writeShot;
+using collide::app::writeShotIfAbsent;
 using collide::vision::PixelFormat;
 using namespace collide::testing;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // ------------------------------------------------------------ round trip
 
@@ -102,20 +105,42 @@ TEST(ShotFile, CompressionShrinksCompressibleFrames) {
   EXPECT_LT(zip * 4, raw);
 }
 
-TEST(ShotFile, WritingReplacesAnEarlierFileOfTheSameName) {
+TEST(ShotFile, WritingNeverReplacesAnEarlierFileOfTheSameName) {
   ScratchDir dir;
   const std::string path = dir.file("s.h5");
   ShotSpec first;
   first.rig_name = "first";
-  ASSERT_TRUE(writeShot(path, makeShot(first)).ok());
+  const auto original = makeShot(first);
+  ASSERT_TRUE(writeShot(path, original).ok());
   ShotSpec second;
   second.rig_name = "second";
   second.seed = 99;
-  const auto shot = makeShot(second);
-  ASSERT_TRUE(writeShot(path, shot).ok());
+  const auto written = writeShot(path, makeShot(second));
+  ASSERT_FALSE(written.ok());
+  EXPECT_THAT(written.error().message,
+              AllOf(HasSubstr(path + " already exists"), HasSubstr("never replaced")));
   const auto read = readShot(path);
   ASSERT_TRUE(read.ok()) << read.error().message;
-  expectSameShot(shot, *read);
+  expectSameShot(original, *read);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"s.h5"}) << "no temporary file left";
+}
+
+TEST(ShotFile, WriteIfAbsentReportsATakenNameAndWritesNothing) {
+  ScratchDir dir;
+  const std::string path = dir.file("s.h5");
+  const auto original = makeShot();
+  auto first = writeShotIfAbsent(path, original);
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  EXPECT_EQ(*first, WriteOutcome::Written);
+  ShotSpec other;
+  other.seed = 3;
+  auto second = writeShotIfAbsent(path, makeShot(other));
+  ASSERT_TRUE(second.ok()) << second.error().message;
+  EXPECT_EQ(*second, WriteOutcome::NameTaken);
+  const auto read = readShot(path);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  expectSameShot(original, *read);
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"s.h5"});
 }
 
 // ------------------------------------------------------------ read errors
@@ -173,15 +198,19 @@ void patchBytes(const std::string& path, const std::string& name, const std::str
   writeAll(path, bytes);
 }
 
-TEST(ShotFileErrors, MissingDatasetIsNamed) {
+// One byte changed inside a group's header (a dataset's name): the 1.10
+// format's header checksum catches it, and the message says the file is
+// corrupt, not that something is missing. (A dataset really missing is named:
+// h5py_test, which can delete one without our code.)
+TEST(ShotFileErrors, AByteChangedInAHeaderIsReportedAsCorrupt) {
   ScratchDir dir;
-  const std::string path = dir.file("partial.h5");
+  const std::string path = dir.file("damaged.h5");
   ASSERT_TRUE(writeShot(path, makeShot()).ok());
   patchBytes(path, "timestamp_ns", "timestamp_nX");
   const auto read = readShot(path, {.frames = false});
   ASSERT_FALSE(read.ok());
-  EXPECT_THAT(read.error().message,
-              AllOf(HasSubstr(path), HasSubstr("lacks dataset /frames/timestamp_ns")));
+  EXPECT_THAT(read.error().message, AllOf(HasSubstr(path), HasSubstr("corrupt")));
+  EXPECT_THAT(read.error().message, Not(HasSubstr("lacks")));
 }
 
 TEST(ShotFileErrors, OtherHdf5FileIsNotAShot) {
@@ -240,27 +269,6 @@ TEST(ShotFileErrors, DiskFullMidWriteLeavesNoHalfFile) {
   });
   EXPECT_THAT(message, AllOf(HasSubstr("file too large"), HasSubstr("writing " + path)));
   EXPECT_TRUE(dir.entries().empty()) << "left behind: " << ::testing::PrintToString(dir.entries());
-}
-
-TEST(ShotFileErrors, FailedRewriteKeepsThePreviousFile) {
-  ScratchDir dir;
-  const std::string path = dir.file("s.h5");
-  const auto original = makeShot();
-  ASSERT_TRUE(writeShot(path, original).ok());
-  ShotSpec bigger;
-  bigger.width = 200;
-  bigger.height = 150;
-  bigger.frames = 12;
-  const auto replacement = makeShot(bigger);
-  const std::string message = runWithFileSizeLimit(100 * 1024, [&] {
-    const auto written = writeShot(path, replacement);
-    return written.ok() ? std::string("written") : written.error().message;
-  });
-  EXPECT_THAT(message, HasSubstr("file too large"));
-  const auto read = readShot(path);
-  ASSERT_TRUE(read.ok()) << read.error().message;
-  expectSameShot(original, *read);
-  EXPECT_EQ(dir.entries(), std::vector<std::string>{"s.h5"});
 }
 
 TEST(ShotFileErrors, InvalidResultsJsonIsRefusedBeforeWriting) {
