@@ -127,9 +127,19 @@ Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const Campaign
 
   CampaignReport report;
   const std::vector<PlannedShot> plan = planCampaign(o);
+  int failed_in_a_row = 0;
   for (std::size_t i = 0; i < plan.size(); ++i) {
     if (cancel.stop_requested()) {
       report.cancelled = true;
+      report.not_fired = static_cast<int>(plan.size() - i);
+      break;
+    }
+    if (o.max_consecutive_failures > 0 && failed_in_a_row >= o.max_consecutive_failures) {
+      report.stopped_because =
+          std::to_string(failed_in_a_row) +
+          " shots in a row failed on the rig (last: " + report.failures.back() +
+          "): check the devices, then fire the remaining shots";
+      report.not_fired = static_cast<int>(plan.size() - i);
       break;
     }
     const PlannedShot& planned = plan[i];
@@ -147,14 +157,18 @@ Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const Campaign
     if (!fired) return fail("shot " + std::to_string(i + 1) + ": " + fired.error().message);
     hw::Shot& shot = *fired;
     ++report.fired;
-    if (Status saved = saveShot(o.out_dir, shot); !saved)
+    auto saved = saveShot(o.out_dir, shot);
+    if (!saved)
       return fail(saved.error().message + " (" + std::to_string(report.files.size()) +
                   " shots saved in " + o.out_dir + " before this one are intact)");
+    shot.id = *saved;  // the next free id when an earlier shot had this one
     report.files.push_back((std::filesystem::path(o.out_dir) / shotFileName(shot.id)).string());
     if (shot.status == hw::ShotStatus::Ok) {
       ++report.ok;
+      failed_in_a_row = 0;
     } else {
       ++report.failed;
+      ++failed_in_a_row;
       report.failures.push_back(shot.id + ": " + shot.failure_reason);
     }
     if (progress) progress(static_cast<int>(i + 1), static_cast<int>(plan.size()), shot);

@@ -28,6 +28,9 @@ struct CampaignOptions {
   /// Exit speeds, m/s, drawn uniformly per shot and launcher.
   double speed_min_m_s = 1.6;
   double speed_max_m_s = 2.6;
+  /// The campaign stops after this many shots in a row failed on the rig (a
+  /// regulator outage, a camera gone): firing on would only pile up failures.
+  int max_consecutive_failures = 3;
 };
 
 /// The launch conditions chosen for one shot.
@@ -45,6 +48,11 @@ struct CampaignReport {
   std::vector<std::string> files;     ///< shot files written, in firing order
   std::vector<std::string> failures;  ///< "<shot id>: <reason>" per failed shot
   bool cancelled = false;
+  /// Why the campaign stopped before its last shot on its own ("3 shots in a
+  /// row failed ..."); empty when it ran to the end or was cancelled.
+  std::string stopped_because;
+  /// Shots planned but never fired (stopped or cancelled early).
+  int not_fired = 0;
 };
 
 /// Called after each shot is saved: shots done so far, total, the shot.
@@ -64,8 +72,10 @@ std::vector<PlannedShot> planCampaign(const CampaignOptions& options);
 
 /// Fires and saves the campaign into options.out_dir (created if missing).
 /// Failed shots are saved too (status failed, with the reason) and the
-/// campaign goes on. Errors (before any shot): bad options, an out_dir that
-/// cannot be created, a rig that cannot be built. Blocks; call from a worker.
+/// campaign goes on, unless `max_consecutive_failures` shots in a row failed:
+/// then it stops and says why (CampaignReport::stopped_because). Errors (before any shot): bad
+/// options, an out_dir that cannot be created, a rig that cannot be built. Blocks; call from a
+/// worker.
 Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const CampaignOptions& options,
                                    const CampaignProgress& progress = {},
                                    std::stop_token cancel = {});

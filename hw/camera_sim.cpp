@@ -15,7 +15,8 @@ Result<CameraSimSettings> CameraSimSettings::read(SettingsReader& r) {
   CameraSimSettings s;
   COLLIDE_ASSIGN_OR_RETURN(
       const std::vector<double> sensor,
-      r.numbers("sensor_px", 2, std::vector<double>{640, 480}, {.ge = 1, .le = 65536}));
+      r.numbers("sensor_px", 2, std::vector<double>{640, 480},
+                {.ge = 1, .le = static_cast<double>(vision::kMaxFrameSidePx)}));
   if (std::floor(sensor[0]) != sensor[0] || std::floor(sensor[1]) != sensor[1])
     return r.invalid("sensor_px", "must be whole numbers of pixels");
   s.sensor_width = static_cast<int>(sensor[0]);

@@ -72,7 +72,10 @@ Status ModbusLink::open() {
   close();
   const ModbusLinkSettings& s = settings_;
   ctx_ = s.transport == ModbusTransport::Tcp
-             ? modbus_new_tcp(s.host.c_str(), s.port)
+             // The _pi variant resolves host names and IPv6 literals (getaddrinfo);
+             // plain modbus_new_tcp takes dotted IPv4 only and turns "localhost"
+             // into 255.255.255.255.
+             ? modbus_new_tcp_pi(s.host.c_str(), std::to_string(s.port).c_str())
              : modbus_new_rtu(s.serial_port.c_str(), s.baud, s.parity, s.data_bits, s.stop_bits);
   if (!ctx_)
     return fail("cannot set up " + s.describe() + " (" + std::strerror(errno) +

@@ -172,7 +172,9 @@ double ModbusPressureRegisters::resolutionKPa() const {
 }
 
 std::string ModbusLinkSettings::endpoint() const {
-  return transport == ModbusTransport::Tcp ? host + ":" + std::to_string(port) : serial_port;
+  if (transport != ModbusTransport::Tcp) return serial_port;
+  const bool ipv6 = host.find(':') != std::string::npos;
+  return (ipv6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
 }
 
 std::string ModbusLinkSettings::describe() const {
@@ -256,17 +258,32 @@ Result<ModbusRegulatorMap> ModbusRegulatorMap::read(SettingsReader& r, const std
                            r.text("transport", std::nullopt, {"tcp", "rtu"}));
   l.transport = transport == "tcp" ? ModbusTransport::Tcp : ModbusTransport::Rtu;
   if (l.transport == ModbusTransport::Tcp) {
-    // "host" or "host:port"; an IPv6 address would need brackets, not supported.
-    const auto colon = device.rfind(':');
-    l.host = device.substr(0, colon);
-    if (colon != std::string::npos) {
-      const std::string port = device.substr(colon + 1);
+    // "host", "host:port", "[ipv6]" or "[ipv6]:port"; a bare IPv6 address
+    // (two colons or more) has no port. Names are resolved when connecting.
+    std::string port;
+    if (!device.empty() && device.front() == '[') {
+      const auto close = device.find(']');
+      if (close == std::string::npos || (close + 1 < device.size() && device[close + 1] != ':'))
+        return r.invalid("device",
+                         "for an IPv6 address write \"[address]:port\", e.g. \"[::1]:502\"");
+      l.host = device.substr(1, close - 1);
+      if (close + 1 < device.size()) port = device.substr(close + 2);
+      if (close + 1 < device.size() && port.empty()) port = "-";  // "[::1]:" is malformed
+    } else if (std::count(device.begin(), device.end(), ':') > 1) {
+      l.host = device;
+    } else {
+      const auto colon = device.rfind(':');
+      l.host = device.substr(0, colon);
+      if (colon != std::string::npos)
+        port = device.substr(colon + 1).empty() ? "-" : device.substr(colon + 1);
+    }
+    if (!port.empty()) {
       char* end = nullptr;
       const long p = std::strtol(port.c_str(), &end, 10);
-      if (port.empty() || *end != '\0' || p < 1 || p > 65535)
+      if (*end != '\0' || p < 1 || p > 65535)
         return r.invalid("device",
                          "for Modbus TCP write \"host:port\" with a port 1..65535, "
-                         "e.g. \"192.168.1.50:502\"");
+                         "e.g. \"192.168.1.50:502\", \"regulator.lab:502\" or \"[::1]:502\"");
       l.port = static_cast<int>(p);
     }
     if (l.host.empty())

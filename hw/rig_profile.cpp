@@ -13,6 +13,7 @@
 #include "hw/backend_registry.hpp"
 #include "hw/default_profile.hpp"
 #include "hw/format.hpp"
+#include "hw/memory.hpp"
 #include "hw/try.hpp"
 
 namespace collide::hw {
@@ -172,11 +173,22 @@ void keepRoleKeys(DeviceProfile& d, const std::vector<std::string>& keys) {
 }
 
 Result<int> wholePixel(SettingsReader& r, const std::string& key, double v, double min) {
-  if (std::floor(v) != v || v < min)
+  if (!(std::floor(v) == v && v >= min))
     return r.invalid(key, min > 0 ? "each element must be a whole number > 0"
                                   : "x and y must be whole numbers >= 0");
+  if (v > vision::kMaxFrameSidePx)
+    return r.invalid(
+        key, "each element must be at most " + std::to_string(vision::kMaxFrameSidePx) + " pixels");
   return static_cast<int>(v);
 }
+
+/// Highest frame rate a profile may ask for: the fastest cameras made (about
+/// 10 million frames/s) with a margin; beyond it periods lose their meaning
+/// in integer nanoseconds.
+constexpr double kMaxFps = 2e7;
+/// Lowest: a collision lasts well under a second; below one frame a second a
+/// burst spans minutes and its timing overflows nothing but helps no one.
+constexpr double kMinFps = 1.0;
 
 Status parseCamera(const SettingsTable& t, RigProfile& p) {
   SettingsReader r(t);
@@ -191,7 +203,10 @@ Status parseCamera(const SettingsTable& t, RigProfile& p) {
   COLLIDE_ASSIGN_OR_RETURN(const std::string format, r.text("format"));
   if (!vision::parsePixelFormat(format, c.format))
     return r.invalid("format", "must be \"Mono8\", \"Mono12\" or \"Mono16\"");
-  COLLIDE_ASSIGN_OR_RETURN(c.fps, r.number("fps", std::nullopt, {.gt = 0.0}));
+  if (c.roi_x + c.width > vision::kMaxFrameSidePx || c.roi_y + c.height > vision::kMaxFrameSidePx)
+    return r.invalid("roi", "the region must end within " +
+                                std::to_string(vision::kMaxFrameSidePx) + " pixels of the origin");
+  COLLIDE_ASSIGN_OR_RETURN(c.fps, r.number("fps", std::nullopt, {.ge = kMinFps, .le = kMaxFps}));
   COLLIDE_ASSIGN_OR_RETURN(c.exposure_us, r.number("exposure_us", std::nullopt, {.gt = 0.0}));
   if (c.exposure_us > 1e6 / c.fps)
     return r.invalid("exposure_us", "must be at most one frame period (" + num(1e6 / c.fps) +
@@ -224,7 +239,23 @@ Status parseBurst(const SettingsTable& t, RigProfile& p) {
                            r.integer("pre_trigger_frames", std::nullopt, {.ge = 0, .le = 100000}));
   COLLIDE_ASSIGN_OR_RETURN(p.burst.post_trigger_frames,
                            r.integer("post_trigger_frames", std::nullopt, {.ge = 1, .le = 100000}));
-  return r.finish("[burst]");
+  COLLIDE_RETURN_IF_ERROR(r.finish("[burst]"));
+  // The whole burst is held in memory (the pre-trigger ring and the frames
+  // after it): refuse one this machine cannot hold, with the figures, before
+  // anything is armed.
+  const CameraConfig& c = p.camera_config;
+  const double bytes = static_cast<double>(c.width) * c.height *
+                       (c.format == vision::PixelFormat::Mono8 ? 1 : 2) *
+                       (p.burst.pre_trigger_frames + p.burst.post_trigger_frames);
+  if (const auto avail = availableMemoryBytes(); avail && bytes > 0.8 * static_cast<double>(*avail))
+    return r.invalid("post_trigger_frames",
+                     "a burst of " + std::to_string(p.burst.pre_trigger_frames) + " + " +
+                         std::to_string(p.burst.post_trigger_frames) + " frames of " +
+                         std::to_string(c.width) + " x " + std::to_string(c.height) + " " +
+                         vision::toString(c.format) + " needs " + formatBytes(bytes) +
+                         ", more than the " + formatBytes(0.8 * static_cast<double>(*avail)) +
+                         " this machine can spare: record fewer frames or a smaller camera.roi");
+  return Ok{};
 }
 
 Result<Vec3> vec3(SettingsReader& r, const std::string& key) {

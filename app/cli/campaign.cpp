@@ -7,6 +7,7 @@
 #include "app/cli/command.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
+#include "app/rig_setup.hpp"
 
 namespace {
 
@@ -33,6 +34,12 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
       std::cerr << "collide campaign: " << profile.error().message << "\n";
       return collide::cli::kExitBadInput;
     }
+    // Every backend's settings are checked now (devices stay closed), not at
+    // shot 1: a wrong Modbus address is a bad profile, not a failed shot.
+    if (auto rig_check = collide::app::buildRig(*profile); !rig_check) {
+      std::cerr << "collide campaign: " << rig_check.error().message << "\n";
+      return collide::cli::kExitBadInput;
+    }
     collide::cli::StopOnInterrupt stop;
     collide::cli::ProgressBar bar("campaign", o->shots);
     auto report = collide::app::runCampaign(
@@ -49,8 +56,16 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
     std::cout << report->fired << " shots fired (" << report->ok << " ok, " << report->failed
               << " failed) into " << o->out_dir << "\n";
     for (const auto& f : report->failures) std::cout << "  failed: " << f << "\n";
-    if (report->cancelled) std::cout << "stopped early on request; every shot fired was saved\n";
-    return report->ok > 0 ? collide::cli::kExitOk : collide::cli::kExitFailure;
+    if (report->cancelled)
+      std::cout << "stopped early on request (" << report->not_fired
+                << " planned shots not fired); every shot fired was saved\n";
+    if (!report->stopped_because.empty())
+      std::cerr << "collide campaign: stopped after " << report->fired << " of " << o->shots
+                << " shots: " << report->stopped_because << "\n";
+    // Any failed shot, or a campaign that stopped itself, is a failure that
+    // scripts must see; a stop the user asked for (Ctrl-C) is not.
+    const bool complete = report->failed == 0 && report->stopped_because.empty();
+    return complete ? collide::cli::kExitOk : collide::cli::kExitFailure;
   };
 }
 

@@ -197,6 +197,31 @@ TEST(ModbusMapProfile, BadMapsNameFileLineAndField) {
   EXPECT_THAT(rig.error().message, HasSubstr("regulator.timeout_ms = 0: must be >= 1"));
 }
 
+TEST(ModbusMapProfile, HostNamesAndIpv6AddressesAreKeptForResolving) {
+  const std::string text = genericText();
+  struct Case {
+    const char* device;
+    const char* host;
+    int port;
+    const char* endpoint;
+  };
+  for (const Case& c :
+       {Case{"localhost:1502", "localhost", 1502, "localhost:1502"},
+        Case{"[::1]:1502", "::1", 1502, "[::1]:1502"},
+        Case{"[fe80::1]", "fe80::1", 502, "[fe80::1]:502"}, Case{"::1", "::1", 502, "[::1]:502"},
+        Case{"regulator.lab", "regulator.lab", 502, "regulator.lab:502"}}) {
+    auto m = mapOf(withKey(text, "regulator", "device", std::string("\"") + c.device + "\""));
+    ASSERT_TRUE(m) << c.device << ": " << m.error().message;
+    EXPECT_EQ(m->link.host, c.host) << c.device;
+    EXPECT_EQ(m->link.port, c.port) << c.device;
+    EXPECT_EQ(m->link.endpoint(), c.endpoint) << c.device;
+  }
+  for (const char* bad : {"[::1", "[::1]1502", "[::1]:", "host:", "host:0", "[::1]:99999"})
+    EXPECT_THAT(mapError(withKey(text, "regulator", "device", std::string("\"") + bad + "\"")),
+                HasSubstr("regulator.device = \"" + std::string(bad) + "\""))
+        << bad;
+}
+
 TEST(ModbusMapProfile, FromProfileRefusesANonModbusRegulator) {
   auto profile = defaultRigProfile();
   ASSERT_TRUE(profile);

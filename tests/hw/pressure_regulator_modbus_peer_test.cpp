@@ -321,6 +321,16 @@ TEST_P(ModbusRegulator, ADroppedLinkIsReconnected) {
   EXPECT_GE(reg().linkStats().reconnects, 6);
 }
 
+// "localhost:PORT" is resolved (libmodbus' plain TCP constructor took it for
+// 255.255.255.255), and so is the IPv6 loopback where the machine has one.
+TEST_F(ModbusRegulatorTcp, HostNamesAreResolved) {
+  start(serverOptions(ModbusTransport::Tcp, ModbusRegulatorMap::generic10Bar()),
+        [](ModbusRegulatorMap& m) { m.link.host = "localhost"; });
+  bringUp();
+  ASSERT_TRUE(reg().setPressureKPa(0, 30.0));
+  EXPECT_DOUBLE_EQ(server().setpointKPa(0), 30.0);
+}
+
 // TCP: the device's port closes and opens again (RTU's equivalent, a port
 // closed for a while, is the dropped-link case).
 TEST_F(ModbusRegulatorTcp, ADeviceGoneForGoodIsReportedAndFoundAgainWhenBack) {

@@ -10,6 +10,7 @@ using collide::hw::testing::lineOf;
 using collide::hw::testing::readFile;
 using collide::hw::testing::simProfileText;
 using collide::hw::testing::withKey;
+using ::testing::AllOf;
 using collide::hw::testing::withoutKey;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
@@ -105,7 +106,32 @@ TEST(RigProfile, MissingFileNamesThePath) {
 
 TEST(RigProfile, OutOfRangeNumberGivesFileLineFieldAndRule) {
   const std::string text = withKey(simProfileText(), "camera", "fps", "-5");
-  EXPECT_EQ(errorFor(text), at(text, "camera", "fps") + "camera.fps = -5: must be > 0");
+  EXPECT_EQ(errorFor(text),
+            at(text, "camera", "fps") + "camera.fps = -5: must be >= 1 and <= 2e+07");
+}
+
+// Numbers a rig cannot mean are refused at load, naming the field: a frame
+// rate of 1e-9 once hung a campaign (its period overflowed int64 nanoseconds).
+TEST(RigProfile, NumbersOutsideWhatTheRigCanMeanAreRefusedByName) {
+  for (const char* fps : {"1e-9", "1e-8", "0.5", "1e12", "nan", "inf"})
+    EXPECT_THAT(errorFor(withKey(simProfileText(), "camera", "fps", fps)),
+                HasSubstr("camera.fps = "))
+        << fps;
+  EXPECT_THAT(errorFor(withKey(simProfileText(), "camera", "roi", "[0, 0, 65536, 480]")),
+              HasSubstr("camera.roi = [0, 0, 65536, 480]: each element must be at most 32768"));
+  EXPECT_THAT(errorFor(withKey(simProfileText(), "camera", "roi", "[2147483000, 0, 640, 480]")),
+              HasSubstr("camera.roi"));
+  EXPECT_THAT(errorFor(withKey(simProfileText(), "camera", "roi", "[30000, 0, 3000, 480]")),
+              HasSubstr("the region must end within 32768 pixels"));
+}
+
+// A burst larger than this machine's memory is refused with the figures
+// before anything is armed (it used to abort the simulated camera's thread).
+TEST(RigProfile, ABurstLargerThanMemoryIsRefusedWithTheFigures) {
+  std::string text = withKey(simProfileText(), "camera", "roi", "[0, 0, 32768, 32768]");
+  text = withKey(text, "burst", "post_trigger_frames", "100000");
+  EXPECT_THAT(errorFor(text), AllOf(HasSubstr("burst.post_trigger_frames = 100000"),
+                                    HasSubstr("GB"), HasSubstr("record fewer frames")));
 }
 
 TEST(RigProfile, WrongTypeIsRefused) {

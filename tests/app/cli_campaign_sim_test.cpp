@@ -1,0 +1,127 @@
+// `collide campaign` run as a user runs it, several times into one folder:
+// every shot fired is kept (issue 15, item 1: shot ids are the UTC second plus
+// a per-campaign counter, so campaigns in the same second used to overwrite
+// each other's files and catalog rows).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <future>
+#include <set>
+
+#include "app/catalog.hpp"
+#include "app/shot_file.hpp"
+#include "tests/app/cli_run.hpp"
+
+namespace collide::testing {
+namespace {
+
+const std::string kRig = std::string(COLLIDE_SOURCE_DIR) + "/config/sim.toml";
+
+// Every shot file holds the shot its name says; one catalog row per file.
+std::size_t keptShots(const std::string& dir) {
+  std::set<std::string> ids;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (e.path().extension() != ".h5") continue;
+    const auto shot = app::readShot(e.path().string(), {.frames = false});
+    EXPECT_TRUE(shot.ok()) << shot.error().message;
+    if (!shot) continue;
+    EXPECT_EQ(shot->id + ".h5", e.path().filename().string());
+    ids.insert(shot->id);
+  }
+  auto rows = app::Catalog::open(dir)->query();
+  EXPECT_TRUE(rows.ok());
+  std::set<std::string> row_ids;
+  for (const auto& r : *rows) {
+    EXPECT_EQ(r.file, r.id + ".h5");
+    row_ids.insert(r.id);
+  }
+  EXPECT_EQ(row_ids, ids) << "catalog rows and files differ";
+  return ids.size();
+}
+
+TEST(CliCampaign, ThreeCampaignsIntoOneFolderKeepAllSixShots) {
+  ScratchDir scratch;
+  const std::string out = scratch.file("shots");
+  for (int seed = 1; seed <= 3; ++seed) {
+    const auto run = runCollide("campaign --rig " + q(kRig) + " --shots 2 --out " + q(out) +
+                                    " --seed " + std::to_string(seed),
+                                scratch);
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  }
+  EXPECT_EQ(keptShots(out), 6u);
+}
+
+TEST(CliCampaign, TwoCampaignsAtOnceIntoOneFolderKeepEveryShot) {
+  ScratchDir scratch;
+  const std::string out = scratch.file("shots");
+  ScratchDir logs[2];  // each run's stderr in its own folder
+  auto campaign = [&](int seed) {
+    return runCollide("campaign --rig " + q(kRig) + " --shots 4 --out " + q(out) + " --seed " +
+                          std::to_string(seed),
+                      logs[seed - 1]);
+  };
+  auto a = std::async(std::launch::async, campaign, 1);
+  auto b = std::async(std::launch::async, campaign, 2);
+  const auto ra = a.get(), rb = b.get();
+  ASSERT_EQ(ra.exit_code, 0) << ra.out << ra.err;
+  ASSERT_EQ(rb.exit_code, 0) << rb.out << rb.err;
+  EXPECT_EQ(keptShots(out), 8u);
+}
+
+// A regulator whose link fails on every shot: the campaign stops after three
+// failures in a row instead of firing on, keeps what it fired, and exits 1.
+TEST(CliCampaign, RepeatedDeviceFailuresStopTheCampaignWithExitCode1) {
+  ScratchDir scratch;
+  std::string text = readAll(kRig);
+  const std::string from = "fault = \"none\"            # \"none\" | \"never_settles\"";
+  const auto at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << "sim.toml changed: update this test";
+  text.replace(at, from.size(), "fault = \"error\"            # \"none\" | \"never_settles\"");
+  const std::string rig = scratch.file("broken-regulator.toml");
+  writeAll(rig, text);
+  const std::string out = scratch.file("shots");
+  const auto run =
+      runCollide("campaign --rig " + q(rig) + " --shots 8 --out " + q(out) + " --seed 1", scratch);
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.err.find("3 shots in a row failed"), std::string::npos) << run.err;
+  EXPECT_NE(run.out.find("3 shots fired (0 ok, 3 failed)"), std::string::npos) << run.out;
+  EXPECT_EQ(keptShots(out), 3u) << "every fired shot is saved, failed ones included";
+}
+
+TEST(CliCampaign, ABadProfileIsRefusedAtLoadWithExitCode2BeforeAnyShot) {
+  ScratchDir scratch;
+  std::string text = readAll(kRig);
+  const std::string from = "backend = \"sim\"\ndevice = \"sim-regulator\"";
+  const auto at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << "sim.toml changed: update this test";
+  text.replace(at, from.size(), "backend = \"nonesuch\"\ndevice = \"sim-regulator\"");
+  const std::string rig = scratch.file("bad-backend.toml");
+  writeAll(rig, text);
+  const std::string out = scratch.file("shots");
+  const auto run =
+      runCollide("campaign --rig " + q(rig) + " --shots 2 --out " + q(out) + " --seed 1", scratch);
+  EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
+  EXPECT_NE(run.err.find("nonesuch"), std::string::npos) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(out) && !std::filesystem::is_empty(out))
+      << "nothing fired or saved";
+}
+
+// The disk fills up (here: a file size limit) while a shot is written: a clear
+// message and exit status 1, not a crash in HDF5's clean-up at exit (status
+// 139), and no half file or temporary file left.
+TEST(CliCampaign, AWriteThatFailsMidwayEndsWithAMessageNotACrash) {
+  ScratchDir scratch;
+  const std::string out = scratch.file("shots");
+  const auto run =
+      runCollide("campaign --rig " + q(kRig) + " --shots 1 --out " + q(out) + " --seed 1", scratch,
+                 "ulimit -f 2000; ");
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.err.find("file too large"), std::string::npos) << run.err;
+  std::size_t left = 0;
+  for (const auto& e : std::filesystem::directory_iterator(out))
+    if (e.path().filename().string().find(".h5") != std::string::npos) ++left;
+  EXPECT_EQ(left, 0u) << "a half-written shot or its temporary file was left in " << out;
+}
+
+}  // namespace
+}  // namespace collide::testing
