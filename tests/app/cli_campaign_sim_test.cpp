@@ -39,6 +39,19 @@ std::size_t keptShots(const std::string& dir) {
   return ids.size();
 }
 
+// config/sim.toml with the first `from` replaced by `to`, written to
+// `scratch`/`name`; empty when `from` is not in the profile.
+std::string editedRig(const ScratchDir& scratch, const std::string& from, const std::string& to,
+                      const std::string& name) {
+  std::string text = readAll(kRig);
+  const auto at = text.find(from);
+  if (at == std::string::npos) return "";
+  text.replace(at, from.size(), to);
+  const std::string rig = scratch.file(name);
+  writeAll(rig, text);
+  return rig;
+}
+
 TEST(CliCampaign, ThreeCampaignsIntoOneFolderKeepAllSixShots) {
   ScratchDir scratch;
   const std::string out = scratch.file("shots");
@@ -72,13 +85,10 @@ TEST(CliCampaign, TwoCampaignsAtOnceIntoOneFolderKeepEveryShot) {
 // failures in a row instead of firing on, keeps what it fired, and exits 1.
 TEST(CliCampaign, RepeatedDeviceFailuresStopTheCampaignWithExitCode1) {
   ScratchDir scratch;
-  std::string text = readAll(kRig);
-  const std::string from = "fault = \"none\"            # \"none\" | \"never_settles\"";
-  const auto at = text.find(from);
-  ASSERT_NE(at, std::string::npos) << "sim.toml changed: update this test";
-  text.replace(at, from.size(), "fault = \"error\"            # \"none\" | \"never_settles\"");
-  const std::string rig = scratch.file("broken-regulator.toml");
-  writeAll(rig, text);
+  const std::string rig =
+      editedRig(scratch, "fault = \"none\"            # \"none\" | \"never_settles\"",
+                "fault = \"error\" # \"none\" | \"never_settles\"", "broken-regulator.toml");
+  ASSERT_FALSE(rig.empty()) << "sim.toml changed: update this test";
   const std::string out = scratch.file("shots");
   const auto run =
       runCollide("campaign --rig " + q(rig) + " --shots 8 --out " + q(out) + " --seed 1", scratch);
@@ -90,13 +100,10 @@ TEST(CliCampaign, RepeatedDeviceFailuresStopTheCampaignWithExitCode1) {
 
 TEST(CliCampaign, ABadProfileIsRefusedAtLoadWithExitCode2BeforeAnyShot) {
   ScratchDir scratch;
-  std::string text = readAll(kRig);
-  const std::string from = "backend = \"sim\"\ndevice = \"sim-regulator\"";
-  const auto at = text.find(from);
-  ASSERT_NE(at, std::string::npos) << "sim.toml changed: update this test";
-  text.replace(at, from.size(), "backend = \"nonesuch\"\ndevice = \"sim-regulator\"");
-  const std::string rig = scratch.file("bad-backend.toml");
-  writeAll(rig, text);
+  const std::string rig =
+      editedRig(scratch, "backend = \"sim\"\ndevice = \"sim-regulator\"",
+                "backend = \"nonesuch\"\ndevice = \"sim-regulator\"", "bad-backend.toml");
+  ASSERT_FALSE(rig.empty()) << "sim.toml changed: update this test";
   const std::string out = scratch.file("shots");
   const auto run =
       runCollide("campaign --rig " + q(rig) + " --shots 2 --out " + q(out) + " --seed 1", scratch);
