@@ -133,12 +133,18 @@ Result<Frame> Footage::frame(std::int64_t index) const {
 
 Result<Burst> loadFootage(const std::string& path, double fps_or_0, const FootageRange& range,
                           std::uint64_t max_bytes) {
+  Result<Footage> footage = Footage::open(path);
+  if (!footage) return footage.error();
+  return loadFootage(*footage, fps_or_0, range, max_bytes);
+}
+
+Result<Burst> loadFootage(const Footage& footage, double fps_or_0, const FootageRange& range,
+                          std::uint64_t max_bytes) {
+  const FootageInfo& in = footage.info();
+  const std::string& path = in.data_path;
   if (!(fps_or_0 >= 0) || !std::isfinite(fps_or_0))
     return fail("frame rate " + num(fps_or_0) + " for " + path +
                 " must be > 0, or 0 to use the rate recorded in the file");
-  Result<Footage> footage = Footage::open(path);
-  if (!footage) return footage.error();
-  const FootageInfo& in = footage->info();
   const double fps = fps_or_0 > 0 ? fps_or_0 : in.fps;
   if (!(fps > 0))
     return fail(path + " does not record its frame rate: give the frames/s explicitly (--fps)");
@@ -166,7 +172,7 @@ Result<Burst> loadFootage(const std::string& path, double fps_or_0, const Footag
   burst.frames.reserve(count);
   for (std::int64_t id = first; id <= last; ++id) {
     Frame f;
-    if (Status s = footage->read(id - in.first_frame, f.image); !s) return s.error();
+    if (Status s = footage.read(id - in.first_frame, f.image); !s) return s.error();
     f.id = id;
     f.timestamp_ns = std::llround(static_cast<double>(id) * 1e9 / fps);
     burst.frames.push_back(std::move(f));

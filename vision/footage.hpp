@@ -92,6 +92,11 @@ Result<Burst> loadFootage(const std::string& path, double fps_or_0 = 0,
                           const FootageRange& range = {},
                           std::uint64_t max_bytes = std::uint64_t{4} << 30);
 
+/// The same for a file already open.
+Result<Burst> loadFootage(const Footage& footage, double fps_or_0 = 0,
+                          const FootageRange& range = {},
+                          std::uint64_t max_bytes = std::uint64_t{4} << 30);
+
 /// One multi-line, human-readable description of the file (`collide info`).
 std::string describeFootage(const FootageInfo& info);
 
