@@ -90,7 +90,7 @@ std::string num(double v, const char* format = "%g") {
 
 bool isFootageFile(const std::string& path) {
   const std::string e = lowerExtension(path);
-  return e == ".mraw" || e == ".cih" || e == ".cihx" || e == ".cine";
+  return e == ".mraw" || e == ".cih" || e == ".cihx" || e == ".cine" || e == ".b16";
 }
 
 Footage::Footage(std::shared_ptr<const detail::FootageReader> reader)
@@ -99,12 +99,13 @@ Footage::Footage(std::shared_ptr<const detail::FootageReader> reader)
 Result<Footage> Footage::open(const std::string& path) {
   const std::string e = lowerExtension(path);
   Result<std::unique_ptr<detail::FootageReader>> r =
-      e == ".cine" ? detail::openCine(path)
+      e == ".cine"  ? detail::openCine(path)
+      : e == ".b16" ? detail::openB16(path)
       : (e == ".mraw" || e == ".cih" || e == ".cihx")
           ? detail::openPhotron(path)
           : Result<std::unique_ptr<detail::FootageReader>>(
                 fail(path + " is not a camera file this program reads (.mraw with its .cih/.cihx, "
-                            "or .cine): convert it to PNG frames or a video"));
+                            "a .cine, or a pco .b16): convert it to PNG frames or a video"));
   if (!r) return r.error();
   return Footage(std::shared_ptr<const detail::FootageReader>(std::move(*r)));
 }

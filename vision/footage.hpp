@@ -22,7 +22,7 @@ class FootageReader;
 
 /// What a vendor file says about its footage.
 struct FootageInfo {
-  std::string format;       ///< "Photron MRAW" or "Phantom CINE"
+  std::string format;       ///< "Photron MRAW", "Phantom CINE" or "pco B16"
   std::string data_path;    ///< the file holding the pixels
   std::string header_path;  ///< separate header (.cih/.cihx next to a .mraw), else empty
   std::string camera;       ///< camera model, if the file names it
@@ -51,7 +51,8 @@ struct FootageInfo {
 class Footage {
  public:
   /// Opens a .mraw (header .cihx or .cih with the same name beside it), a
-  /// .cih/.cihx (pixels in the .mraw beside it) or a .cine. Errors: missing
+  /// .cih/.cihx (pixels in the .mraw beside it), a .cine, or a pco .b16 (one
+  /// 16-bit image; a recording is a folder of them, see loadFrameFolder). Errors: missing
   /// file or header, unknown extension, bad magic, a header with absurd or
   /// inconsistent numbers, a file shorter than its header says, a pixel
   /// layout this reader does not decode (colour, compressed).
@@ -73,8 +74,8 @@ class Footage {
   std::shared_ptr<const detail::FootageReader> reader_;
 };
 
-/// True for the extensions Footage::open reads: .mraw, .cih, .cihx, .cine
-/// (any case). Says nothing about the content.
+/// True for the extensions Footage::open reads: .mraw, .cih, .cihx, .cine,
+/// .b16 (any case). Says nothing about the content.
 bool isFootageFile(const std::string& path);
 
 /// Frames to load, by frame id (trigger-relative when the file gives the

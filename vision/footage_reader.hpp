@@ -47,6 +47,7 @@ class FootageReader {
 
 Result<std::unique_ptr<FootageReader>> openPhotron(const std::string& path);
 Result<std::unique_ptr<FootageReader>> openCine(const std::string& path);
+Result<std::unique_ptr<FootageReader>> openB16(const std::string& path);
 
 /// Largest frame side and pixel count accepted from a header: beyond any
 /// high-speed camera, small enough that no header can make us allocate absurdly.

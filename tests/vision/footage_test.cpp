@@ -11,6 +11,7 @@
 
 #include "tests/vision/footage_writers.hpp"
 #include "vision/footage_reader.hpp"
+#include "vision/frame_io.hpp"
 
 namespace collide::vision {
 namespace {
@@ -358,6 +359,42 @@ TEST_F(FootageTest, Cine16BitRoundTrip) {
   EXPECT_TRUE(same(img, frames[0]));
 }
 
+TEST_F(FootageTest, PcoB16ImageAndAFolderOfThem) {
+  const cv::Mat a = randomImage(5, 9, CV_16UC1, 4095, 50),
+                b = randomImage(5, 9, CV_16UC1, 4095, 51);
+  writeBytes(path("img_2.b16"), b16Bytes(b));
+  writeBytes(path("img_1.b16"), b16Bytes(a, 512));
+  auto f = Footage::open(path("img_1.b16"));
+  ASSERT_TRUE(f.ok()) << f.error().message;
+  EXPECT_EQ(f->info().format, "pco B16");
+  EXPECT_EQ(f->info().frame_count, 1);
+  EXPECT_EQ(f->info().fps, 0);
+  cv::Mat img;
+  ASSERT_TRUE(f->read(0, img).ok());
+  EXPECT_TRUE(same(img, a));
+  EXPECT_FALSE(loadFootage(path("img_1.b16")).ok());  // no frame rate in the file
+
+  auto burst = loadFrameFolder(dir_.string(), 500);
+  ASSERT_TRUE(burst.ok()) << burst.error().message;
+  ASSERT_EQ(burst->frames.size(), 2u);
+  EXPECT_EQ(burst->format, PixelFormat::Mono12);
+  EXPECT_TRUE(same(burst->frames[0].image, a));
+  EXPECT_TRUE(same(burst->frames[1].image, b));
+
+  auto cut = b16Bytes(a);
+  cut.resize(cut.size() - 1);
+  writeBytes(path("img_3.b16"), cut);
+  auto g = Footage::open(path("img_3.b16"));
+  ASSERT_FALSE(g.ok());
+  EXPECT_THAT(g.error().message, HasSubstr("truncated"));
+  auto folder = loadFrameFolder(dir_.string(), 500);
+  ASSERT_FALSE(folder.ok());
+  EXPECT_THAT(folder.error().message, HasSubstr("img_3.b16"));
+  cut[0] = 'X';
+  writeBytes(path("img_3.b16"), cut);
+  EXPECT_THAT(Footage::open(path("img_3.b16")).error().message, HasSubstr("'PCO-'"));
+}
+
 // ---------------------------------------------------------------- bad files
 
 std::vector<std::uint8_t> readAllBytes(const std::string& p) {
@@ -487,6 +524,7 @@ TEST_F(FootageTest, OtherFilesAndIndicesAreRefused) {
   EXPECT_TRUE(isFootageFile("a/B.MRAW"));
   EXPECT_TRUE(isFootageFile("x.cihx"));
   EXPECT_TRUE(isFootageFile("x.cine"));
+  EXPECT_TRUE(isFootageFile("x.b16"));
   EXPECT_FALSE(isFootageFile("x.avi"));
   auto f = Footage::open(path("missing.cine"));
   ASSERT_FALSE(f.ok());

@@ -175,4 +175,27 @@ inline std::vector<std::uint8_t> cineBytes(const CineSpec& s, const std::vector<
   return b;
 }
 
+/// A pco .b16 image: 20-byte header plus the extended flag and colour mode,
+/// then 16-bit little-endian pixels at the header size.
+inline std::vector<std::uint8_t> b16Bytes(const cv::Mat& img, std::uint32_t header = 1024) {
+  std::vector<std::uint8_t> b(header + 2 * img.total(), 0);
+  auto put32 = [&](std::size_t at, std::uint32_t v) {
+    for (int k = 0; k < 4; ++k) b[at + k] = (v >> (8 * k)) & 0xFF;
+  };
+  b[0] = 'P', b[1] = 'C', b[2] = 'O', b[3] = '-';
+  put32(4, static_cast<std::uint32_t>(b.size()));
+  put32(8, header);
+  put32(12, static_cast<std::uint32_t>(img.cols));
+  put32(16, static_cast<std::uint32_t>(img.rows));
+  put32(20, 0xFFFFFFFFu);  // extended header follows
+  put32(24, 0);            // monochrome
+  std::size_t at = header;
+  for (int r = 0; r < img.rows; ++r)
+    for (int c = 0; c < img.cols; ++c, at += 2) {
+      b[at] = img.at<std::uint16_t>(r, c) & 0xFF;
+      b[at + 1] = img.at<std::uint16_t>(r, c) >> 8;
+    }
+  return b;
+}
+
 }  // namespace collide::testing
