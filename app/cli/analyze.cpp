@@ -254,7 +254,8 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
   sub.add_flag("--skip-analysed", o->skip_analysed, "Leave shots that already have results");
   sub.add_option("--frames", o->frames,
                  "Footage recorded elsewhere: a folder of grey PNG/TIFF frames (name order), "
-                 "a video file (AVI/MP4), or a camera file (.mraw/.cihx/.cih, .cine)");
+                 "a video file (AVI/MP4), or a camera file (.mraw/.cihx/.cih, .cine); a folder "
+                 "may hold pco .b16 images");
   sub.add_option("--fps", o->fps,
                  "Frame rate of --frames, frames/s (a video's or camera file's own by default)")
       ->check(CLI::PositiveNumber);

@@ -1,5 +1,6 @@
 // `collide info FILE`: what a high-speed camera file holds (Photron MRAW with
-// its .cih/.cihx, Phantom CINE), read from its header without decoding frames.
+// its .cih/.cihx, Phantom CINE, pco B16), read from its header without
+// decoding frames.
 #include <iostream>
 
 #include "app/cli/command.hpp"
@@ -9,7 +10,8 @@ namespace {
 
 void setupInfo(CLI::App& sub, std::function<int()>& run) {
   auto files = std::make_shared<std::vector<std::string>>();
-  sub.add_option("FILE", *files, "A .mraw (with its .cihx/.cih beside it), .cih, .cihx or .cine")
+  sub.add_option("FILE", *files,
+                 "A .mraw (with its .cihx/.cih beside it), .cih, .cihx, .cine or pco .b16")
       ->required();
   sub.footer(
       "Prints format, frame size, frame count, frame rate, exposure, bits, frame ids\n"
@@ -35,4 +37,5 @@ void setupInfo(CLI::App& sub, std::function<int()>& run) {
 
 }  // namespace
 
-COLLIDE_COMMAND(info, "What a camera file holds (Photron MRAW/CIH(X), Phantom CINE)", setupInfo);
+COLLIDE_COMMAND(info, "What a camera file holds (Photron MRAW/CIH(X), Phantom CINE, pco B16)",
+                setupInfo);
