@@ -11,6 +11,8 @@
 #include <system_error>
 #include <vector>
 
+#include "vision/footage.hpp"
+
 namespace collide::vision {
 namespace {
 
@@ -22,8 +24,8 @@ std::string lower(std::string s) {
 }
 
 bool isImageExtension(const fs::path& p) {
-  static const std::set<std::string> kExtensions = {".png", ".tif", ".tiff", ".pgm", ".ppm",
-                                                    ".pnm", ".bmp", ".jpg",  ".jpeg"};
+  static const std::set<std::string> kExtensions = {".png", ".tif", ".tiff", ".pgm",  ".ppm",
+                                                    ".pnm", ".bmp", ".jpg",  ".jpeg", ".b16"};
   return kExtensions.count(lower(p.extension().string())) > 0;
 }
 
@@ -168,10 +170,16 @@ Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
   for (std::size_t i = 0; i < images.size(); ++i) {
     const std::string path = (fs::path(dir) / images[i]).string();
     cv::Mat img;
-    try {
-      img = cv::imread(path, cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception&) {
-      img.release();
+    if (lower(fs::path(path).extension().string()) == ".b16") {  // pco: not an OpenCV format
+      auto b16 = Footage::open(path);
+      if (!b16) return b16.error();
+      if (Status s = b16->read(0, img); !s) return s.error();
+    } else {
+      try {
+        img = cv::imread(path, cv::IMREAD_UNCHANGED);
+      } catch (const cv::Exception&) {
+        img.release();
+      }
     }
     if (img.empty())
       return fail("cannot decode " + path + " as an image: the file is damaged or not really " +

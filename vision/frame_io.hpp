@@ -17,7 +17,7 @@
 
 namespace collide::vision {
 
-/// Loads the images in `dir` (PNG, TIFF; also PGM/PPM/PNM, BMP, JPEG), sorted by
+/// Loads the images in `dir` (PNG, TIFF; also PGM/PPM/PNM, BMP, JPEG, pco .b16), sorted by
 /// name in natural order (frame2 before frame10), as frames 0..N-1 with
 /// timestamps i / fps. Grey 8-bit images give Mono8; 16-bit ones give Mono12 if
 /// no pixel in the burst exceeds 4095, else Mono16; colour images are converted

@@ -14,6 +14,7 @@
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
 #include "app/results_json.hpp"
+#include "vision/footage.hpp"
 #include "vision/frame_io.hpp"
 
 namespace {
@@ -32,7 +33,25 @@ struct Options {
   double diameter_mm = 0, diameter2_mm = 0;
   std::string json_out;
   std::string gravity_dir = "down";
+  std::string range;  // "FIRST:LAST" frame ids of a camera file
 };
+
+// "A:B", "A:" or ":B" (frame ids, may be negative); false if malformed.
+bool parseRange(const std::string& s, collide::vision::FootageRange& out) {
+  const std::size_t colon = s.find(':');
+  if (colon == std::string::npos) return false;
+  auto part = [](const std::string& t, std::optional<std::int64_t>& v) {
+    if (t.empty()) return true;
+    std::size_t used = 0;
+    try {
+      v = std::stoll(t, &used);
+    } catch (const std::exception&) {
+      return false;
+    }
+    return used == t.size();
+  };
+  return part(s.substr(0, colon), out.first_id) && part(s.substr(colon + 1), out.last_id);
+}
 
 std::string pm(const collide::vision::Measured& m, int decimals) {
   if (!std::isfinite(m.value)) return "-";
@@ -114,20 +133,49 @@ int analyzeFootage(const Options& o) {
     return kExitBadInput;
   }
   std::error_code ec;
-  const bool is_video = fs::is_regular_file(o.frames, ec);
-  if (!is_video && !(o.fps > 0)) {
+  const bool is_camera_file = collide::vision::isFootageFile(o.frames);
+  const bool is_video = !is_camera_file && fs::is_regular_file(o.frames, ec);
+  if (!o.range.empty() && !is_camera_file) {
+    std::cerr << "collide analyze: --range applies to camera files (.mraw/.cihx/.cih/.cine)\n";
+    return kExitBadInput;
+  }
+  if (!is_video && !is_camera_file && !(o.fps > 0)) {
     std::cerr << "collide analyze: --fps is required with a folder of frames (frames per "
                  "second the camera recorded at)\n";
     return kExitBadInput;
   }
-  auto burst = is_video ? collide::vision::loadVideo(o.frames, o.fps)
-                        : collide::vision::loadFrameFolder(o.frames, o.fps);
+  double file_pixel_size_m = 0;
+  collide::Result<collide::vision::Burst> burst = collide::fail("no footage");
+  if (is_camera_file) {
+    collide::vision::FootageRange range;
+    if (!o.range.empty() && !parseRange(o.range, range)) {
+      std::cerr << "collide analyze: --range '" << o.range
+                << "': give FIRST:LAST frame ids (e.g. -200:300, or -200: or :300)\n";
+      return kExitBadInput;
+    }
+    auto footage = collide::vision::Footage::open(o.frames);
+    if (!footage) {
+      std::cerr << "collide analyze: " << footage.error().message << "\n";
+      return kExitBadInput;
+    }
+    file_pixel_size_m = footage->info().pixel_size_m;
+    burst = collide::vision::loadFootage(*footage, o.fps, range);
+    if (burst)
+      std::cerr << "collide analyze: " << o.frames << ": " << burst->frames.size() << " frames, "
+                << burst->fps << " frames/s" << (o.fps > 0 ? " (--fps)" : " (from the file)")
+                << (file_pixel_size_m > 0 ? ", pixel size from the file" : "") << "\n";
+  } else {
+    burst = is_video ? collide::vision::loadVideo(o.frames, o.fps)
+                     : collide::vision::loadFrameFolder(o.frames, o.fps);
+  }
   if (!burst) {
     std::cerr << "collide analyze: " << burst.error().message << "\n";
     return kExitBadInput;
   }
   if (!burst->note.empty()) std::cerr << "collide analyze: note: " << burst->note << "\n";
-  settings.pixel_size_m = 0;  // from the measured radius and the given diameter
+  // The camera file's own calibration if it has one (checked against the
+  // measured sphere diameters), else from the measured radius and the diameter.
+  settings.pixel_size_m = file_pixel_size_m;
   settings.diameter_m = {o.diameter_mm * 1e-3,
                          (o.diameter2_mm > 0 ? o.diameter2_mm : o.diameter_mm) * 1e-3};
   settings.fps = burst->fps;
@@ -192,10 +240,15 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
       ->check(CLI::NonNegativeNumber);
   sub.add_flag("--skip-analysed", o->skip_analysed, "Leave shots that already have results");
   sub.add_option("--frames", o->frames,
-                 "Footage recorded elsewhere: a folder of grey PNG/TIFF frames (name order) or "
-                 "a video file (AVI/MP4)");
-  sub.add_option("--fps", o->fps, "Frame rate of --frames, frames/s (a video's own by default)")
+                 "Footage recorded elsewhere: a folder of grey PNG/TIFF frames (name order), "
+                 "a video file (AVI/MP4), or a camera file (.mraw/.cihx/.cih, .cine); a folder "
+                 "may hold pco .b16 images");
+  sub.add_option("--fps", o->fps,
+                 "Frame rate of --frames, frames/s (a video's or camera file's own by default)")
       ->check(CLI::PositiveNumber);
+  sub.add_option("--range", o->range,
+                 "Frames of a camera file to analyse, FIRST:LAST ids (trigger = 0 where the file "
+                 "says; default all)");
   sub.add_option("--diameter-mm", o->diameter_mm, "Sphere diameter, mm (sets the pixel scale)");
   sub.add_option("--diameter2-mm", o->diameter2_mm, "Second sphere's diameter, mm, if different");
   sub.add_option("--json", o->json_out, "Write the results JSON here (default: stdout)");
