@@ -6,9 +6,9 @@
 #include <mutex>
 #include <thread>
 
-#include "app/results_json.hpp"
-#include "app/save.hpp"
-#include "app/shot_file.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace collide::app {
 namespace fs = std::filesystem;

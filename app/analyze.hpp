@@ -1,7 +1,7 @@
 #pragma once
 // Analysing recorded shots: one shot file, or every shot of a campaign folder
 // in parallel. The results go back into each shot file and its catalog row
-// (app/save.hpp), so `collide shots`, `collide fit` and the GUI see them.
+// (app/store/save.hpp), so `collide shots`, `collide fit` and the GUI see them.
 // A shot whose analysis fails keeps its frames untouched and gets results that
 // say why (results_json.hpp failedResultsJson), so nothing is lost or hidden.
 #include <functional>

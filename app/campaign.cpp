@@ -9,8 +9,8 @@
 #include <regex>
 
 #include "app/rig_setup.hpp"
-#include "app/save.hpp"
-#include "app/shot_id.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_id.hpp"
 #include "app/version.hpp"
 #include "hw/launch_plan.hpp"
 #include "hw/sequencer.hpp"

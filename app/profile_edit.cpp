@@ -8,7 +8,7 @@
 #include <sstream>
 #include <vector>
 
-#include "app/atomic_file.hpp"
+#include "app/store/atomic_file.hpp"
 
 namespace collide::app {
 namespace {

@@ -4,9 +4,9 @@
 #include <filesystem>
 
 #include "app/rig_setup.hpp"
-#include "app/save.hpp"
-#include "app/shot_file.hpp"
-#include "app/shot_id.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
+#include "app/store/shot_id.hpp"
 #include "hw/replay_profile.hpp"
 
 namespace collide::app {

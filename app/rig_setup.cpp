@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 #include "app/version.hpp"
 #include "vision/frame_io.hpp"
 

@@ -27,8 +27,8 @@
 #include "app/analyze.hpp"
 #include "app/campaign.hpp"
 #include "app/rig_setup.hpp"
-#include "app/save.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/shot_analysis.hpp"
 

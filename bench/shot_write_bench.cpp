@@ -18,7 +18,7 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace {
 

@@ -9,11 +9,11 @@
 #include <iostream>
 #include <sstream>
 
-#include "app/atomic_file.hpp"
+#include "app/store/atomic_file.hpp"
 #include "app/cli/command.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
-#include "app/results_json.hpp"
+#include "app/report/results_json.hpp"
 #include "vision/footage.hpp"
 #include "vision/frame_io.hpp"
 

@@ -1,5 +1,5 @@
 // `collide catalog rebuild DIR`: recreate a shot folder's catalog from its .h5 files.
-#include "app/catalog.hpp"
+#include "app/store/catalog.hpp"
 
 #include <iostream>
 

@@ -2,7 +2,7 @@
 #include <iostream>
 
 #include "app/cli/command.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 #include "vision/frame_io.hpp"
 
 namespace {

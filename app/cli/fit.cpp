@@ -5,8 +5,8 @@
 #include <fstream>
 #include <iostream>
 
-#include "app/atomic_file.hpp"
-#include "app/campaign_report.hpp"
+#include "app/store/atomic_file.hpp"
+#include "app/report/campaign_report.hpp"
 #include "app/cli/command.hpp"
 
 namespace {

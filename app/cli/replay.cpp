@@ -9,8 +9,8 @@
 #include "app/analyze.hpp"
 #include "app/cli/command.hpp"
 #include "app/cli/interrupt.hpp"
-#include "app/results_json.hpp"
-#include "app/shot_file.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace {
 

@@ -5,9 +5,9 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "app/catalog.hpp"
+#include "app/store/catalog.hpp"
 #include "app/cli/command.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace {
 

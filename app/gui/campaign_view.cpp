@@ -26,7 +26,7 @@
 #include <limits>
 #include <sstream>
 
-#include "app/campaign_report.hpp"
+#include "app/report/campaign_report.hpp"
 
 namespace collide::gui {
 namespace {

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "app/plot.hpp"
+#include "app/report/plot.hpp"
 
 class QChartView;
 class QLabel;

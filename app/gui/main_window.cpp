@@ -26,8 +26,8 @@
 #include "app/gui/replay_view.hpp"
 #include "app/gui/rig_panel.hpp"
 #include "app/gui/shot_browser.hpp"
-#include "app/results_json.hpp"
-#include "app/save.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/save.hpp"
 
 namespace collide::gui {
 namespace {

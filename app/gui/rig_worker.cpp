@@ -6,8 +6,8 @@
 
 #include "app/profile_edit.hpp"
 #include "app/rig_setup.hpp"
-#include "app/save.hpp"
-#include "app/shot_id.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_id.hpp"
 #include "app/version.hpp"
 #include "hw/sequencer.hpp"
 

@@ -5,9 +5,9 @@
 #include <filesystem>
 
 #include "app/analyze.hpp"
-#include "app/catalog.hpp"
-#include "app/results_json.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/catalog.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace collide::gui {
 

@@ -16,7 +16,7 @@
 #include <cmath>
 #include <set>
 
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace collide::gui {
 namespace {

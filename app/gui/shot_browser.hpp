@@ -7,7 +7,7 @@
 #include <QWidget>
 #include <vector>
 
-#include "app/catalog.hpp"
+#include "app/store/catalog.hpp"
 #include "app/gui/shot_analysis_service.hpp"
 
 class QComboBox;

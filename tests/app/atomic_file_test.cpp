@@ -1,4 +1,4 @@
-#include "app/atomic_file.hpp"
+#include "app/store/atomic_file.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -2,7 +2,7 @@
 // that cannot be used are left out with the reason, the fit recovers the
 // material the shots were made from (Walton's rule written out here from
 // docs/SPEC.md, independently of the fitting code), and the plots hold the points.
-#include "app/campaign_report.hpp"
+#include "app/report/campaign_report.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <numbers>
 #include <random>
 
-#include "app/save.hpp"
+#include "app/store/save.hpp"
 #include "shot_fixtures.hpp"
 
 namespace collide::app {

@@ -11,8 +11,8 @@
 #include <stop_token>
 
 #include "app/campaign.hpp"
-#include "app/catalog.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/catalog.hpp"
+#include "app/store/shot_file.hpp"
 #include "hw/rig_profile.hpp"
 #include "shot_fixtures.hpp"
 

@@ -1,4 +1,4 @@
-#include "app/catalog.hpp"
+#include "app/store/catalog.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 
 #include <filesystem>
 
-#include "app/save.hpp"
+#include "app/store/save.hpp"
 #include "tests/app/shot_fixtures.hpp"
 
 namespace {

@@ -9,8 +9,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "app/results_json.hpp"
-#include "app/shot_file.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/shot_file.hpp"
 #include "tests/app/cli_run.hpp"
 #include "tests/app/shot_fixtures.hpp"
 

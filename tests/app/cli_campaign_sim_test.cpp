@@ -8,8 +8,8 @@
 #include <future>
 #include <set>
 
-#include "app/catalog.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/catalog.hpp"
+#include "app/store/shot_file.hpp"
 #include "tests/app/cli_run.hpp"
 
 namespace collide::testing {

@@ -9,8 +9,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "app/results_json.hpp"
-#include "app/shot_file.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/shot_file.hpp"
 #include "tests/app/cli_run.hpp"
 #include "tests/app/shot_fixtures.hpp"
 #include "tests/vision/footage_writers.hpp"

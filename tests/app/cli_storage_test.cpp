@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "app/save.hpp"
+#include "app/store/save.hpp"
 #include "tests/app/cli_run.hpp"
 #include "tests/app/shot_fixtures.hpp"
 

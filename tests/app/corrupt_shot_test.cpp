@@ -6,9 +6,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "app/catalog.hpp"
-#include "app/save.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/catalog.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
 #include "tests/app/cli_run.hpp"
 #include "tests/app/shot_fixtures.hpp"
 

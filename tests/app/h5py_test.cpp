@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 #include "tests/app/shot_fixtures.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "app/plot.hpp"
+#include "app/report/plot.hpp"
 
 #include <gtest/gtest.h>
 

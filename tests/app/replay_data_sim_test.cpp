@@ -8,8 +8,8 @@
 
 #include "app/analyze.hpp"
 #include "app/replay.hpp"
-#include "app/results_json.hpp"
-#include "app/shot_file.hpp"
+#include "app/report/results_json.hpp"
+#include "app/store/shot_file.hpp"
 #include "hw/replay_profile.hpp"
 #include "tests/app/shot_fixtures.hpp"
 

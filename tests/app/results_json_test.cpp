@@ -1,7 +1,7 @@
 // Results JSON: every field survives the round trip, unknowns are null (not
 // invented numbers), the headline keys feed the catalog summary, and bad JSON
 // is rejected with the key named.
-#include "app/results_json.hpp"
+#include "app/report/results_json.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "app/results_summary.hpp"
+#include "app/report/results_summary.hpp"
 
 namespace collide::app {
 namespace {

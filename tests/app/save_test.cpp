@@ -1,4 +1,4 @@
-#include "app/save.hpp"
+#include "app/store/save.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <set>
 
-#include "app/catalog.hpp"
+#include "app/store/catalog.hpp"
 #include "tests/app/shot_fixtures.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

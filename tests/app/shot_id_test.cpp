@@ -1,4 +1,4 @@
-#include "app/shot_id.hpp"
+#include "app/store/shot_id.hpp"
 
 #include <gtest/gtest.h>
 

@@ -21,7 +21,7 @@
 #include <numbers>
 
 #include "analysis/walton.hpp"
-#include "app/campaign_report.hpp"
+#include "app/report/campaign_report.hpp"
 #include "app/gui/calibration_dialog.hpp"
 #include "app/gui/campaign_view.hpp"
 #include "app/gui/live_view.hpp"
@@ -30,8 +30,8 @@
 #include "app/gui/rig_panel.hpp"
 #include "app/gui/shot_browser.hpp"
 #include "app/rig_setup.hpp"
-#include "app/save.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
 #include "gui_test_support.hpp"
 #include "hw/sequencer.hpp"
 

@@ -1,10 +1,10 @@
-#include "app/save.hpp"
+#include "app/store/save.hpp"
 
 #include <filesystem>
 
-#include "app/atomic_file.hpp"
-#include "app/catalog.hpp"
-#include "app/shot_id.hpp"
+#include "app/store/atomic_file.hpp"
+#include "app/store/catalog.hpp"
+#include "app/store/shot_id.hpp"
 
 namespace collide::app {
 

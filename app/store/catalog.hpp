@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "analysis/result.hpp"
-#include "app/results_summary.hpp"
+#include "app/report/results_summary.hpp"
 #include "hw/shot.hpp"
 
 namespace collide::app {

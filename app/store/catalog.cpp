@@ -1,4 +1,4 @@
-#include "app/catalog.hpp"
+#include "app/store/catalog.hpp"
 
 #include <sqlite3.h>
 
@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <map>
 
-#include "app/atomic_file.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/atomic_file.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace collide::app {
 

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "analysis/result.hpp"
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 #include "hw/shot.hpp"
 
 namespace collide::app {

@@ -1,4 +1,4 @@
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 
 #include <sys/stat.h>
 #include <sys/statvfs.h>
@@ -12,9 +12,9 @@
 #include <filesystem>
 #include <mutex>
 
-#include "app/atomic_file.hpp"
-#include "app/h5.hpp"
-#include "app/results_summary.hpp"
+#include "app/store/atomic_file.hpp"
+#include "app/store/h5.hpp"
+#include "app/report/results_summary.hpp"
 #include "hw/memory.hpp"
 
 namespace collide::app {

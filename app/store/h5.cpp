@@ -1,4 +1,4 @@
-#include "app/h5.hpp"
+#include "app/store/h5.hpp"
 
 #include <cstdlib>
 #include <cstring>
@@ -7,7 +7,7 @@
 #include <optional>
 #include <sstream>
 
-#include "app/atomic_file.hpp"
+#include "app/store/atomic_file.hpp"
 
 // Shot files are read and written from several threads (GUI browser, saver,
 // analysis) with no lock of our own: that relies on HDF5's global lock.

@@ -1,11 +1,11 @@
-#include "app/campaign_report.hpp"
+#include "app/report/campaign_report.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "app/shot_file.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace collide::app {
 namespace fs = std::filesystem;

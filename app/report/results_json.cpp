@@ -1,4 +1,4 @@
-#include "app/results_json.hpp"
+#include "app/report/results_json.hpp"
 
 #include <cmath>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "app/results_summary.hpp"
+#include "app/report/results_summary.hpp"
 
 #include <nlohmann/json.hpp>
 

@@ -10,8 +10,8 @@
 
 #include "analysis/campaign.hpp"
 #include "analysis/result.hpp"
-#include "app/plot.hpp"
-#include "app/results_json.hpp"
+#include "app/report/plot.hpp"
+#include "app/report/results_json.hpp"
 
 namespace collide::app {
 
