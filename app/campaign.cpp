@@ -9,6 +9,7 @@
 #include <regex>
 
 #include "app/rig_setup.hpp"
+#include "app/store/atomic_file.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_id.hpp"
 #include "app/version.hpp"
@@ -123,7 +124,18 @@ Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const Campaign
     return fail("exit speeds must satisfy 0 < min <= max (m/s)");
   std::error_code ec;
   std::filesystem::create_directories(o.out_dir, ec);
-  if (ec) return fail("cannot create " + o.out_dir + ": " + ec.message());
+  if (ec && !std::filesystem::exists(o.out_dir))
+    return ioError(ec.value(), "creating the shot folder", o.out_dir);
+  // Before the first shot is fired: a shot that cannot be saved is wasted.
+  if (auto writable = checkWritableFolder(o.out_dir); !writable) return writable.error();
+  const auto& cam = profile.camera_config;
+  const double shot_bytes =
+      static_cast<double>(cam.width) * cam.height *
+          (cam.format == vision::PixelFormat::Mono8 ? 1 : 2) *
+          (profile.burst.pre_trigger_frames + profile.burst.post_trigger_frames) +
+      1e6;
+  if (auto room = checkFreeSpace(o.out_dir, shot_bytes, "save a shot in " + o.out_dir); !room)
+    return room.error();
 
   CampaignReport report;
   const std::vector<PlannedShot> plan = planCampaign(o);

@@ -458,13 +458,28 @@ Result<RigProfile> parseRigProfile(std::string_view text, const std::string& sou
 }
 
 Result<RigProfile> loadRigProfile(const std::filesystem::path& path) {
+  // A profile is a small text file: a folder, a device or a pipe given by
+  // mistake is named as such, and nothing is read without limit.
+  constexpr std::streamsize kMaxProfileBytes = 1 << 20;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    return fail(path.string() + " is a folder, not a rig profile: give a .toml file, e.g. " +
+                (path / "sim.toml").string());
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    return fail(path.string() +
+                " is not a regular file (a device or a pipe?): give a rig "
+                "profile .toml file");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     return fail("cannot read rig profile " + path.string() +
                 ": check the path (config/sim.toml is the simulated rig)");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parseRigProfile(text.str(), path.string());
+  std::string text(static_cast<std::size_t>(kMaxProfileBytes) + 1, '\0');
+  in.read(text.data(), kMaxProfileBytes + 1);
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (static_cast<std::streamsize>(text.size()) > kMaxProfileBytes)
+    return fail("rig profile " + path.string() +
+                " is larger than 1 MB: not a rig profile? check the path");
+  return parseRigProfile(text, path.string());
 }
 
 std::string_view defaultRigProfileText() {

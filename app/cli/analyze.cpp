@@ -9,11 +9,11 @@
 #include <iostream>
 #include <sstream>
 
-#include "app/store/atomic_file.hpp"
 #include "app/cli/command.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
 #include "app/report/results_json.hpp"
+#include "app/store/atomic_file.hpp"
 #include "vision/footage.hpp"
 #include "vision/frame_io.hpp"
 
@@ -24,13 +24,17 @@ using collide::cli::kExitBadInput;
 using collide::cli::kExitFailure;
 using collide::cli::kExitOk;
 
+/// Default of numeric options that must be told apart from a value given
+/// wrongly (0, nan): "--fps nan" is a bad value, not a missing one.
+constexpr double kNotGiven = -1.0;
+
 struct Options {
   std::vector<std::string> paths;
   int jobs = 0;
   bool skip_analysed = false;
   std::string frames;
-  double fps = 0;
-  double diameter_mm = 0, diameter2_mm = 0;
+  double fps = kNotGiven;
+  double diameter_mm = kNotGiven, diameter2_mm = 0;
   std::string json_out;
   std::string gravity_dir = "down";
   std::string range;  // "FIRST:LAST" frame ids of a camera file
@@ -116,12 +120,24 @@ int writeJson(const std::string& text, const std::string& out) {
   return kExitOk;
 }
 
-int analyzeFootage(const Options& o) {
-  if (!(o.diameter_mm > 0 && o.diameter_mm < 1000)) {
+int analyzeFootage(const Options& given) {
+  Options o = given;
+  if (o.diameter_mm == kNotGiven) {
     std::cerr << "collide analyze: --diameter-mm is required with --frames (the spheres' "
                  "diameter in millimetres, e.g. 25.4)\n";
     return kExitBadInput;
   }
+  if (!(o.diameter_mm > 0 && o.diameter_mm < 1000)) {
+    std::cerr << "collide analyze: --diameter-mm " << o.diameter_mm
+              << ": give the spheres' diameter in millimetres, between 0 and 1000 (e.g. 25.4)\n";
+    return kExitBadInput;
+  }
+  if (o.fps != kNotGiven && !(o.fps > 0 && o.fps <= 2e7)) {
+    std::cerr << "collide analyze: --fps " << o.fps
+              << ": give the frame rate the camera recorded at, frames per second (> 0)\n";
+    return kExitBadInput;
+  }
+  if (o.fps == kNotGiven) o.fps = 0;  // the loaders' "take the file's own"
   if (o.diameter2_mm < 0 || o.diameter2_mm >= 1000) {
     std::cerr << "collide analyze: --diameter2-mm must be a diameter in millimetres\n";
     return kExitBadInput;
@@ -244,8 +260,7 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
                  "a video file (AVI/MP4), or a camera file (.mraw/.cihx/.cih, .cine); a folder "
                  "may hold pco .b16 images");
   sub.add_option("--fps", o->fps,
-                 "Frame rate of --frames, frames/s (a video's or camera file's own by default)")
-      ->check(CLI::PositiveNumber);
+                 "Frame rate of --frames, frames/s (a video's or camera file's own by default)");
   sub.add_option("--range", o->range,
                  "Frames of a camera file to analyse, FIRST:LAST ids (trigger = 0 where the file "
                  "says; default all)");

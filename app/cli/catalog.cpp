@@ -23,6 +23,10 @@ void setupCatalog(CLI::App& sub, std::function<int()>& run) {
     }
     for (const auto& bad : report->unreadable)
       std::cerr << "collide catalog rebuild: skipped " << bad.file << ": " << bad.message << "\n";
+    for (const auto& left : report->leftovers)
+      std::cerr << "collide catalog rebuild: " << left
+                << " is a temporary file of a write that never finished (not a shot): "
+                   "delete it\n";
     std::cout << "catalog " << *dir << "/" << collide::app::kCatalogFileName << ": "
               << report->shots << " shot" << (report->shots == 1 ? "" : "s");
     if (!report->unreadable.empty())

@@ -5,8 +5,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "app/store/catalog.hpp"
 #include "app/cli/command.hpp"
+#include "app/store/catalog.hpp"
 #include "app/store/shot_file.hpp"
 
 namespace {
@@ -116,6 +116,17 @@ void setupShots(CLI::App& sub, std::function<int()>& run) {
     if (!rows) {
       std::cerr << "collide shots: " << rows.error().message << "\n";
       return collide::cli::kExitFailure;
+    }
+    // The catalog is an index: say when it no longer matches the files (an
+    // empty or stale catalog would otherwise show "0 shots" for a full folder).
+    if (auto contents = collide::app::listShotFolder(*dir)) {
+      auto all = filter.material || filter.status ? catalog->query() : rows;
+      if (all && all->size() != contents->shot_files.size())
+        std::cerr << "collide shots: the catalog lists " << all->size() << " shot"
+                  << (all->size() == 1 ? "" : "s") << " but " << *dir << " holds "
+                  << contents->shot_files.size() << " shot file"
+                  << (contents->shot_files.size() == 1 ? "" : "s")
+                  << ": run `collide catalog rebuild " << *dir << "`\n";
     }
     if (*json) {
       nlohmann::json out = nlohmann::json::array();

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -10,6 +11,8 @@
 #include <filesystem>
 #include <random>
 #include <vector>
+
+#include "hw/memory.hpp"
 
 namespace collide::app {
 
@@ -256,6 +259,25 @@ Status writeTextFile(const std::string& path, const std::string& text) {
                   "a file name");
     return fail(path + " is a socket or other special file: give a file name");
   }
+}
+
+Status checkFreeSpace(const std::string& folder, double bytes, const std::string& what) {
+  struct statvfs fs {};
+  if (::statvfs(folder.c_str(), &fs) != 0) return Ok{};
+  const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+  if (free_bytes >= bytes) return Ok{};
+  return fail("not enough space to " + what + ": it needs " + hw::formatBytes(bytes) + ", " +
+              hw::formatBytes(free_bytes) + " are free in " + folder +
+              ": free space or choose another folder (--out)");
+}
+
+Status checkWritableFolder(const std::string& folder) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(folder, ec))
+    return fail(folder + " is not a folder: give a folder for the shots (--out)");
+  auto probe = AtomicFile::create((std::filesystem::path(folder) / ".write-check").string());
+  if (!probe) return probe.error();
+  return Ok{};  // the probe's destructor removes it
 }
 
 }  // namespace collide::app

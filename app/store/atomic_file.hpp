@@ -76,4 +76,15 @@ class AtomicFile {
 /// to do (disk full, permission denied, ...).
 Status writeTextFile(const std::string& path, const std::string& text);
 
+/// Ok if `folder` has at least `bytes` free for this user; otherwise "not
+/// enough space to <what>: it needs X, Y are free: free space or choose
+/// another folder (--out)". Ok too when the free space cannot be read (the
+/// write itself will then say what is wrong).
+Status checkFreeSpace(const std::string& folder, double bytes, const std::string& what);
+
+/// Ok if files can be created in `folder` (an existing folder): a hidden
+/// temporary file is created and removed. Errors name the folder and say what
+/// to do (permissions, read-only file system, not a folder).
+Status checkWritableFolder(const std::string& folder);
+
 }  // namespace collide::app

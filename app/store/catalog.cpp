@@ -357,20 +357,33 @@ CatalogRow catalogRow(const hw::Shot& shot, const std::string& file_name) {
   return r;
 }
 
-Result<RebuildReport> rebuildCatalog(const std::string& dir) {
+Result<FolderContents> listShotFolder(const std::string& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return fail("no such shot folder: " + dir);
-  std::vector<std::string> names;
+  FolderContents out;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
-    // Hidden names are temporary files of writes in progress (AtomicFile).
-    if (entry.path().extension() == ".h5" && name.front() != '.' && entry.is_regular_file(ec))
-      names.push_back(name);
+    if (!entry.is_regular_file(ec)) continue;
+    // Hidden names are temporary files of writes (AtomicFile): in progress,
+    // or left by a write that never finished.
+    if (name.front() == '.' && name.find(".h5.tmp-") != std::string::npos)
+      out.leftovers.push_back(name);
+    else if (entry.path().extension() == ".h5" && name.front() != '.')
+      out.shot_files.push_back(name);
   }
   if (ec) return ioError(ec.value(), "listing", dir);
-  std::sort(names.begin(), names.end());
+  std::sort(out.shot_files.begin(), out.shot_files.end());
+  std::sort(out.leftovers.begin(), out.leftovers.end());
+  return out;
+}
+
+Result<RebuildReport> rebuildCatalog(const std::string& dir) {
+  auto contents = listShotFolder(dir);
+  if (!contents) return contents.error();
+  const std::vector<std::string>& names = contents->shot_files;
 
   RebuildReport report;
+  report.leftovers = contents->leftovers;
   std::vector<CatalogRow> rows;
   std::map<std::string, std::string> file_of_id;
   for (const auto& name : names) {
@@ -392,6 +405,7 @@ Result<RebuildReport> rebuildCatalog(const std::string& dir) {
   auto catalog = Catalog::open(dir);
   if (!catalog) {
     // A corrupt catalog holds nothing the shot files do not: start afresh.
+    std::error_code ec;
     for (const char* suffix : {"", "-wal", "-shm"})
       fs::remove(fs::path(dir) / (std::string(kCatalogFileName) + suffix), ec);
     catalog = Catalog::open(dir);

@@ -100,7 +100,19 @@ struct UnreadableFile {
 struct RebuildReport {
   std::size_t shots = 0;  ///< rows now in the catalog
   std::vector<UnreadableFile> unreadable;
+  /// Temporary files of writes that never finished (".<name>.tmp-XXXXXX",
+  /// left by a power cut or a kill): not shots, safe to delete.
+  std::vector<std::string> leftovers;
 };
+
+/// What a shot folder holds on disk, without reading any file.
+struct FolderContents {
+  std::vector<std::string> shot_files;  ///< "<id>.h5" names, sorted
+  std::vector<std::string> leftovers;   ///< unfinished temporary files (see RebuildReport)
+};
+
+/// Lists `dir`. Errors: the folder cannot be listed.
+Result<FolderContents> listShotFolder(const std::string& dir);
 
 /// Recreates `dir`/catalog.sqlite from the .h5 files in `dir` alone (read
 /// without frames). A file that cannot be read is reported and skipped; a

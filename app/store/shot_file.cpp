@@ -1,7 +1,6 @@
 #include "app/store/shot_file.hpp"
 
 #include <sys/stat.h>
-#include <sys/statvfs.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,9 +11,9 @@
 #include <filesystem>
 #include <mutex>
 
+#include "app/report/results_summary.hpp"
 #include "app/store/atomic_file.hpp"
 #include "app/store/h5.hpp"
-#include "app/report/results_summary.hpp"
 #include "hw/memory.hpp"
 
 namespace collide::app {
@@ -308,15 +307,7 @@ Status checkRoom(const std::string& path, const FrameGeometry& g, std::size_t fr
                             static_cast<double>(frames) +
                         1e6;
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-  struct statvfs fs {};
-  if (::statvfs(folder.empty() ? "." : folder.c_str(), &fs) != 0)
-    return Ok{};  // the write will say
-  const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
-  if (free_bytes < needed)
-    return fail("not enough space to write " + path + ": the shot needs " +
-                hw::formatBytes(needed) + ", " + hw::formatBytes(free_bytes) +
-                " are free: free space or choose another folder (--out)");
-  return Ok{};
+  return checkFreeSpace(folder.empty() ? "." : folder.string(), needed, "write " + path);
 }
 
 /// Error for a failure to create or open `path` itself.

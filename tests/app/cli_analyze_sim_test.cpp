@@ -18,7 +18,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace collide::testing;
+using ::testing::AnyOf;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 const std::string kRig = std::string(COLLIDE_SOURCE_DIR) + "/config/sim.toml";
 
@@ -138,7 +140,16 @@ TEST_F(CliAnalyze, BadFootageGetsAClearMessage) {
 
   run = runCollide("analyze --frames " + q(empty) + " --fps 1000", *scratch_);
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_THAT(run.err, HasSubstr("--diameter-mm"));
+  EXPECT_THAT(run.err, HasSubstr("--diameter-mm is required"));
+
+  // Given, but not a value the option can mean: named as such, not "required".
+  for (const char* args : {" --fps nan --diameter-mm 25.4", " --fps 1000 --diameter-mm 0",
+                           " --fps -3 --diameter-mm 25.4", " --fps 1000 --diameter-mm nan"}) {
+    run = runCollide("analyze --frames " + q(empty) + args, *scratch_);
+    EXPECT_EQ(run.exit_code, 2) << args;
+    EXPECT_THAT(run.err, Not(HasSubstr("required"))) << args << ": " << run.err;
+    EXPECT_THAT(run.err, AnyOf(HasSubstr("--fps "), HasSubstr("--diameter-mm "))) << args;
+  }
 
   const std::string video = scratch_->file("broken.avi");
   std::ofstream(video) << "RIFF....AVI garbage, not a decodable video";

@@ -130,5 +130,17 @@ TEST(CliCampaign, AWriteThatFailsMidwayEndsWithAMessageNotACrash) {
   EXPECT_EQ(left, 0u) << "a half-written shot or its temporary file was left in " << out;
 }
 
+// --out that cannot take shots is refused before anything is fired.
+TEST(CliCampaign, AnOutThatIsAFileIsRefusedBeforeFiring) {
+  ScratchDir scratch;
+  const std::string out = scratch.file("not-a-folder");
+  writeAll(out, "x");
+  const auto run =
+      runCollide("campaign --rig " + q(kRig) + " --shots 2 --out " + q(out) + " --seed 1", scratch);
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.err.find(out + " is not a folder"), std::string::npos) << run.err;
+  EXPECT_EQ(run.out.find("fired"), std::string::npos) << "a shot was fired: " << run.out;
+}
+
 }  // namespace
 }  // namespace collide::testing

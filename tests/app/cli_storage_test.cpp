@@ -61,6 +61,28 @@ TEST_F(CliStorage, ShotsListsTheCatalogAsATable) {
                              HasSubstr(shots[2].failure_reason)));
 }
 
+// An emptied catalog (0 bytes) would show "0 shots" for a full folder: the
+// listing says the catalog and the files disagree and how to fix it; rebuild
+// names a temporary file left by an unfinished write.
+TEST_F(CliStorage, AnEmptiedCatalogIsCalledOutAndRebuildNamesLeftovers) {
+  for (const char* suffix : {"", "-wal", "-shm"})
+    std::filesystem::remove(folder() + "/catalog.sqlite" + suffix);
+  writeAll(folder() + "/catalog.sqlite", "");
+  writeAll(folder() + "/.20260314-101800-0004.h5.tmp-abc123", "half a shot");
+  CommandRun run = runCollide("shots " + q(folder()), scratch);
+  EXPECT_THAT(run.err,
+              AllOf(HasSubstr("the catalog lists 0 shots but " + folder() + " holds 3 shot files"),
+                    HasSubstr("collide catalog rebuild")))
+      << run.out;
+  run = runCollide("catalog rebuild " + q(folder()), scratch);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.err, HasSubstr(".20260314-101800-0004.h5.tmp-abc123 is a temporary file of a "
+                                 "write that never finished"));
+  run = runCollide("shots " + q(folder()), scratch);
+  EXPECT_THAT(run.out, HasSubstr("3 shots"));
+  EXPECT_EQ(run.err, "") << "catalog and files agree again";
+}
+
 TEST_F(CliStorage, ShotsFiltersByMaterialAndStatus) {
   CommandRun run = runCollide("shots " + q(folder()) + " --material teflon", scratch);
   ASSERT_EQ(run.exit_code, 0) << run.err;

@@ -3,6 +3,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "profile_text.hpp"
 
 using namespace collide::hw;
@@ -10,8 +13,8 @@ using collide::hw::testing::lineOf;
 using collide::hw::testing::readFile;
 using collide::hw::testing::simProfileText;
 using collide::hw::testing::withKey;
-using ::testing::AllOf;
 using collide::hw::testing::withoutKey;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
@@ -102,6 +105,25 @@ TEST(RigProfile, MissingFileNamesThePath) {
   const auto p = loadRigProfile("/nonexistent/rig.toml");
   ASSERT_FALSE(p.ok());
   EXPECT_THAT(p.error().message, HasSubstr("/nonexistent/rig.toml"));
+}
+
+// Not a profile at all: a folder, a device that never ends, a huge file.
+TEST(RigProfile, AFolderOrADeviceIsNamedAndNothingIsReadWithoutLimit) {
+  const auto dir = loadRigProfile(std::filesystem::temp_directory_path());
+  ASSERT_FALSE(dir.ok());
+  EXPECT_THAT(dir.error().message, HasSubstr("is a folder, not a rig profile"));
+  const auto zero = loadRigProfile("/dev/zero");
+  ASSERT_FALSE(zero.ok());
+  EXPECT_THAT(zero.error().message, HasSubstr("/dev/zero is not a regular file"));
+  const auto big_path = std::filesystem::temp_directory_path() / "collide-big-profile.toml";
+  {
+    std::ofstream big(big_path);
+    big << std::string(2 << 20, '#');
+  }
+  const auto big = loadRigProfile(big_path);
+  std::filesystem::remove(big_path);
+  ASSERT_FALSE(big.ok());
+  EXPECT_THAT(big.error().message, HasSubstr("larger than 1 MB"));
 }
 
 TEST(RigProfile, OutOfRangeNumberGivesFileLineFieldAndRule) {
