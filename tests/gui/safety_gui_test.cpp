@@ -184,6 +184,9 @@ TEST(SafetyGui, TheWheelDoesNotMoveSetpointsAndArmedChangesNeedConfirmation) {
   EXPECT_EQ(pre->value(), pre_before) << "the wheel changed an unfocused field";
 
   ASSERT_TRUE(armAndSettle(w)) << w.messages().join("\n").toStdString();
+  // A click gives the focus only in the active window (under X with no window manager too).
+  w.activateWindow();
+  (void)QTest::qWaitForWindowActive(&w);
   auto* pressure = child<QDoubleSpinBox>(panel, "pressure_0");
   const double p_before = pressure->value();
   const double armed_at = panel->lastStatus().setpoint_kPa[0];
