@@ -108,7 +108,7 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     if (const QString problem = shotsDirProblem(shots_dir_, false); !problem.isEmpty()) {
       shots_usable_ = false;
       rig_panel_->setShotsDir(shots_dir_, false);
-      showMessage(tr("Not armed: %1").arg(problem));
+      showMessage(tr("Not armed: %1").arg(problem), MessageKind::Error, MessageTopic::ShotsDir);
       return;
     }
     worker_->requestArm(v);
@@ -131,15 +131,24 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     rig_panel_->setProfile(profile);
     live_view_->setCamera(camera);
     // A message about an earlier profile or rig is stale now.
-    const QString shown = message_label_->text();
-    if (camera && message_bar_->isVisible() &&
-        (shown.startsWith(tr("Rig profile not loaded")) || shown.startsWith(tr("The rig")) ||
-         shown.startsWith(tr("No rig")) || shown.startsWith(tr("Campaign not started: no rig"))))
-      message_bar_->hide();
+    if (camera) clearStale(MessageTopic::Profile);
     statusBar()->showMessage(tr("Rig profile %1 loaded").arg(qs(profile->source)), 5000);
   });
   connect(worker_, &RigWorker::status, rig_panel_, &RigPanel::setStatus);
-  connect(worker_, &RigWorker::error, this, [this](QString m) { showMessage(m); });
+  connect(worker_, &RigWorker::error, this, [this](QString m) {
+    const MessageTopic topic = m.startsWith(tr("Rig profile not loaded")) ||
+                                       m.startsWith(tr("The rig")) || m.startsWith(tr("No rig"))
+                                   ? MessageTopic::Profile
+                               : m.startsWith(tr("Pressure did not settle")) ||
+                                       m.startsWith(tr("Cannot arm")) ||
+                                       m.startsWith(tr("Not ready to fire"))
+                                   ? MessageTopic::Arming
+                                   : MessageTopic::Other;
+    showMessage(m, MessageKind::Error, topic);
+  });
+  connect(worker_, &RigWorker::status, this, [this](const RigStatus& s) {
+    if (s.armed && s.settled) clearStale(MessageTopic::Arming);
+  });
   connect(worker_, &RigWorker::shotStep, this, [this](QString step) {
     rig_panel_->setStep(step);
     statusBar()->showMessage(step, 3000);
@@ -167,7 +176,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
             if (progress_) progress_->reset();
             // Anything short of every planned shot fired, saved and ok is a
             // warning: the summary says what is missing and why.
-            showMessage(summary, complete && !cancelled ? MessageKind::Info : MessageKind::Warning);
+            showMessage(summary, complete && !cancelled ? MessageKind::Info : MessageKind::Warning,
+                        summary.startsWith(tr("Campaign not started: no rig"))
+                            ? MessageTopic::Profile
+                            : MessageTopic::Other);
             campaign_view_->setReport(summary, !complete || cancelled);
             shot_browser_->refresh();
             campaign_view_->refresh();  // failed shots are in the folder too
@@ -268,13 +280,13 @@ void MainWindow::setShotsDir(const QString& dir) {
                           shots_usable_ && !existed);
   if (!shots_usable_) {
     showMessage(
-        tr("Shots cannot be saved: %1. Arm and Fire stay disabled until then.").arg(problem));
+        tr("Shots cannot be saved: %1. Arm and Fire stay disabled until then.").arg(problem),
+        MessageKind::Error, MessageTopic::ShotsDir);
     return;
   }
   shot_browser_->setFolder(dir);
   campaign_view_->setFolder(dir);
-  if (last_kind_ == MessageKind::Error && message_label_->text().contains(tr("cannot be saved")))
-    message_bar_->hide();  // the earlier folder's problem is stale now
+  clearStale(MessageTopic::ShotsDir);  // an earlier folder's problem is stale now
   statusBar()->showMessage(tr("Shots are saved in %1").arg(dir), 5000);
 }
 
@@ -311,9 +323,18 @@ void MainWindow::loadProfile(const QString& path) {
   worker_->requestLoadProfile(path);
 }
 
-void MainWindow::showMessage(const QString& message, MessageKind kind) {
+void MainWindow::clearStale(MessageTopic fixed) {
+  if (topic_ == fixed && fixed != MessageTopic::Other) message_bar_->hide();
+}
+
+bool MainWindow::messageShown() const {
+  return message_bar_->isVisible();
+}
+
+void MainWindow::showMessage(const QString& message, MessageKind kind, MessageTopic topic) {
   messages_ << message;
   last_kind_ = kind;
+  topic_ = topic;
   message_label_->setText(message);
   message_bar_->setStyleSheet(kind == MessageKind::Error ? "#message_bar { background: #fbe3e0; }"
                               : kind == MessageKind::Warning
@@ -425,7 +446,8 @@ void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double
   o.angle_max_deg = angle_max;
   o.out_dir = shots_dir_.toStdString();
   if (const QString problem = shotsDirProblem(shots_dir_, false); !problem.isEmpty()) {
-    showMessage(tr("Campaign not started: %1").arg(problem));
+    showMessage(tr("Campaign not started: %1").arg(problem), MessageKind::Error,
+                MessageTopic::ShotsDir);
     return;
   }
   delete progress_;

@@ -60,7 +60,13 @@ class MainWindow : public QMainWindow {
   /// How a message is shown: red (error), amber (warning: something is
   /// missing or was not done) or green (done as asked).
   enum class MessageKind { Error, Warning, Info };
-  void showMessage(const QString& message, MessageKind kind = MessageKind::Error);
+  /// What a message is about: the bar hides it by itself once that is fixed
+  /// (a profile loads, the shot folder is usable, the rig is armed and settled).
+  enum class MessageTopic { Other, Profile, ShotsDir, Arming };
+  void showMessage(const QString& message, MessageKind kind = MessageKind::Error,
+                   MessageTopic topic = MessageTopic::Other);
+  /// The message bar is showing (false once dismissed or stale).
+  bool messageShown() const;
   MessageKind lastMessageKind() const { return last_kind_; }
   /// The shot folder exists (or was created), is a folder and can be written.
   bool shotsDirUsable() const { return shots_usable_; }
@@ -108,6 +114,8 @@ class MainWindow : public QMainWindow {
   QLabel* message_label_ = nullptr;
   QPushButton* save_elsewhere_ = nullptr;
   MessageKind last_kind_ = MessageKind::Info;
+  MessageTopic topic_ = MessageTopic::Other;
+  void clearStale(MessageTopic fixed);
   bool shots_usable_ = false;
   bool campaign_running_ = false;
   ShotPtr unsaved_shot_;

@@ -8,6 +8,7 @@
 
 #include <QCheckBox>
 #include <QDoubleSpinBox>
+#include <QFileDialog>
 #include <QLabel>
 #include <QLineEdit>
 #include <QMessageBox>
@@ -24,6 +25,7 @@
 #include "app/gui/main_window.hpp"
 #include "app/gui/rig_panel.hpp"
 #include "app/profile_edit.hpp"
+#include "app/store/save.hpp"
 #include "gui_test_support.hpp"
 
 using namespace collide;
@@ -336,6 +338,13 @@ TEST(SafetyGui, AnUnusableShotFolderIsRefused) {
     QTest::qWait(300);
     EXPECT_FALSE(w.rigPanel()->lastStatus().armed);
     EXPECT_TRUE(child<QLabel>(w.rigPanel(), "shots_dir_label")->text().contains("cannot"));
+    // A good folder chosen (what File > Shot folder does): the message is
+    // stale and goes; Arm is back.
+    EXPECT_TRUE(w.messageShown());
+    std::filesystem::create_directories(dir + "/good");
+    w.setShotsDir(QString::fromStdString(dir + "/good"));
+    EXPECT_FALSE(w.messageShown()) << "a stale message stayed after the fix";
+    EXPECT_TRUE(arm->isEnabled());
   }
   {
     const std::string typo = dir + "/shtos/run1";  // its parent does not exist either
@@ -455,4 +464,44 @@ TEST(SafetyGui, ClosingDuringACampaignAsksFirst) {
   ASSERT_TRUE(
       QTest::qWaitFor([&] { return child<QPushButton>(view, "run_campaign")->isEnabled(); }, 5000));
   EXPECT_TRUE(w.close()) << "after the campaign the window closes without a question";
+}
+
+// Defect 7, the other half: a shot fired when its folder has gone is kept
+// and can be saved elsewhere from the message bar.
+TEST(SafetyGui, AShotThatCouldNotBeSavedCanBeSavedElsewhere) {
+  application();
+  const std::string dir = freshDir("save-elsewhere");
+  const std::string shots = dir + "/shots";
+  MainWindow w(options(sourcePath("config/sim.toml"), shots));
+  w.resize(1366, 768);
+  w.show();
+  ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
+  ASSERT_TRUE(waitUntilRigRunning(w));
+  ASSERT_TRUE(armAndSettle(w));
+  // The folder is replaced by a file after arming (a disk unmounted, a folder
+  // moved): the shot is fired, and cannot be saved there.
+  std::filesystem::remove_all(shots);
+  std::ofstream(shots) << "x";
+  clickThroughWindow(child<QPushButton>(w.rigPanel(), "fire_button"));
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.lastShot() != nullptr; }, 30000));
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.unsavedShot() != nullptr; }, 5000))
+      << w.messages().join("\n").toStdString();
+  auto* save = w.findChild<QPushButton*>("save_elsewhere");
+  ASSERT_NE(save, nullptr);
+  ASSERT_TRUE(save->isVisible());
+  const std::string other = dir + "/elsewhere";
+  std::filesystem::create_directories(other);
+  // The folder dialog: pick `other` and accept, as a user would.
+  QTimer::singleShot(500, [other] {
+    if (auto* d = qobject_cast<QFileDialog*>(QApplication::activeModalWidget())) {
+      d->setDirectory(QString::fromStdString(other));
+      static_cast<QDialog*>(d)->accept();  // "Choose"
+    }
+  });
+  clickThroughWindow(save);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return w.unsavedShot() == nullptr; }, 30000))
+      << w.messages().join("\n").toStdString();
+  EXPECT_TRUE(w.messages().last().contains("saved as")) << w.messages().last().toStdString();
+  EXPECT_TRUE(std::filesystem::exists(other + "/" + app::shotFileName(w.lastShot()->id)));
+  EXPECT_FALSE(save->isVisible());
 }
