@@ -246,7 +246,12 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   }
   al->addLayout(buttons);
   connect(arm_, &QPushButton::clicked, this, [this] {
-    pending_ = false;
+    // Armed with an edited setpoint, Arm changes the pressure like Apply: it
+    // asks first.
+    if (pending_ && status_.armed) {
+      confirmSetpoint();
+      return;
+    }
     emit armRequested(wantedSpeeds());
   });
   connect(disarm_, &QPushButton::clicked, this, [this] { emit disarmRequested(); });

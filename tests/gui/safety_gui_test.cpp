@@ -12,6 +12,7 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QMessageBox>
+#include <QPointer>
 #include <QPushButton>
 #include <QScrollArea>
 #include <QSignalSpy>
@@ -211,6 +212,12 @@ TEST(SafetyGui, TheWheelDoesNotMoveSetpointsAndArmedChangesNeedConfirmation) {
       << "fire must wait while a setpoint is not applied";
   EXPECT_TRUE(screenshot(&w, "setpoint_pending"));
 
+  // Arm again asks too (and Cancel keeps the armed pressure).
+  clickThroughWindow(child<QPushButton>(panel, "arm_button"));
+  QPointer<QMessageBox> asked = waitForMessageBox("confirm_setpoint");  // deleted on close
+  ASSERT_NE(asked, nullptr) << "Arm changed the armed pressure without asking";
+  QTest::mouseClick(asked->button(QMessageBox::Cancel), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return !asked || !asked->isVisible(); }, 2000));
   // Apply, then Cancel in the confirmation: nothing changes.
   clickThroughWindow(apply);
   QMessageBox* box = waitForMessageBox("confirm_setpoint");
