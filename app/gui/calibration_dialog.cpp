@@ -1,11 +1,14 @@
 #include "app/gui/calibration_dialog.hpp"
 
+#include <QAreaSeries>
 #include <QChart>
 #include <QChartView>
+#include <QCheckBox>
 #include <QFile>
 #include <QHBoxLayout>
 #include <QHeaderView>
 #include <QLabel>
+#include <QLegendMarker>
 #include <QLineSeries>
 #include <QMessageBox>
 #include <QPushButton>
@@ -15,6 +18,7 @@
 #include <QTextStream>
 #include <QVBoxLayout>
 #include <QValueAxis>
+#include <algorithm>
 #include <cmath>
 
 #include "app/profile_edit.hpp"
@@ -29,6 +33,12 @@ QString coefficientText(const LaunchCalibration::Coefficients& c) {
       .arg(c[2] < 0 ? "-" : "+")
       .arg(std::abs(c[2]), 0, 'f', 4)
       .arg(c[3], 0, 'f', 4);
+}
+
+// The cubic itself, also outside a calibration's working range.
+double cubic(const LaunchCalibration::Coefficients& c, double p_kPa) {
+  const double x = p_kPa / 100.0;
+  return c[0] + x * (c[1] + x * (c[2] + x * c[3]));
 }
 
 }  // namespace
@@ -59,6 +69,12 @@ CalibrationDialog::CalibrationDialog(ProfilePtr profile, QString profile_path, Q
   status_->setWordWrap(true);
   status_->setTextInteractionFlags(Qt::TextSelectableByMouse);
   layout->addWidget(status_);
+  narrow_ = new QCheckBox;
+  narrow_->setObjectName("narrow_range");
+  narrow_->setChecked(true);
+  narrow_->hide();
+  layout->addWidget(narrow_);
+  connect(narrow_, &QCheckBox::toggled, this, [this] { updateSave(); });
   auto* buttons = new QHBoxLayout;
   refit_button_ = new QPushButton(tr("Refit cubic"));
   refit_button_->setObjectName("refit_button");
@@ -81,6 +97,19 @@ CalibrationDialog::CalibrationDialog(ProfilePtr profile, QString profile_path, Q
 void CalibrationDialog::setLaunches(std::vector<MeasuredLaunch> launches) {
   launches_ = std::move(launches);
   refit_.reset();
+  measured_lo_ = measured_hi_ = 0;
+  if (!launches_.empty()) {
+    auto [a, b] = std::minmax_element(launches_.begin(), launches_.end(),
+                                      [](const MeasuredLaunch& x, const MeasuredLaunch& y) {
+                                        return x.pressure_kPa < y.pressure_kPa;
+                                      });
+    measured_lo_ = a->pressure_kPa;
+    measured_hi_ = b->pressure_kPa;
+  }
+  // More than 1 kPa (a regulator's resolution) beyond the data counts.
+  extrapolates_ = !launches_.empty() && (profile_->calibration.min_kPa < measured_lo_ - 1.0 ||
+                                         profile_->calibration.max_kPa > measured_hi_ + 1.0);
+  narrow_->hide();
   table_->setRowCount(static_cast<int>(launches_.size()));
   for (int i = 0; i < static_cast<int>(launches_.size()); ++i) {
     const MeasuredLaunch& m = launches_[i];
@@ -113,9 +142,14 @@ bool CalibrationDialog::refit() {
     sigma[i] = launches_[i].speed_sigma_m_s;
     sigmas = sigmas && sigma[i] > 0 && std::isfinite(sigma[i]);
   }
-  auto result =
-      refitLaunchCalibration(p, v, sigmas ? Weights::fromSigmas(sigma) : Weights::equal(),
-                             profile_->calibration.min_kPa, profile_->calibration.max_kPa);
+  const Weights weights = sigmas ? Weights::fromSigmas(sigma) : Weights::equal();
+  const double lo = profile_->calibration.min_kPa, hi = profile_->calibration.max_kPa;
+  auto result = refitLaunchCalibration(p, v, weights, lo, hi);
+  // A cubic that turns over outside the data is still good inside it: refit
+  // for the measured range (saving then narrows the working range to it).
+  if (!result && extrapolates_)
+    result = refitLaunchCalibration(p, v, weights, std::max(lo, measured_lo_),
+                                    std::min(hi, measured_hi_));
   if (!result) {
     status_->setText(tr("Cannot refit: %1").arg(QString::fromStdString(result.error().message)));
     save_button_->setEnabled(false);
@@ -136,12 +170,39 @@ bool CalibrationDialog::refit() {
                        .arg(sig)
                        .arg(refit_->rms_m_s, 0, 'f', 4)
                        .arg(coefficientText(profile_->calibration.coefficients)));
-  save_button_->setEnabled(!profile_path_.isEmpty());
+  if (extrapolates_) {
+    status_->setText(
+        status_->text() +
+        tr("<br><span style='color:#a05a00'><b>Warning:</b> the launches span only %1 to %2 kPa "
+           "(shaded); the profile's working range %3 to %4 kPa would be extrapolated (the refit "
+           "gives %5 m/s at %4 kPa).</span>")
+            .arg(measured_lo_, 0, 'f', 1)
+            .arg(measured_hi_, 0, 'f', 1)
+            .arg(lo, 0, 'f', 1)
+            .arg(hi, 0, 'f', 1)
+            .arg(cubic(refit_->calibration.coefficients(), hi), 0, 'f', 2));
+    narrow_->setText(tr("Save with the working range narrowed to the measured %1 to %2 kPa "
+                        "(untick: the calibration is not saved)")
+                         .arg(measured_lo_, 0, 'f', 1)
+                         .arg(measured_hi_, 0, 'f', 1));
+  }
+  narrow_->setVisible(extrapolates_);
   if (profile_path_.isEmpty())
     status_->setText(status_->text() + tr("<br>The profile is built in: open a profile file "
                                           "(File > Open rig profile) to save a calibration."));
+  updateSave();
   redraw();
   return true;
+}
+
+void CalibrationDialog::updateSave() {
+  const bool can = refit_ && !profile_path_.isEmpty() && (!extrapolates_ || narrow_->isChecked());
+  save_button_->setEnabled(can);
+  save_button_->setToolTip(refit_ && extrapolates_ && !narrow_->isChecked()
+                               ? tr("Not saved: the refit would be used beyond the measured "
+                                    "pressures. Tick the narrowing, or measure launches across "
+                                    "the whole range.")
+                               : QString());
 }
 
 Status CalibrationDialog::saveToProfile(bool ask) {
@@ -153,11 +214,27 @@ Status CalibrationDialog::saveToProfile(bool ask) {
   if (profile_path_.isEmpty())
     return report(tr("The profile is built in: open a profile file to save a calibration."));
   const auto& c = refit_->calibration.coefficients();
-  if (ask &&
-      QMessageBox::question(this, tr("Save the calibration"),
-                            tr("Write the refitted calibration into %1?\n\n%2\n\nThe current file "
-                               "is kept as %1.bak.")
-                                .arg(profile_path_, coefficientText(c))) != QMessageBox::Yes)
+  if (extrapolates_ && !narrow_->isChecked())
+    return report(
+        tr("Not saved: the profile's working range reaches beyond the measured "
+           "pressures. Narrow it to them, or measure launches across the whole range."));
+  // The narrowed range: the measured one, rounded outwards to 0.1 kPa, inside the old one.
+  const double new_lo =
+      std::max(profile_->calibration.min_kPa, std::floor(measured_lo_ * 10.0) / 10.0);
+  const double new_hi =
+      std::min(profile_->calibration.max_kPa, std::ceil(measured_hi_ * 10.0) / 10.0);
+  const QString range_text = extrapolates_ ? tr("\n\nWorking range narrowed from %1 - %2 kPa to "
+                                                "%3 - %4 kPa (the measured pressures).")
+                                                 .arg(profile_->calibration.min_kPa)
+                                                 .arg(profile_->calibration.max_kPa)
+                                                 .arg(new_lo)
+                                                 .arg(new_hi)
+                                           : QString();
+  if (ask && QMessageBox::question(
+                 this, tr("Save the calibration"),
+                 tr("Write the refitted calibration into %1?\n\n%2%3\n\nThe current "
+                    "file is kept as %1.bak.")
+                     .arg(profile_path_, coefficientText(c), range_text)) != QMessageBox::Yes)
     return report(tr("Not saved."));
   // Edit the file as it is on disk now (not as it was loaded), so nothing
   // else the user changed in it since is lost.
@@ -168,6 +245,12 @@ Status CalibrationDialog::saveToProfile(bool ask) {
   file.close();
   auto edited = app::setProfileValue(text, "calibration", "coefficients",
                                      app::tomlNumberArray({c[0], c[1], c[2], c[3]}));
+  if (edited && extrapolates_)
+    edited = app::setProfileValue(*edited, "calibration", "min_kpa",
+                                  QString::number(new_lo, 'f', 1).toStdString());
+  if (edited && extrapolates_)
+    edited = app::setProfileValue(*edited, "calibration", "max_kpa",
+                                  QString::number(new_hi, 'f', 1).toStdString());
   if (!edited) return report(QString::fromStdString(edited.error().message));
   auto parsed = hw::parseRigProfile(*edited, profile_path_.toStdString());
   if (!parsed)
@@ -213,7 +296,52 @@ void CalibrationDialog::redraw() {
     addCurve(*curve, tr("profile"), QColor(120, 120, 120));
     vmax = curve->maxSpeed_m_s();
   }
-  if (refit_) addCurve(refit_->calibration, tr("refit"), QColor(214, 39, 40));
+  if (!launches_.empty() && measured_hi_ > measured_lo_) {
+    // The measured pressures, shaded: a curve is known only there.
+    auto* top = new QLineSeries;
+    auto* bottom = new QLineSeries;
+    const double ytop = 1e3;  // clipped by the axis
+    top->append(measured_lo_, ytop);
+    top->append(measured_hi_, ytop);
+    bottom->append(measured_lo_, 0);
+    bottom->append(measured_hi_, 0);
+    auto* area = new QAreaSeries(top, bottom);
+    area->setName(tr("measured range"));
+    area->setColor(QColor(31, 119, 180, 40));
+    area->setBorderColor(QColor(31, 119, 180, 90));
+    chart->addSeries(area);
+    area->attachAxis(x);
+    area->attachAxis(y);
+  }
+  if (refit_) {
+    // Solid where measured, dashed where it would be extrapolated.
+    const LaunchCalibration& r = refit_->calibration;
+    const double a = std::max(lo, measured_lo_), b = std::min(hi, measured_hi_);
+    auto* in = new QLineSeries;
+    in->setName(tr("refit"));
+    in->setPen(QPen(QColor(214, 39, 40), 2));
+    for (int k = 0; k <= 40; ++k)
+      in->append(a + (b - a) * k / 40.0, cubic(r.coefficients(), a + (b - a) * k / 40.0));
+    chart->addSeries(in);
+    in->attachAxis(x);
+    in->attachAxis(y);
+    for (auto [from, to] : {std::pair{lo, a}, std::pair{b, hi}}) {
+      if (to - from < 1e-9) continue;
+      auto* out = new QLineSeries;
+      out->setName(tr("refit, extrapolated"));
+      out->setPen(QPen(QColor(214, 39, 40), 1.5, Qt::DashLine));
+      for (int k = 0; k <= 30; ++k)
+        out->append(from + (to - from) * k / 30.0,
+                    cubic(r.coefficients(), from + (to - from) * k / 30.0));
+      chart->addSeries(out);
+      out->attachAxis(x);
+      out->attachAxis(y);
+      if (from > lo)  // one legend entry for both pieces
+        for (auto* m : chart->legend()->markers(out)) m->setVisible(false);
+    }
+    for (int k = 0; k <= 20; ++k)
+      vmax = std::max(vmax, cubic(r.coefficients(), a + (b - a) * k / 20.0));
+  }
   auto* points = new QScatterSeries;
   points->setName(tr("measured"));
   points->setMarkerSize(7);

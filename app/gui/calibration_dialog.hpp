@@ -4,6 +4,9 @@
 // profile's cubic v(p) and its least-squares refit (analysis/calibration.hpp)
 // drawn over them, and, after confirmation, the refitted coefficients written
 // into the rig profile file (atomically, the previous file kept as .bak).
+// The pressures the launches span are shaded; a refit is not extrapolated
+// beyond them silently: when the profile's working range is wider, saving
+// narrows it to the measured range (the offered default) or is refused.
 #include <QDialog>
 #include <optional>
 #include <vector>
@@ -13,6 +16,7 @@
 #include "app/gui/shot_analysis_service.hpp"
 
 class QChartView;
+class QCheckBox;
 class QLabel;
 class QPushButton;
 class QTableWidget;
@@ -37,6 +41,10 @@ class CalibrationDialog : public QDialog {
   Status saveToProfile(bool ask = true);
   QString backupPath() const { return backup_path_; }
   QString statusText() const;
+  /// The profile's working range reaches beyond the measured pressures.
+  bool extrapolates() const { return extrapolates_; }
+  /// Measured pressure range (kPa) of the launches (0, 0 if none).
+  std::pair<double, double> measuredRange() const { return {measured_lo_, measured_hi_}; }
 
  signals:
   /// The profile file was rewritten: reload it.
@@ -44,6 +52,7 @@ class CalibrationDialog : public QDialog {
 
  private:
   void redraw();
+  void updateSave();
 
   ProfilePtr profile_;
   QString profile_path_;
@@ -55,6 +64,9 @@ class CalibrationDialog : public QDialog {
   QLabel* status_ = nullptr;
   QPushButton* refit_button_ = nullptr;
   QPushButton* save_button_ = nullptr;
+  QCheckBox* narrow_ = nullptr;
+  bool extrapolates_ = false;
+  double measured_lo_ = 0, measured_hi_ = 0;
 };
 
 }  // namespace collide::gui

@@ -21,6 +21,7 @@
 #include <QVBoxLayout>
 #include <QValueAxis>
 #include <QtConcurrent/QtConcurrentRun>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -36,6 +37,16 @@ const QColor kPalette[] = {QColor(31, 119, 180), QColor(214, 39, 40),   QColor(4
 
 QColor paletteColour(int i) {
   return kPalette[((i % 6) + 6) % 6];
+}
+
+// "value ± sigma" rounded to the uncertainty (two significant digits of it);
+// a zero or unknown uncertainty is said, not printed as "± 0.0000".
+QString withSigma(double value, double sigma) {
+  if (!std::isfinite(value)) return QObject::tr("n/a");
+  if (!(std::isfinite(sigma) && sigma > 0))
+    return QObject::tr("%1 (no uncertainty estimate)").arg(value, 0, 'g', 4);
+  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(sigma))), 0, 8);
+  return QString("%1 ± %2").arg(value, 0, 'f', decimals).arg(sigma, 0, 'f', decimals);
 }
 
 // Axis range covering the data with a small margin (or the spec's fixed one).
@@ -179,6 +190,12 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   controls->addStretch();
   controls->addWidget(export_all);
   layout->addLayout(controls);
+  report_ = new QLabel;
+  report_->setObjectName("campaign_report");
+  report_->setWordWrap(true);
+  report_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  report_->hide();
+  layout->addWidget(report_);
   summary_ = new QLabel(tr("no shot folder"));
   summary_->setObjectName("campaign_summary");
   summary_->setWordWrap(true);
@@ -218,6 +235,18 @@ CampaignView::~CampaignView() {
 void CampaignView::setCampaignRunning(bool running) {
   run_->setEnabled(!running);
   cancel_->setEnabled(running);
+  if (running) report_->hide();
+}
+
+void CampaignView::setReport(const QString& text, bool warning) {
+  report_->setText(text);
+  report_->setStyleSheet(warning ? "QLabel { background: #fff0c2; color: #6b3d00; padding: 4px; }"
+                                 : "QLabel { background: #e3f1e0; padding: 4px; }");
+  report_->show();
+}
+
+QString CampaignView::reportText() const {
+  return report_->isVisible() ? report_->text() : QString();
 }
 
 namespace {
@@ -244,15 +273,10 @@ CampaignView::Loaded loadFolder(const std::string& dir) {
   if (report) {
     const FrictionFit& f = report->fit.friction;
     const RestitutionMean& r = report->fit.restitution;
-    text += QObject::tr("e = %1 ± %2, mu = %3 ± %4, beta0 = %5 ± %6, gamma0 = %7 ± %8 deg")
-                .arg(r.e.value, 0, 'f', 4)
-                .arg(r.e.sigma, 0, 'f', 4)
-                .arg(f.mu.value, 0, 'f', 4)
-                .arg(f.mu.sigma, 0, 'f', 4)
-                .arg(f.beta0.value, 0, 'f', 3)
-                .arg(f.beta0.sigma, 0, 'f', 3)
-                .arg(f.switch_angle_deg.value, 0, 'f', 1)
-                .arg(f.switch_angle_deg.sigma, 0, 'f', 1);
+    text += QObject::tr("e = %1, mu = %2, beta0 = %3, gamma0 = %4 deg")
+                .arg(withSigma(r.e.value, r.e.sigma), withSigma(f.mu.value, f.mu.sigma),
+                     withSigma(f.beta0.value, f.beta0.sigma),
+                     withSigma(f.switch_angle_deg.value, f.switch_angle_deg.sigma));
     if (report->fit.laws)
       text += QObject::tr("; e(|v_n|): %1 preferred")
                   .arg(QString::fromStdString(restitutionLawName(report->fit.laws->preferred)));

@@ -67,6 +67,10 @@ class CampaignView : public QWidget {
 
  public:
   void setCampaignRunning(bool running);
+  /// What the last campaign did (planned, fired, saved, why any was not
+  /// fired), above the plots; `warning` when shots are missing or failed.
+  void setReport(const QString& text, bool warning);
+  QString reportText() const;
 
   struct Loaded {
     std::vector<ChartData> charts;
@@ -81,6 +85,7 @@ class CampaignView : public QWidget {
   std::vector<QChartView*> views_;
   QWidget* grid_host_ = nullptr;
   QLabel* summary_ = nullptr;
+  QLabel* report_ = nullptr;
   QSpinBox* shots_ = nullptr;
   QSpinBox* seed_ = nullptr;
   QDoubleSpinBox* angle_min_ = nullptr;

@@ -2,6 +2,7 @@
 
 #include <QPainter>
 #include <QPainterPath>
+#include <algorithm>
 
 namespace collide::gui {
 
@@ -98,6 +99,24 @@ void ImageView::paintEvent(QPaintEvent*) {
     p.setPen(QColor(255, 220, 80));
     p.drawText(QRectF(target).adjusted(6, 4, -6, -4), Qt::AlignLeft | Qt::AlignTop,
                overlay_.caption);
+  }
+  if (!overlay_.legend.empty()) {
+    // In the image's bottom-left corner, on a dark band, clear of the spheres
+    // in the middle of the field.
+    const QFontMetrics fm(p.font());
+    const int line = fm.height();
+    int width = 0;
+    for (const auto& e : overlay_.legend) width = std::max(width, fm.horizontalAdvance(e.text));
+    const int h = line * static_cast<int>(overlay_.legend.size()) + 6;
+    const QRect box(target.left() + 6, target.bottom() - h - 4, width + line + 14, h);
+    p.fillRect(box, QColor(0, 0, 0, 150));
+    int y = box.top() + 3;
+    for (const auto& e : overlay_.legend) {
+      p.fillRect(QRect(box.left() + 5, y + line / 4, line / 2, line / 2), e.colour);
+      p.setPen(e.colour.lighter(115));
+      p.drawText(QPoint(box.left() + 5 + line, y + fm.ascent()), e.text);
+      y += line;
+    }
   }
 }
 

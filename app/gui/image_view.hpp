@@ -35,6 +35,11 @@ struct Overlay {
   std::vector<Path> paths;
   std::vector<Marker> markers;
   QString caption;  ///< top-left text (frame number, time)
+  struct LegendEntry {
+    QColor colour;
+    QString text;
+  };
+  std::vector<LegendEntry> legend;  ///< what the colours mean, bottom-left
 
   bool empty() const { return circles.empty() && paths.empty() && markers.empty(); }
 };

@@ -11,12 +11,13 @@
 #include <QHBoxLayout>
 #include <QLabel>
 #include <QMenuBar>
+#include <QMessageBox>
 #include <QProgressDialog>
 #include <QPushButton>
-#include <QScrollArea>
 #include <QSettings>
 #include <QStatusBar>
 #include <QTabWidget>
+#include <QTemporaryFile>
 #include <QVBoxLayout>
 #include <QtConcurrent/QtConcurrentRun>
 
@@ -59,8 +60,17 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   message_label_->setObjectName("message_label");
   message_label_->setWordWrap(true);
   message_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  save_elsewhere_ = new QPushButton(tr("Save the shot elsewhere..."));
+  save_elsewhere_->setObjectName("save_elsewhere");
+  save_elsewhere_->hide();
+  connect(save_elsewhere_, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Save the shot into"));
+    if (!dir.isEmpty()) saveUnsavedShotTo(dir);
+  });
   auto* dismiss = new QPushButton(tr("Dismiss"));
+  dismiss->setObjectName("dismiss_message");
   mb->addWidget(message_label_, 1);
+  mb->addWidget(save_elsewhere_);
   mb->addWidget(dismiss);
   message_bar_->hide();
   connect(dismiss, &QPushButton::clicked, message_bar_, &QWidget::hide);
@@ -80,23 +90,30 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   layout->addWidget(tabs_, 1);
   setCentralWidget(central);
 
+  // The panel scrolls its settings itself and keeps its action bar (Arm,
+  // Fire, Cancel, the state) outside the scrolling part, always on screen.
   rig_panel_ = new RigPanel;
-  auto* scroll = new QScrollArea;
-  scroll->setWidget(rig_panel_);
-  scroll->setWidgetResizable(true);
-  // The panel fits its dock's width (no sideways scrolling); it scrolls down only.
-  scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
-  scroll->setMinimumWidth(500);
+  rig_panel_->setMinimumWidth(500);
   auto* dock = new QDockWidget(tr("Rig"));
   dock->setObjectName("rig_dock");
-  dock->setWidget(scroll);
+  dock->setWidget(rig_panel_);
   dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
   addDockWidget(Qt::LeftDockWidgetArea, dock);
   buildMenus();
 
   // Rig panel -> control thread.
-  connect(rig_panel_, &RigPanel::armRequested, this,
-          [this](std::array<double, 2> v) { worker_->requestArm(v); });
+  connect(rig_panel_, &RigPanel::armRequested, this, [this](std::array<double, 2> v) {
+    // A shot that cannot be saved should not be fired: check before the lines
+    // are pressurised (the folder may have gone since it was chosen).
+    if (const QString problem = shotsDirProblem(shots_dir_, false); !problem.isEmpty()) {
+      shots_usable_ = false;
+      rig_panel_->setShotsDir(shots_dir_, false);
+      showMessage(tr("Not armed: %1").arg(problem), MessageKind::Error, MessageTopic::ShotsDir);
+      return;
+    }
+    worker_->requestArm(v);
+  });
+  connect(rig_panel_, &RigPanel::inputRefused, this, [this](QString m) { showMessage(m); });
   connect(rig_panel_, &RigPanel::disarmRequested, this, [this] { worker_->requestDisarm(); });
   connect(rig_panel_, &RigPanel::fireRequested, this, [this](std::array<double, 2> v) {
     replay_view_->resultCard()->setMessage({}, tr("firing..."));
@@ -113,10 +130,25 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     profile_ = profile;
     rig_panel_->setProfile(profile);
     live_view_->setCamera(camera);
+    // A message about an earlier profile or rig is stale now.
+    if (camera) clearStale(MessageTopic::Profile);
     statusBar()->showMessage(tr("Rig profile %1 loaded").arg(qs(profile->source)), 5000);
   });
   connect(worker_, &RigWorker::status, rig_panel_, &RigPanel::setStatus);
-  connect(worker_, &RigWorker::error, this, [this](QString m) { showMessage(m); });
+  connect(worker_, &RigWorker::error, this, [this](QString m) {
+    const MessageTopic topic = m.startsWith(tr("Rig profile not loaded")) ||
+                                       m.startsWith(tr("The rig")) || m.startsWith(tr("No rig"))
+                                   ? MessageTopic::Profile
+                               : m.startsWith(tr("Pressure did not settle")) ||
+                                       m.startsWith(tr("Cannot arm")) ||
+                                       m.startsWith(tr("Not ready to fire"))
+                                   ? MessageTopic::Arming
+                                   : MessageTopic::Other;
+    showMessage(m, MessageKind::Error, topic);
+  });
+  connect(worker_, &RigWorker::status, this, [this](const RigStatus& s) {
+    if (s.armed && s.settled) clearStale(MessageTopic::Arming);
+  });
   connect(worker_, &RigWorker::shotStep, this, [this](QString step) {
     rig_panel_->setStep(step);
     statusBar()->showMessage(step, 3000);
@@ -137,13 +169,21 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
       runner_->analyzeFile(QDir(shots_dir_).filePath(qs(app::shotFileName(shot->id))), "campaign");
     shot_browser_->refresh();
   });
-  connect(worker_, &RigWorker::campaignFinished, this, [this](QString summary, bool) {
-    campaign_view_->setCampaignRunning(false);
-    if (progress_) progress_->reset();
-    statusBar()->showMessage(summary, 10000);
-    showMessage(summary, false);
-    shot_browser_->refresh();
-  });
+  connect(worker_, &RigWorker::campaignFinished, this,
+          [this](QString summary, bool cancelled, bool complete) {
+            campaign_running_ = false;
+            campaign_view_->setCampaignRunning(false);
+            if (progress_) progress_->reset();
+            // Anything short of every planned shot fired, saved and ok is a
+            // warning: the summary says what is missing and why.
+            showMessage(summary, complete && !cancelled ? MessageKind::Info : MessageKind::Warning,
+                        summary.startsWith(tr("Campaign not started: no rig"))
+                            ? MessageTopic::Profile
+                            : MessageTopic::Other);
+            campaign_view_->setReport(summary, !complete || cancelled);
+            shot_browser_->refresh();
+            campaign_view_->refresh();  // failed shots are in the folder too
+          });
 
   // Analysis.
   connect(runner_, &AnalysisRunner::analysed, this, &MainWindow::onAnalysed);
@@ -204,12 +244,78 @@ void MainWindow::buildMenus() {
   tools->addAction(tr("&Launch calibration..."), this, &MainWindow::openCalibrationDialog);
 }
 
+QString MainWindow::shotsDirProblem(const QString& dir, bool create) {
+  const QFileInfo info(dir);
+  if (dir.isEmpty()) return tr("no shot folder is set: choose one (File > Shot folder)");
+  if (info.exists() && !info.isDir())
+    return tr("%1 is a file, not a folder: choose a shot folder (File > Shot folder)").arg(dir);
+  if (!info.exists()) {
+    if (!create)
+      return tr("the shot folder %1 does not exist (any more): choose a shot folder (File > Shot "
+                "folder)")
+          .arg(dir);
+    // A typo in a path usually shows in its parent too: only a new last
+    // component is created.
+    if (!info.absoluteDir().exists())
+      return tr("neither %1 nor its parent folder %2 exists: check the path for a typo, or "
+                "choose a shot folder (File > Shot folder)")
+          .arg(dir, info.absolutePath());
+    if (!QDir().mkdir(info.absoluteFilePath()))
+      return tr("cannot create the shot folder %1: choose another (File > Shot folder)").arg(dir);
+  }
+  QTemporaryFile probe(QDir(dir).filePath(".collide-write-check-XXXXXX"));
+  if (!probe.open())
+    return tr("cannot write into %1 (%2): choose a shot folder you can write to (File > Shot "
+              "folder)")
+        .arg(dir, probe.errorString());
+  return {};
+}
+
 void MainWindow::setShotsDir(const QString& dir) {
   shots_dir_ = dir;
-  QDir().mkpath(dir);
+  const bool existed = QFileInfo::exists(dir);
+  const QString problem = shotsDirProblem(dir, true);
+  shots_usable_ = problem.isEmpty();
+  rig_panel_->setShotsDir(QFileInfo(dir).absoluteFilePath(), shots_usable_,
+                          shots_usable_ && !existed);
+  if (!shots_usable_) {
+    showMessage(
+        tr("Shots cannot be saved: %1. Arm and Fire stay disabled until then.").arg(problem),
+        MessageKind::Error, MessageTopic::ShotsDir);
+    return;
+  }
   shot_browser_->setFolder(dir);
   campaign_view_->setFolder(dir);
+  clearStale(MessageTopic::ShotsDir);  // an earlier folder's problem is stale now
   statusBar()->showMessage(tr("Shots are saved in %1").arg(dir), 5000);
+}
+
+void MainWindow::saveUnsavedShotTo(const QString& dir) {
+  if (!unsaved_shot_) return;
+  if (const QString problem = shotsDirProblem(dir, false); !problem.isEmpty()) {
+    showMessage(tr("Shot not saved: %1").arg(problem));
+    return;
+  }
+  ShotPtr shot = unsaved_shot_;
+  auto* watcher = new QFutureWatcher<QString>(this);
+  connect(watcher, &QFutureWatcher<QString>::finished, this, [this, watcher, shot, dir] {
+    const QString result = watcher->result();
+    watcher->deleteLater();
+    if (result.startsWith('!')) {
+      showMessage(tr("Shot %1 not saved in %2: %3").arg(qs(shot->id), dir, result.mid(1)));
+      return;
+    }
+    if (unsaved_shot_ == shot) unsaved_shot_.reset();
+    save_elsewhere_->hide();
+    if (replay_view_->shot() == shot) replay_file_ = QDir(dir).filePath(result);
+    showMessage(tr("Shot %1 saved as %2").arg(qs(shot->id), QDir(dir).filePath(result)),
+                MessageKind::Info);
+  });
+  watcher->setFuture(QtConcurrent::run(&store_pool_, [shot, d = dir.toStdString()]() -> QString {
+    auto saved = app::saveShot(d, *shot);
+    if (!saved) return "!" + QString::fromStdString(saved.error().message);
+    return QString::fromStdString(app::shotFileName(*saved));
+  }));
 }
 
 void MainWindow::loadProfile(const QString& path) {
@@ -217,11 +323,24 @@ void MainWindow::loadProfile(const QString& path) {
   worker_->requestLoadProfile(path);
 }
 
-void MainWindow::showMessage(const QString& message, bool error) {
+void MainWindow::clearStale(MessageTopic fixed) {
+  if (topic_ == fixed && fixed != MessageTopic::Other) message_bar_->hide();
+}
+
+bool MainWindow::messageShown() const {
+  return message_bar_->isVisible();
+}
+
+void MainWindow::showMessage(const QString& message, MessageKind kind, MessageTopic topic) {
   messages_ << message;
+  last_kind_ = kind;
+  topic_ = topic;
   message_label_->setText(message);
-  message_bar_->setStyleSheet(error ? "#message_bar { background: #fbe3e0; }"
-                                    : "#message_bar { background: #e3f1e0; }");
+  message_bar_->setStyleSheet(kind == MessageKind::Error ? "#message_bar { background: #fbe3e0; }"
+                              : kind == MessageKind::Warning
+                                  ? "#message_bar { background: #fff0c2; }"
+                                  : "#message_bar { background: #e3f1e0; }");
+  save_elsewhere_->setVisible(unsaved_shot_ != nullptr && kind == MessageKind::Error);
   message_bar_->show();
   statusBar()->showMessage(message, 8000);
 }
@@ -235,8 +354,14 @@ void MainWindow::onShotFired(ShotPtr shot, QString file, QString save_error) {
   last_shot_ = shot;
   showShot(shot);
   replay_file_ = file;
-  if (!save_error.isEmpty())
-    showMessage(tr("Shot %1 was fired but not saved: %2").arg(qs(shot->id), save_error));
+  unsaved_shot_.reset();
+  save_elsewhere_->hide();
+  if (!save_error.isEmpty()) {
+    unsaved_shot_ = shot;  // kept in memory: "Save the shot elsewhere..." offers it
+    showMessage(tr("Shot %1 was fired but not saved: %2. It is kept until the next shot: save it "
+                   "elsewhere, and choose a shot folder you can write to.")
+                    .arg(qs(shot->id), save_error));
+  }
   if (shot->status == hw::ShotStatus::Failed) {
     showMessage(tr("Shot %1 failed: %2").arg(qs(shot->id), qs(shot->failure_reason)));
     replay_view_->resultCard()->setMessage(qs(shot->id),
@@ -320,6 +445,11 @@ void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double
   o.angle_min_deg = angle_min;
   o.angle_max_deg = angle_max;
   o.out_dir = shots_dir_.toStdString();
+  if (const QString problem = shotsDirProblem(shots_dir_, false); !problem.isEmpty()) {
+    showMessage(tr("Campaign not started: %1").arg(problem), MessageKind::Error,
+                MessageTopic::ShotsDir);
+    return;
+  }
   delete progress_;
   progress_ = new QProgressDialog(tr("Firing the campaign"), tr("Cancel"), 0, shots, this);
   progress_->setObjectName("progress");
@@ -328,6 +458,7 @@ void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double
   progress_->setValue(0);
   connect(progress_, &QProgressDialog::canceled, this, [this] { worker_->requestCancel(); });
   campaign_view_->setCampaignRunning(true);
+  campaign_running_ = true;
   worker_->requestCampaign(o);
 }
 
@@ -385,6 +516,16 @@ void MainWindow::saveSettings() {
 }
 
 void MainWindow::closeEvent(QCloseEvent* event) {
+  if (campaign_running_ &&
+      QMessageBox::question(this, tr("A campaign is running"),
+                            tr("Stop the campaign and close? The shot being fired is finished "
+                               "and saved first; shots not analysed yet can be analysed later "
+                               "(Shots > Re-analyse)."),
+                            QMessageBox::Yes | QMessageBox::Cancel,
+                            QMessageBox::Cancel) != QMessageBox::Yes) {
+    event->ignore();
+    return;
+  }
   if (options_.restore_settings) saveSettings();
   worker_->requestCancel();
   event->accept();

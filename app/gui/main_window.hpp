@@ -18,6 +18,7 @@ class QLabel;
 class QTabWidget;
 class QProgressDialog;
 class QFrame;
+class QPushButton;
 
 namespace collide::gui {
 
@@ -56,7 +57,23 @@ class MainWindow : public QMainWindow {
   ShotPtr lastShot() const { return last_shot_; }
   /// Messages shown in the message bar so far, oldest first.
   const QStringList& messages() const { return messages_; }
-  void showMessage(const QString& message, bool error = true);
+  /// How a message is shown: red (error), amber (warning: something is
+  /// missing or was not done) or green (done as asked).
+  enum class MessageKind { Error, Warning, Info };
+  /// What a message is about: the bar hides it by itself once that is fixed
+  /// (a profile loads, the shot folder is usable, the rig is armed and settled).
+  enum class MessageTopic { Other, Profile, ShotsDir, Arming };
+  void showMessage(const QString& message, MessageKind kind = MessageKind::Error,
+                   MessageTopic topic = MessageTopic::Other);
+  /// The message bar is showing (false once dismissed or stale).
+  bool messageShown() const;
+  MessageKind lastMessageKind() const { return last_kind_; }
+  /// The shot folder exists (or was created), is a folder and can be written.
+  bool shotsDirUsable() const { return shots_usable_; }
+  /// A fired shot that could not be saved (null if none): "Save elsewhere" offers it.
+  ShotPtr unsavedShot() const { return unsaved_shot_; }
+  /// Saves the unsaved shot into `dir` (on a worker; the message bar says how it went).
+  void saveUnsavedShotTo(const QString& dir);
 
   void openCalibrationDialog();
 
@@ -81,6 +98,8 @@ class MainWindow : public QMainWindow {
   void startCampaign(int shots, quint64 seed, double angle_min, double angle_max);
   /// Writes the results JSON into the shot's file and catalog row (worker thread).
   void storeResults(const QString& file, const std::string& id, std::string results_json);
+  /// Empty if shots can be saved in `dir`, else why not (and what to do).
+  static QString shotsDirProblem(const QString& dir, bool create);
 
   MainWindowOptions options_;
   RigWorker* worker_ = nullptr;
@@ -93,6 +112,13 @@ class MainWindow : public QMainWindow {
   QTabWidget* tabs_ = nullptr;
   QFrame* message_bar_ = nullptr;
   QLabel* message_label_ = nullptr;
+  QPushButton* save_elsewhere_ = nullptr;
+  MessageKind last_kind_ = MessageKind::Info;
+  MessageTopic topic_ = MessageTopic::Other;
+  void clearStale(MessageTopic fixed);
+  bool shots_usable_ = false;
+  bool campaign_running_ = false;
+  ShotPtr unsaved_shot_;
   QProgressDialog* progress_ = nullptr;
   int batch_total_ = 0, batch_done_ = 0;
   QString profile_path_;

@@ -44,6 +44,15 @@ std::vector<double> frameTimes(const hw::Shot& shot, const vision::ShotAnalysis&
 
 }  // namespace
 
+double contactFromTrigger_s(const hw::Shot& shot, const vision::ShotAnalysis& a) {
+  // The analysis times frames from its first analysed frame; the replay
+  // counts from the trigger (frame 0). One clock for the user: the trigger's.
+  const double tc = a.collision.t_collision_s.value;
+  if (!std::isfinite(tc) || a.frames.empty() || !(shot.burst.fps > 0)) return std::nan("");
+  const auto& ref = a.frames.front();
+  return tc - ref.t_s + static_cast<double>(ref.frame_id) / shot.burst.fps;
+}
+
 Overlay analysisOverlay(const hw::Shot& shot, const vision::ShotAnalysis& a, std::size_t index) {
   Overlay o;
   if (index >= shot.burst.frames.size()) return o;
@@ -82,9 +91,14 @@ Overlay analysisOverlay(const hw::Shot& shot, const vision::ShotAnalysis& a, std
   if (std::isfinite(tc) && a.trajectory[0][0] && a.trajectory[1][0]) {
     const Vec3 contact = 0.5 * (a.trajectory[0][0]->positionAt_m(tc).value +
                                 a.trajectory[1][0]->positionAt_m(tc).value);
-    o.markers.push_back(
-        {project(contact), kContact, QString("contact %1 ms").arg(tc * 1e3, 0, 'f', 2)});
+    // No text on the image: it would cover the spheres; the time is in the
+    // caption and the legend says what the red cross is.
+    o.markers.push_back({project(contact), kContact, {}});
   }
+  o.legend = {{kSphere[0], QObject::tr("sphere 1: detected, fitted path (dashed after impact)")},
+              {kSphere[1], QObject::tr("sphere 2: detected, fitted path (dashed after impact)")},
+              {kDot, QObject::tr("matched dots")},
+              {kContact, QObject::tr("contact point")}};
   return o;
 }
 
@@ -236,18 +250,20 @@ void ReplayView::redraw() {
     o.circles.insert(o.circles.end(), t.circles.begin(), t.circles.end());
   }
   const double t_ms = (f.id) * 1e3 / shot_->burst.fps;
-  o.caption = tr("frame %1 (%2 of %3)  t = %4 ms from the trigger%5")
+  const double contact_s = analysis_ ? contactFromTrigger_s(*shot_, *analysis_) : std::nan("");
+  const QString contact = std::isfinite(contact_s)
+                              ? tr("; contact at %1 ms").arg(contact_s * 1e3, 0, 'f', 2)
+                              : QString();
+  o.caption = tr("frame %1 (%2 of %3)  t = %4 ms from the trigger%5%6")
                   .arg(f.id)
                   .arg(index_ + 1)
                   .arg(frameCount())
                   .arg(t_ms, 0, 'f', 2)
+                  .arg(contact)
                   .arg(f.status == vision::FrameStatus::Good ? QString() : tr("  [bad frame]"));
   view_->setOverlay(std::move(o));
-  QString label = tr("%1 / %2").arg(index_ + 1).arg(frameCount());
-  if (analysis_ && std::isfinite(analysis_->collision.t_collision_s.value))
-    label +=
-        tr(", contact at %1 ms").arg(analysis_->collision.t_collision_s.value * 1e3, 0, 'f', 2);
-  frame_label_->setText(label);
+  frame_label_->setText(
+      tr("%1 / %2 (times from the trigger)%3").arg(index_ + 1).arg(frameCount()).arg(contact));
 }
 
 }  // namespace collide::gui

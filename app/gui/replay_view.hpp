@@ -22,6 +22,9 @@ Overlay analysisOverlay(const hw::Shot& shot, const vision::ShotAnalysis& analys
                         std::size_t index);
 /// The ground truth's spheres on frame `index` (simulated shots).
 Overlay truthOverlay(const hw::Shot& shot, std::size_t index);
+/// The analysed contact instant in seconds from the trigger (frame 0), the
+/// clock the replay's frame times use (NaN if there is none).
+double contactFromTrigger_s(const hw::Shot& shot, const vision::ShotAnalysis& analysis);
 
 class ReplayView : public QWidget {
   Q_OBJECT

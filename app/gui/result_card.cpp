@@ -97,7 +97,10 @@ void ResultCard::setAnalysis(const QString& shot_id, AnalysisPtr analysis) {
       flags.isEmpty()
           ? tr("<span style='color:#1e8c3a'>quality: no flags</span>")
           : tr("<span style='color:#b03a2e'>quality flags: %1</span>").arg(flags.join(", ")));
-  message_->setText(tr("collision instants from the two sides: %1 ms and %2 ms")
+  // The analysis' clock starts at its first analysed frame (the replay's
+  // caption gives the contact on the trigger's clock): say which.
+  message_->setText(tr("t<sub>collision</sub> counts from the first analysed frame. Collision "
+                       "instants from the two sides: %1 ms and %2 ms")
                         .arg(c.t_collision_before_s * 1e3, 0, 'f', 3)
                         .arg(c.t_collision_after_s * 1e3, 0, 'f', 3));
 }

@@ -9,13 +9,17 @@
 #include <QHeaderView>
 #include <QLabel>
 #include <QLineSeries>
+#include <QMessageBox>
 #include <QPushButton>
 #include <QScatterSeries>
-#include <QSpinBox>
+#include <QScrollArea>
 #include <QTableWidget>
 #include <QVBoxLayout>
 #include <QValueAxis>
 #include <algorithm>
+#include <cmath>
+
+#include "app/gui/guarded_spin_box.hpp"
 
 namespace collide::gui {
 namespace {
@@ -27,7 +31,19 @@ QString qs(const std::string& s) {
 }  // namespace
 
 RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
-  auto* layout = new QVBoxLayout(this);
+  setObjectName("rig_panel");
+  auto* outer = new QVBoxLayout(this);
+  outer->setContentsMargins(0, 0, 0, 0);
+  // The settings scroll (down only: the panel fits its dock's width) ...
+  auto* scroll = new QScrollArea;
+  scroll->setObjectName("rig_settings_scroll");
+  scroll->setWidgetResizable(true);
+  scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  scroll->setFrameShape(QFrame::NoFrame);
+  auto* settings = new QWidget;
+  auto* layout = new QVBoxLayout(settings);
+  scroll->setWidget(settings);
+  outer->addWidget(scroll, 1);
 
   auto* profile_box = new QGroupBox(tr("Rig profile"));
   auto* pl = new QVBoxLayout(profile_box);
@@ -51,18 +67,30 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   for (int i = 0; i < 2; ++i) {
     launcher_box_[i] = new QGroupBox(tr("Launcher %1").arg(i + 1));
     auto* form = new QFormLayout(launcher_box_[i]);
-    speed_[i] = new QDoubleSpinBox;
+    speed_[i] = new GuardedDoubleSpinBox;
     speed_[i]->setObjectName(QString("speed_%1").arg(i));
     speed_[i]->setDecimals(3);
     speed_[i]->setSingleStep(0.05);
     speed_[i]->setSuffix(" m/s");
-    speed_[i]->setKeyboardTracking(false);
-    pressure_[i] = new QDoubleSpinBox;
+    pressure_[i] = new GuardedDoubleSpinBox;
     pressure_[i]->setObjectName(QString("pressure_%1").arg(i));
     pressure_[i]->setDecimals(2);
     pressure_[i]->setSingleStep(1.0);
     pressure_[i]->setSuffix(" kPa");
-    pressure_[i]->setKeyboardTracking(false);
+    for (auto* box : {speed_[i], pressure_[i]})
+      connect(box, &GuardedDoubleSpinBox::refused, this,
+              [this, i, box](double typed, double lo, double hi) {
+                const QString unit = box->suffix().trimmed();
+                emit inputRefused(
+                    tr("Launcher %1: %2 %3 refused, the value stays %4 %3. Allowed: %5 to %6 %3 "
+                       "(the calibration's working range within the regulator's limits).")
+                        .arg(i + 1)
+                        .arg(typed)
+                        .arg(unit)
+                        .arg(box->value(), 0, 'f', box->decimals())
+                        .arg(lo, 0, 'f', box->decimals())
+                        .arg(hi, 0, 'f', box->decimals()));
+              });
     readback_[i] = new QLabel("-");
     readback_[i]->setObjectName(QString("readback_%1").arg(i));
     form->addRow(tr("exit speed"), speed_[i]);
@@ -84,9 +112,9 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   chart->addSeries(curve_);
   chart->addSeries(setpoints_);
   curve_x_ = new QValueAxis;
-  curve_x_->setTitleText(tr("pressure (kPa)"));
+  curve_x_->setTitleText(tr("pressure p (kPa)"));
   curve_y_ = new QValueAxis;
-  curve_y_->setTitleText(tr("exit speed (m/s)"));
+  curve_y_->setTitleText(tr("v (m/s)"));  // fits the chart's height
   chart->addAxis(curve_x_, Qt::AlignBottom);
   chart->addAxis(curve_y_, Qt::AlignLeft);
   for (auto* s : {static_cast<QXYSeries*>(curve_), static_cast<QXYSeries*>(setpoints_)}) {
@@ -101,29 +129,59 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
 
   auto* burst_box = new QGroupBox(tr("Burst"));
   auto* bf = new QFormLayout(burst_box);
-  pre_ = new QSpinBox;
+  pre_ = new GuardedSpinBox;
   pre_->setObjectName("pre_trigger_frames");
-  pre_->setRange(0, 100000);
-  post_ = new QSpinBox;
+  pre_->setRangeWithTip(0, 100000, tr("Frames kept before the trigger"), tr("frames"));
+  post_ = new GuardedSpinBox;
   post_->setObjectName("post_trigger_frames");
-  post_->setRange(1, 100000);
-  fps_ = new QDoubleSpinBox;
+  post_->setRangeWithTip(1, 100000, tr("Frames recorded from the trigger on"), tr("frames"));
+  fps_ = new GuardedDoubleSpinBox;
   fps_->setObjectName("fps");
-  fps_->setRange(1, 1e6);
   fps_->setDecimals(1);
   fps_->setSuffix(" frames/s");
-  exposure_ = new QDoubleSpinBox;
+  fps_->setRangeWithTip(1, 1e6, tr("Camera frame rate"), tr("frames/s"),
+                        tr("the camera may refuse rates it cannot reach"));
+  exposure_ = new GuardedDoubleSpinBox;
   exposure_->setObjectName("exposure_us");
-  exposure_->setRange(1, 1e7);
   exposure_->setDecimals(1);
   exposure_->setSuffix(" us");
+  exposure_->setRangeWithTip(1, 1e7, tr("Exposure time"), tr("us"),
+                             tr("at most one frame interval"));
   apply_burst_ = new QPushButton(tr("Apply burst settings"));
   apply_burst_->setObjectName("apply_burst");
+  burst_pending_ = new QLabel;
+  burst_pending_->setObjectName("burst_pending");
+  burst_pending_->setStyleSheet("color: #a05a00;");
+  burst_pending_->setWordWrap(true);
   bf->addRow(tr("pre-trigger frames"), pre_);
   bf->addRow(tr("post-trigger frames"), post_);
   bf->addRow(tr("frame rate"), fps_);
   bf->addRow(tr("exposure"), exposure_);
   bf->addRow(apply_burst_);
+  bf->addRow(burst_pending_);
+  connect(pre_, &QSpinBox::valueChanged, this, &RigPanel::updateBurstPending);
+  connect(post_, &QSpinBox::valueChanged, this, &RigPanel::updateBurstPending);
+  connect(fps_, &QDoubleSpinBox::valueChanged, this, &RigPanel::updateBurstPending);
+  connect(exposure_, &QDoubleSpinBox::valueChanged, this, &RigPanel::updateBurstPending);
+  for (GuardedSpinBox* box : {pre_, post_})
+    connect(box, &GuardedSpinBox::refused, this, [this, box](double typed, double lo, double hi) {
+      emit inputRefused(tr("%1 refused for %2: allowed %3 to %4; the value stays %5.")
+                            .arg(typed)
+                            .arg(box->objectName().replace('_', ' '))
+                            .arg(lo)
+                            .arg(hi)
+                            .arg(box->value()));
+    });
+  for (GuardedDoubleSpinBox* box : {fps_, exposure_})
+    connect(box, &GuardedDoubleSpinBox::refused, this,
+            [this, box](double typed, double lo, double hi) {
+              emit inputRefused(tr("%1%2 refused: allowed %3 to %4%2; the value stays %5%2.")
+                                    .arg(typed)
+                                    .arg(box->suffix())
+                                    .arg(lo)
+                                    .arg(hi)
+                                    .arg(box->value()));
+            });
   connect(apply_burst_, &QPushButton::clicked, this, [this] {
     emit burstSettingsRequested(
         BurstSettings{pre_->value(), post_->value(), fps_->value(), exposure_->value()});
@@ -138,24 +196,64 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   sl->addWidget(safety_);
   layout->addWidget(safety_box);
 
+  layout->addStretch();
+
+  // ... the action bar does not: always on screen.
+  auto* bar = new QFrame;
+  bar->setObjectName("action_bar");
+  bar->setFrameShape(QFrame::StyledPanel);
+  auto* al = new QVBoxLayout(bar);
+  al->setContentsMargins(6, 4, 6, 4);
+  al->setSpacing(3);
+  auto* pending_row = new QHBoxLayout;
+  setpoint_pending_ = new QLabel;
+  setpoint_pending_->setObjectName("setpoint_pending");
+  setpoint_pending_->setWordWrap(true);
+  setpoint_pending_->setStyleSheet("color: #a05a00;");
+  apply_setpoint_ = new QPushButton(tr("Apply new setpoint..."));
+  apply_setpoint_->setObjectName("apply_setpoint");
+  apply_setpoint_->setToolTip(
+      tr("Sends the edited setpoints to the armed regulator after a "
+         "confirmation."));
+  pending_row->addWidget(setpoint_pending_, 1);
+  pending_row->addWidget(apply_setpoint_);
+  al->addLayout(pending_row);
+  setpoint_pending_->hide();
+  apply_setpoint_->hide();
+  connect(apply_setpoint_, &QPushButton::clicked, this, &RigPanel::confirmSetpoint);
+
   auto* buttons = new QHBoxLayout;
   arm_ = new QPushButton(tr("Arm"));
   arm_->setObjectName("arm_button");
+  arm_->setToolTip(tr("Pressurise both lines to the setpoints shown above."));
   disarm_ = new QPushButton(tr("Disarm"));
   disarm_->setObjectName("disarm_button");
+  disarm_->setToolTip(tr("Vent both lines to 0 kPa and close the valves."));
   fire_ = new QPushButton(tr("Fire"));
   fire_->setObjectName("fire_button");
+  fire_->setToolTip(
+      tr("Open both valves and record the burst (enabled when armed and "
+         "settled)."));
   fire_->setStyleSheet(
       "QPushButton:enabled { background: #c0392b; color: white; font-weight: bold; }");
   cancel_ = new QPushButton(tr("Cancel"));
   cancel_->setObjectName("cancel_button");
+  cancel_->setToolTip(tr("Stop the running shot or campaign between steps."));
   for (auto* b : {arm_, disarm_, fire_, cancel_}) {
     b->setMinimumWidth(60);
     b->setSizePolicy(QSizePolicy::Preferred, QSizePolicy::Fixed);
     buttons->addWidget(b);
   }
-  layout->addLayout(buttons);
-  connect(arm_, &QPushButton::clicked, this, [this] { emit armRequested(wantedSpeeds()); });
+  al->addLayout(buttons);
+  connect(arm_, &QPushButton::clicked, this, [this] {
+    // Armed with an edited setpoint, Arm changes the pressure like Apply: it
+    // asks first.
+    if (pending_ && status_.armed) {
+      confirmSetpoint();
+      return;
+    }
+    emit armRequested(wantedSpeeds());
+  });
   connect(disarm_, &QPushButton::clicked, this, [this] { emit disarmRequested(); });
   connect(fire_, &QPushButton::clicked, this, [this] {
     fire_->setEnabled(false);  // until the worker reports back
@@ -165,11 +263,21 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
 
   state_ = new QLabel(tr("disarmed"));
   state_->setObjectName("arm_state");
+  hint_ = new QLabel;
+  hint_->setObjectName("next_step_hint");
+  hint_->setWordWrap(true);
   step_ = new QLabel;
   step_->setObjectName("step_label");
-  layout->addWidget(state_);
-  layout->addWidget(step_);
-  layout->addStretch();
+  step_->hide();
+  shots_dir_ = new QLabel;
+  shots_dir_->setObjectName("shots_dir_label");
+  shots_dir_->setWordWrap(true);
+  shots_dir_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  al->addWidget(state_);
+  al->addWidget(hint_);
+  al->addWidget(step_);
+  al->addWidget(shots_dir_);
+  outer->addWidget(bar);
   updateButtons();
 }
 
@@ -190,8 +298,15 @@ void RigPanel::setProfile(ProfilePtr profile) {
   linking_ = true;
   for (int i = 0; i < 2; ++i) {
     launcher_box_[i]->setTitle(tr("Launcher %1 (%2)").arg(i + 1).arg(qs(p.launchers[i].name)));
-    pressure_[i]->setRange(p_lo, p_hi);
-    if (curve) speed_[i]->setRange(curve->speed_m_s(p_lo), curve->speed_m_s(p_hi));
+    pressure_[i]->setRangeWithTip(p_lo, p_hi, tr("Launch pressure setpoint"), "kPa",
+                                  tr("the calibration's working range within the regulator's "
+                                     "limits"));
+    if (curve)
+      speed_[i]->setRangeWithTip(curve->speed_m_s(p_lo), curve->speed_m_s(p_hi),
+                                 tr("Wanted exit speed"), "m/s",
+                                 tr("what the launch calibration reaches at %1 to %2 kPa")
+                                     .arg(p_lo, 0, 'f', 1)
+                                     .arg(p_hi, 0, 'f', 1));
   }
   linking_ = false;
   // Keep the speeds asked for so far (a reload after new burst settings must
@@ -216,6 +331,7 @@ void RigPanel::setProfile(ProfilePtr profile) {
   post_->setValue(p.burst.post_trigger_frames);
   fps_->setValue(p.camera_config.fps);
   exposure_->setValue(p.camera_config.exposure_us);
+  updateBurstPending();
 
   safety_->setText(tr("pressure %1..%2 kPa (regulator limits; safety maximum %3 kPa); valve pulse "
                       "%4 us (maximum %5 us); %6")
@@ -232,13 +348,19 @@ void RigPanel::setProfile(ProfilePtr profile) {
 void RigPanel::setStatus(const RigStatus& s) {
   status_ = s;
   for (int r = 0; r < 3; ++r) {
-    const QString cells[3] = {s.backend[r], s.device[r], s.state[r]};
+    // A campaign builds its own rig per shot: the panel's devices are closed
+    // on purpose meanwhile, which is not an alarm.
+    const bool campaign_owned = s.busy && s.state[r] == "closed";
+    const QString cells[3] = {s.backend[r], s.device[r],
+                              campaign_owned ? tr("in use by the shot") : s.state[r]};
     for (int c = 0; c < 3; ++c) {
       auto* item = devices_->item(r, c);
       if (!item) devices_->setItem(r, c, item = new QTableWidgetItem);
       item->setText(cells[c]);
       if (c == 2)
-        item->setForeground(s.state[r] == "running" ? QColor(20, 130, 40) : QColor(170, 40, 30));
+        item->setForeground(s.state[r] == "running" ? QColor(20, 130, 40)
+                            : campaign_owned        ? QColor(110, 110, 110)
+                                                    : QColor(170, 40, 30));
     }
   }
   for (int i = 0; i < 2; ++i)
@@ -248,11 +370,17 @@ void RigPanel::setStatus(const RigStatus& s) {
                   : !s.armed  ? tr("disarmed")
                   : s.settled ? tr("<b>armed and settled</b>: ready to fire")
                               : tr("<b>armed</b>: pressures settling"));
+  if (!s.armed && pending_) {
+    pending_ = false;
+    setpoint_pending_->hide();
+    apply_setpoint_->hide();
+  }
   updateButtons();
 }
 
 void RigPanel::setStep(const QString& step) {
   step_->setText(step);
+  step_->setVisible(!step.isEmpty());
 }
 
 std::array<double, 2> RigPanel::wantedSpeeds() const {
@@ -274,7 +402,7 @@ void RigPanel::speedEdited(int i) {
   pressure_[i]->setValue(*p);
   linking_ = false;
   updateCurveMarkers();
-  if (status_.armed && !status_.busy) emit armRequested(wantedSpeeds());  // follow the new setpoint
+  setpointEdited();
 }
 
 void RigPanel::pressureEdited(int i) {
@@ -285,7 +413,99 @@ void RigPanel::pressureEdited(int i) {
   speed_[i]->setValue(curve->speed_m_s(pressure_[i]->value()));
   linking_ = false;
   updateCurveMarkers();
-  if (status_.armed && !status_.busy) emit armRequested(wantedSpeeds());
+  setpointEdited();
+}
+
+void RigPanel::setpointEdited() {
+  // Disarmed, a setpoint is only a number; armed, the regulator would follow
+  // it at once: that waits for Apply and a confirmation.
+  if (!status_.armed || status_.busy) return;
+  pending_ = true;
+  QString text;
+  for (int i = 0; i < 2; ++i)
+    text += tr("%1launcher %2: %3 kPa (armed at %4)")
+                .arg(i ? "; " : "")
+                .arg(i + 1)
+                .arg(pressure_[i]->value(), 0, 'f', 2)
+                .arg(status_.setpoint_kPa[i], 0, 'f', 2);
+  setpoint_pending_->setText(tr("New setpoint not applied: %1").arg(text));
+  setpoint_pending_->show();
+  apply_setpoint_->show();
+  updateButtons();
+}
+
+void RigPanel::confirmSetpoint() {
+  if (!pending_) return;
+  // Non-blocking: the window (and the rig's status) keep updating meanwhile.
+  auto* box = new QMessageBox(QMessageBox::Warning, tr("Change the armed pressure"),
+                              tr("The lines are pressurised. Set the regulator to %1 kPa "
+                                 "(launcher 1) and %2 kPa (launcher 2)?")
+                                  .arg(pressure_[0]->value(), 0, 'f', 2)
+                                  .arg(pressure_[1]->value(), 0, 'f', 2),
+                              QMessageBox::Yes | QMessageBox::Cancel, this);
+  box->setObjectName("confirm_setpoint");
+  box->setDefaultButton(QMessageBox::Cancel);
+  box->setAttribute(Qt::WA_DeleteOnClose);
+  connect(box, &QMessageBox::finished, this, [this, box] {
+    if (box->result() != QMessageBox::Yes || !pending_) return;
+    pending_ = false;
+    setpoint_pending_->hide();
+    apply_setpoint_->hide();
+    if (status_.armed && !status_.busy) emit armRequested(wantedSpeeds());
+    updateButtons();
+  });
+  box->open();
+}
+
+void RigPanel::updateBurstPending() {
+  if (!profile_) return;
+  const hw::RigProfile& p = *profile_;
+  const bool differs = pre_->value() != p.burst.pre_trigger_frames ||
+                       post_->value() != p.burst.post_trigger_frames ||
+                       std::abs(fps_->value() - p.camera_config.fps) > 0.05 ||
+                       std::abs(exposure_->value() - p.camera_config.exposure_us) > 0.05;
+  burst_pending_->setText(differs ? tr("Edited, not applied: shots use the profile's %1 + %2 "
+                                       "frames at %3 frames/s until you press Apply.")
+                                        .arg(p.burst.pre_trigger_frames)
+                                        .arg(p.burst.post_trigger_frames)
+                                        .arg(p.camera_config.fps)
+                                  : QString());
+  burst_pending_->setVisible(differs);
+}
+
+void RigPanel::setShotsDir(const QString& dir, bool usable, bool created) {
+  shots_usable_ = usable;
+  shots_dir_->setText(
+      usable ? tr("Shots are saved in <b>%1</b>%2 (File &gt; Shot folder to "
+                  "change)")
+                   .arg(dir.toHtmlEscaped(), created ? tr(", <span style='color:#a05a00'>a new "
+                                                          "folder created now: check the "
+                                                          "name</span>")
+                                                     : QString())
+             : tr("<span style='color:#b03020'>Shots cannot be saved in "
+                  "<b>%1</b>: choose a folder (File &gt; Shot folder).</span>")
+                   .arg(dir.toHtmlEscaped()));
+  updateButtons();
+}
+
+void RigPanel::updateHint() {
+  QString hint;
+  if (!profile_)
+    hint = tr("First: open a rig profile (File &gt; Open rig profile).");
+  else if (!shots_usable_)
+    hint = tr("First: choose a shot folder you can write to (File &gt; Shot folder).");
+  else if (status_.busy)
+    hint = tr("Wait for the shot or campaign to finish, or Cancel it.");
+  else if (pending_)
+    hint = tr("Next: Apply the new setpoint (or Disarm).");
+  else if (!status_.armed)
+    hint = tr("Next: set each launcher's exit speed above, then <b>Arm</b>.");
+  else if (!status_.settled)
+    hint = tr("Next: wait until both pressures have settled (at most %1 s).")
+               .arg(profile_->sequencer.settle_timeout_s);
+  else
+    hint = tr("Next: <b>Fire</b>. The shot opens in Replay with its results.");
+  hint_->setText(hint);
 }
 
 void RigPanel::updateCurveMarkers() {
@@ -296,15 +516,17 @@ void RigPanel::updateCurveMarkers() {
 void RigPanel::updateButtons() {
   const bool loaded = profile_ != nullptr;
   const bool busy = status_.busy;
-  arm_->setEnabled(loaded && !busy);
+  arm_->setEnabled(loaded && !busy && shots_usable_);
   disarm_->setEnabled(loaded && !busy && status_.armed);
-  fire_->setEnabled(loaded && !busy && status_.armed && status_.settled);
+  fire_->setEnabled(loaded && !busy && status_.armed && status_.settled && !pending_ &&
+                    shots_usable_);
   cancel_->setEnabled(busy);
   apply_burst_->setEnabled(loaded && !busy);
   for (int i = 0; i < 2; ++i) {
     speed_[i]->setEnabled(loaded && !busy);
     pressure_[i]->setEnabled(loaded && !busy);
   }
+  updateHint();
 }
 
 }  // namespace collide::gui

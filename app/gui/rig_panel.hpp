@@ -4,14 +4,17 @@
 // both ways through the launch calibration (drawn beside them) with the
 // regulator's read-back, the burst settings, the safety limits, and arm /
 // disarm / fire / cancel. Fire is enabled only when armed, settled and idle.
-// The panel never touches a device: it asks through signals.
+// The settings scroll; the action bar below them (Arm / Disarm / Fire /
+// Cancel, the armed-settled state, what to do next and where shots go) never
+// does, so it is on screen at any window size. Set-points change only on
+// purpose: the wheel only in a focused field, typed values out of range are
+// refused with the range, and a new setpoint while armed waits for "Apply"
+// and a confirmation. The panel never touches a device: it asks through signals.
 #include <QWidget>
 #include <array>
 
 #include "app/gui/rig_worker.hpp"
 
-class QDoubleSpinBox;
-class QSpinBox;
 class QLabel;
 class QPushButton;
 class QTableWidget;
@@ -22,6 +25,9 @@ class QScatterSeries;
 class QValueAxis;
 
 namespace collide::gui {
+
+class GuardedDoubleSpinBox;
+class GuardedSpinBox;
 
 struct BurstSettings {
   int pre_trigger_frames = 0;
@@ -43,6 +49,10 @@ class RigPanel : public QWidget {
   /// Sets launcher i's wanted speed (m/s); its pressure follows.
   void setWantedSpeed(int launcher, double speed_m_s);
   const RigStatus& lastStatus() const { return status_; }
+  /// Shown in the action bar ("shots go to ..."); `created`: the folder is new.
+  void setShotsDir(const QString& dir, bool usable, bool created = false);
+  /// True while a setpoint edited when armed waits for Apply.
+  bool setpointPending() const { return pending_; }
 
  signals:
   void armRequested(std::array<double, 2> speed_m_s);
@@ -50,31 +60,42 @@ class RigPanel : public QWidget {
   void fireRequested(std::array<double, 2> speed_m_s);
   void cancelRequested();
   void burstSettingsRequested(collide::gui::BurstSettings settings);
+  /// A typed value was refused (the message says which and the allowed range).
+  void inputRefused(QString message);
 
  private:
   void speedEdited(int i);
   void pressureEdited(int i);
   void updateButtons();
   void updateCurveMarkers();
+  void setpointEdited();
+  void confirmSetpoint();
+  void updateBurstPending();
+  void updateHint();
 
   ProfilePtr profile_;
   RigStatus status_;
   QLabel* profile_label_ = nullptr;
   QTableWidget* devices_ = nullptr;
   std::array<QGroupBox*, 2> launcher_box_{};
-  std::array<QDoubleSpinBox*, 2> speed_{};
-  std::array<QDoubleSpinBox*, 2> pressure_{};
+  std::array<GuardedDoubleSpinBox*, 2> speed_{};
+  std::array<GuardedDoubleSpinBox*, 2> pressure_{};
   std::array<QLabel*, 2> readback_{};
   QChartView* curve_view_ = nullptr;
   QLineSeries* curve_ = nullptr;
   QScatterSeries* setpoints_ = nullptr;
   QValueAxis* curve_x_ = nullptr;
   QValueAxis* curve_y_ = nullptr;
-  QSpinBox* pre_ = nullptr;
-  QSpinBox* post_ = nullptr;
-  QDoubleSpinBox* fps_ = nullptr;
-  QDoubleSpinBox* exposure_ = nullptr;
+  GuardedSpinBox* pre_ = nullptr;
+  GuardedSpinBox* post_ = nullptr;
+  GuardedDoubleSpinBox* fps_ = nullptr;
+  GuardedDoubleSpinBox* exposure_ = nullptr;
   QPushButton* apply_burst_ = nullptr;
+  QLabel* burst_pending_ = nullptr;
+  QPushButton* apply_setpoint_ = nullptr;
+  QLabel* setpoint_pending_ = nullptr;
+  QLabel* hint_ = nullptr;
+  QLabel* shots_dir_ = nullptr;
   QLabel* safety_ = nullptr;
   QPushButton* arm_ = nullptr;
   QPushButton* disarm_ = nullptr;
@@ -83,6 +104,8 @@ class RigPanel : public QWidget {
   QLabel* state_ = nullptr;
   QLabel* step_ = nullptr;
   bool linking_ = false;
+  bool pending_ = false;  ///< a setpoint edited while armed, not yet applied
+  bool shots_usable_ = true;
 };
 
 }  // namespace collide::gui

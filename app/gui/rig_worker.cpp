@@ -2,6 +2,7 @@
 
 #include <QDir>
 #include <QMetaObject>
+#include <QStringList>
 #include <cmath>
 
 #include "app/profile_edit.hpp"
@@ -195,11 +196,14 @@ void RigWorker::arm(std::array<double, 2> speed) {
     }
   }
   status_.armed = true;
+  status_.settled = false;
+  armed_since_.start();
   poll();
 }
 
 void RigWorker::disarm() {
   status_.armed = status_.settled = false;
+  armed_since_.invalidate();
   if (rig_) {
     if (rig_->regulator->state() != hw::DeviceState::Closed)
       if (Status s = rig_->regulator->vent(); !s) emit error(qs(s.error().message));
@@ -229,6 +233,35 @@ void RigWorker::poll() {
     settled = false;
   }
   status_.settled = settled;
+  // Unsettled since when (a line that settled and then leaks counts too).
+  if (settled || !status_.armed)
+    armed_since_.invalidate();
+  else if (!armed_since_.isValid())
+    armed_since_.start();
+  // The sequencer gives up on a line that does not settle in time; armed and
+  // idle the rig must too, or a leaking line stays pressurised with no alarm.
+  if (status_.armed && !settled && !status_.busy && armed_since_.isValid() &&
+      armed_since_.elapsed() > profile_->sequencer.settle_timeout_s * 1000.0) {
+    QStringList lines;
+    for (int i = 0; i < 2; ++i)
+      if (std::abs(status_.readback_kPa[i] - status_.setpoint_kPa[i]) >
+          profile_->sequencer.settle_tolerance_kPa)
+        lines << tr("launcher %1 (%2) at %3 kPa of %4 kPa")
+                     .arg(i + 1)
+                     .arg(qs(profile_->launchers[i].name))
+                     .arg(status_.readback_kPa[i], 0, 'f', 2)
+                     .arg(status_.setpoint_kPa[i], 0, 'f', 2);
+    if (lines.isEmpty()) lines << tr("the regulator stopped answering");
+    armed_since_.invalidate();
+    disarm();  // vents and closes the valves, then polls and reports the state
+    emit error(tr("Pressure did not settle within %1 s (tolerance %2 kPa): %3. The lines were "
+                  "vented and the rig disarmed. Check the line for a leak and the supply "
+                  "pressure, then arm again.")
+                   .arg(profile_->sequencer.settle_timeout_s)
+                   .arg(profile_->sequencer.settle_tolerance_kPa)
+                   .arg(lines.join("; ")));
+    return;
+  }
   emitStatus();
 }
 
@@ -286,7 +319,10 @@ void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
 
 void RigWorker::campaign(const app::CampaignOptions& options) {
   if (!profile_) {
-    emit error(tr("No rig: open a rig profile first."));
+    // Said once, by campaignFinished (the window shows it and unlocks the view).
+    emit campaignFinished(tr("Campaign not started: no rig profile is loaded. Open one (File > "
+                             "Open rig profile), then run the campaign again."),
+                          false, false);
     return;
   }
   // The campaign builds a rig per shot (each aimed for its angle): free the
@@ -311,17 +347,65 @@ void RigWorker::campaign(const app::CampaignOptions& options) {
   poll_timer_->start();
   emitStatus();
   if (!report) {
-    emit error(tr("Campaign stopped: %1").arg(qs(report.error().message)));
-    emit campaignFinished(qs(report.error().message), false);
+    emit campaignFinished(tr("Campaign stopped: %1").arg(qs(report.error().message)), false, false);
     return;
   }
-  QString summary = tr("%1 shots fired (%2 ok, %3 failed) into %4")
-                        .arg(report->fired)
-                        .arg(report->ok)
-                        .arg(report->failed)
-                        .arg(qs(options.out_dir));
-  if (report->cancelled) summary += tr("; cancelled");
-  emit campaignFinished(summary, report->cancelled);
+  emit campaignFinished(campaignSummary(options, *report), report->cancelled,
+                        report->fired == options.shots && report->failed == 0 &&
+                            static_cast<int>(report->files.size()) == options.shots);
+}
+
+QString campaignSummary(const app::CampaignOptions& options, const app::CampaignReport& report) {
+  // Every planned shot is accounted for: fired (ok or failed on the rig), or
+  // not fired, and why.
+  const int saved = static_cast<int>(report.files.size());
+  QString s = QObject::tr(
+                  "Campaign: %1 planned, %2 fired (%3 ok, %4 failed on the rig), %5 saved "
+                  "into %6")
+                  .arg(options.shots)
+                  .arg(report.fired)
+                  .arg(report.ok)
+                  .arg(report.fired - report.ok)
+                  .arg(saved)
+                  .arg(qs(options.out_dir));
+  const int missing = options.shots - report.fired;
+  if (missing > 0) {
+    QStringList why;
+    if (report.cancelled) why << QObject::tr("%1 after the cancel").arg(report.not_fired);
+    if (!report.stopped_because.empty())
+      why << QObject::tr("%1 because the campaign stopped: %2")
+                 .arg(report.not_fired)
+                 .arg(qs(report.stopped_because));
+    // Shots that never reached the rig (e.g. no aim for their angle): their
+    // reasons are among the failures.
+    const int unaimed = missing - report.not_fired;
+    if (unaimed > 0) why << QObject::tr("%1 could not be set up (see the failures)").arg(unaimed);
+    s +=
+        QObject::tr(". %1 of %2 not fired: %3").arg(missing).arg(options.shots).arg(why.join("; "));
+  }
+  if (!report.failures.empty()) {
+    // "<id>: <reason>" each; shots that failed alike are listed once.
+    QStringList reasons;
+    QList<QStringList> ids;
+    for (const std::string& x : report.failures) {
+      const QString f = qs(x);
+      const qsizetype colon = f.indexOf(": ");
+      const QString id = colon < 0 ? QString() : f.left(colon);
+      const QString reason = colon < 0 ? f : f.mid(colon + 2);
+      qsizetype k = reasons.indexOf(reason);
+      if (k < 0) {
+        reasons << reason;
+        ids << QStringList();
+        k = reasons.size() - 1;
+      }
+      if (!id.isEmpty()) ids[k] << id;
+    }
+    QStringList parts;
+    for (qsizetype k = 0; k < reasons.size(); ++k)
+      parts << QObject::tr("%1 (%2)").arg(reasons[k], ids[k].join(", "));
+    s += QObject::tr(". Failed: %1").arg(parts.join("; "));
+  }
+  return s + ".";
 }
 
 }  // namespace collide::gui

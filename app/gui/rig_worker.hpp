@@ -6,6 +6,7 @@
 // it only through queued calls (the public request* methods may be called from
 // any thread) and hears back through signals, so no device call ever blocks
 // the GUI. Long work (a shot, a campaign) can be cancelled from any thread.
+#include <QElapsedTimer>
 #include <QObject>
 #include <QString>
 #include <QThread>
@@ -36,6 +37,10 @@ struct RigStatus {
   bool settled = false;  ///< armed and both lines within the profile's tolerance
   bool busy = false;     ///< a shot or campaign is running
 };
+
+/// What a campaign did, for the user: planned, fired (ok / failed), saved, and
+/// why each planned shot that was not fired was not.
+QString campaignSummary(const app::CampaignOptions& options, const app::CampaignReport& report);
 
 class RigWorker : public QObject {
   Q_OBJECT
@@ -75,7 +80,11 @@ class RigWorker : public QObject {
   /// `save_error` set if saving failed: the shot is still in memory).
   void shotFired(collide::gui::ShotPtr shot, QString file, QString save_error);
   void campaignProgress(int done, int total, collide::gui::ShotPtr shot);
-  void campaignFinished(QString summary, bool cancelled);
+  /// Every requested campaign ends with this, also one refused before its
+  /// first shot. `complete`: every planned shot was fired, saved and ok;
+  /// otherwise `summary` says how many were planned, fired and saved and why
+  /// each missing one was not.
+  void campaignFinished(QString summary, bool cancelled, bool complete);
 
  private:
   void loadProfile(const QString& path);
@@ -96,6 +105,7 @@ class RigWorker : public QObject {
   ProfilePtr profile_;
   RigStatus status_;
   int shot_counter_ = 0;
+  QElapsedTimer armed_since_;  ///< since the last setpoint while armed and not settled
   std::mutex cancel_mutex_;
   std::stop_source cancel_;
 };

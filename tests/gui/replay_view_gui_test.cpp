@@ -5,6 +5,7 @@
 // the drawing, independently of the vision core.
 #include <gtest/gtest.h>
 
+#include <QLabel>
 #include <QPushButton>
 #include <QSlider>
 
@@ -106,8 +107,10 @@ TEST(ReplayViewGui, OverlaysSitWhereTheTruthIs) {
   }
   // The contact marker: midway between the centres at the true contact.
   const Overlay o = analysisOverlay(f.shot, f.analysis, 10);
-  const auto contact = std::find_if(o.markers.begin(), o.markers.end(),
-                                    [](const Overlay::Marker& m) { return !m.label.isEmpty(); });
+  // (The red cross; its time is in the caption, not written over the spheres.)
+  const auto contact =
+      std::find_if(o.markers.begin(), o.markers.end(),
+                   [](const Overlay::Marker& m) { return m.colour == QColor(255, 80, 60); });
   ASSERT_NE(contact, o.markers.end());
   std::size_t kc = 0;
   for (std::size_t k = 0; k < truth.t_s.size(); ++k)
@@ -149,4 +152,41 @@ TEST(ReplayViewGui, StepsThroughTheBurstWithItsOverlays) {
   // Play runs to the end on its own.
   QTest::mouseClick(view.findChild<QPushButton*>("play"), Qt::LeftButton);
   ASSERT_TRUE(QTest::qWaitFor([&] { return view.frameIndex() == n - 1; }, 20000));
+}
+
+// Issue 14: Replay speaks one clock, the trigger's (frame 0): the frame time
+// and the contact time in the caption agree with the simulation's truth on
+// it; no text is drawn over the spheres, and a legend says what the colours are.
+TEST(ReplayViewGui, FrameAndContactTimesShareTheTriggerClock) {
+  application();
+  auto f = std::make_shared<Fixture>(simulatedShotWithTruthAnalysis());
+  ReplayView view;
+  view.resize(1366, 700);
+  view.show();
+  view.setShot(ShotPtr(f, &f->shot));
+  view.setAnalysis(AnalysisPtr(f, &f->analysis));
+  const hw::TruthRecord& truth = *f->shot.truth;
+  // The true contact on the trigger clock: from the truth sample of a frame.
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < truth.t_s.size(); ++i)
+    if (truth.t_s[i] < truth.t_collision_s) k = i;
+  const double contact_ms =
+      (truth.t_collision_s - truth.t_s[k] + truth.frame_id[k] / f->shot.burst.fps) * 1e3;
+  // Step (clicks) to the frame just after the contact.
+  QTest::mouseClick(view.findChild<QPushButton*>("first_frame"), Qt::LeftButton);
+  while (f->shot.burst.frames[view.frameIndex()].id * 1e3 / f->shot.burst.fps < contact_ms &&
+         view.frameIndex() + 1 < view.frameCount())
+    QTest::mouseClick(view.findChild<QPushButton*>("next_frame"), Qt::LeftButton);
+  const Overlay& o = view.imageView()->overlay();
+  const QString caption = o.caption;
+  const int at = caption.indexOf("contact at ");
+  ASSERT_GE(at, 0) << caption.toStdString();
+  const double shown_ms = caption.mid(at + 11).section(' ', 0, 0).toDouble();
+  EXPECT_NEAR(shown_ms, contact_ms, 0.05) << caption.toStdString();
+  const double frame_ms = caption.section("t = ", 1).section(' ', 0, 0).toDouble();
+  EXPECT_GE(frame_ms, shown_ms) << "the frame after the contact is later than it";
+  EXPECT_LT(frame_ms - shown_ms, 1e3 / f->shot.burst.fps + 1e-6);
+  for (const auto& m : o.markers) EXPECT_TRUE(m.label.isEmpty()) << m.label.toStdString();
+  EXPECT_GE(o.legend.size(), 3u);
+  EXPECT_TRUE(screenshot(&view, "replay_contact"));
 }
