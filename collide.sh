@@ -6,9 +6,15 @@
 #   ./collide.sh gui     install, build, open the lab GUI on the simulated rig
 #   ./collide.sh bench   install, build, run the benchmarks (see docs/benchmarks.md)
 #   ./collide.sh build   install and build only
+#   ./collide.sh sanitize  clang build with AddressSanitizer + UndefinedBehaviorSanitizer:
+#                          the unit, sim and peer suites and a short run of every fuzz target
+#   ./collide.sh tsan    clang build with ThreadSanitizer: the threaded parts' tests
+#   ./collide.sh fuzz    every fuzz target for COLLIDE_FUZZ_RUNS inputs (default 10^6)
 #
+# `test` runs the whole suite, then the `sanitize` pass (as CI does).
 # Environment: BUILD_DIR (default ./build), JOBS (default: number of cores),
-# COLLIDE_OUT (where `run` writes shots, default ./shots), COLLIDE_SHOTS (default 20).
+# COLLIDE_OUT (where `run` writes shots, default ./shots), COLLIDE_SHOTS (default 20),
+# COLLIDE_SKIP_SANITIZE=1 (test: skip the sanitizer pass).
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -25,6 +31,9 @@ PACKAGES=(
   libaravis-dev aravis-tools libusb-1.0-0-dev libgpiod-dev gpiod libmodbus-dev libv4l-dev
   qt6-base-dev qt6-charts-dev qt6-svg-dev libqt6opengl6-dev libgl-dev
   socat mbpoll python3-h5py hdf5-tools sqlite3 xvfb xauth
+  # Sanitizer and fuzzing builds (./collide.sh sanitize, tsan, fuzz): clang,
+  # its sanitizer and libFuzzer runtimes, llvm-symbolizer for readable reports.
+  clang libclang-rt-14-dev llvm
   # The kernel-driver tests (ctest -L vm, tests/vm): Debian's own kernel and
   # the headers to build tests/vm/gpio-sim-collide against, booted under qemu.
   qemu-system-x86 busybox-static cpio kmod linux-image-amd64 linux-headers-amd64
@@ -63,6 +72,56 @@ build() {
   cmake --build "$BUILD_DIR" -j "$JOBS" "$@"
 }
 
+# A clang build with sanitizers in its own folder (no GUI: Qt is not
+# instrumented and the GUI's threads are covered by the tsan pass's worker
+# tests). $1: folder, $2: sanitizers, further arguments: extra CMake options.
+build_sanitized() {
+  local dir="$1" sanitizers="$2"
+  shift 2
+  say "Configuring and building in $dir (clang, -fsanitize=$sanitizers)"
+  export CCACHE_BASEDIR="$here"
+  cmake -S "$here" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCOLLIDE_BUILD_GUI=OFF -DCOLLIDE_BUILD_BENCH=OFF \
+    -DCOLLIDE_SANITIZE="$sanitizers" "$@" >/dev/null
+  cmake --build "$dir" -j "$JOBS"
+}
+
+# Sanitizer settings: any report fails the test; LeakSanitizer ignores what
+# the system libraries (GLib/Aravis, HDF5, OpenCV) keep until exit.
+export ASAN_OPTIONS="${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:strict_string_checks=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$here/tests/sanitizers/lsan.supp:print_suppressions=0}"
+export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$here/tests/sanitizers/tsan.supp}"
+
+sanitize_pass() {
+  local dir="${SANITIZE_BUILD_DIR:-$here/build-asan}"
+  build_sanitized "$dir" address,undefined -DCOLLIDE_FUZZ=ON
+  say "Unit, sim and peer suites under AddressSanitizer + UndefinedBehaviorSanitizer"
+  ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L 'unit|sim|peer'
+  say "Fuzz targets, a short run each (./collide.sh fuzz for the long one)"
+  ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L fuzz
+}
+
+tsan_pass() {
+  local dir="${TSAN_BUILD_DIR:-$here/build-tsan}"
+  build_sanitized "$dir" thread
+  say "Threaded parts under ThreadSanitizer (camera backends, sequencer, valve timing, workers)"
+  ctest --test-dir "$dir" --output-on-failure -j "$JOBS" \
+    -R 'camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze'
+}
+
+fuzz_long() {
+  local dir="${SANITIZE_BUILD_DIR:-$here/build-asan}" runs="${COLLIDE_FUZZ_RUNS:-1000000}" f name
+  build_sanitized "$dir" address,undefined -DCOLLIDE_FUZZ=ON
+  for f in "$dir"/tests/fuzz/*_fuzz; do
+    name="$(basename "$f" _fuzz)"
+    mkdir -p "$dir/tests/fuzz/corpus/$name"
+    say "fuzz $name: $runs inputs"
+    (cd "$dir/tests/fuzz" && "$f" -runs="$runs" -timeout=20 -rss_limit_mb=4096 -print_final_stats=1 \
+      "$dir/tests/fuzz/corpus/$name" "$here/tests/fuzz/corpus/$name")
+  done
+}
+
 run_main_job() {
   local out="${COLLIDE_OUT:-$here/shots}" shots="${COLLIDE_SHOTS:-20}"
   if [ -e "$out" ] && [ -n "$(ls -A "$out" 2>/dev/null)" ]; then
@@ -91,6 +150,19 @@ case "$cmd" in
     build
     say "Running the test suite"
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS"
+    [ "${COLLIDE_SKIP_SANITIZE:-0}" = 1 ] || sanitize_pass
+    ;;
+  sanitize)
+    ensure_packages
+    sanitize_pass
+    ;;
+  tsan)
+    ensure_packages
+    tsan_pass
+    ;;
+  fuzz)
+    ensure_packages
+    fuzz_long
     ;;
   gui)
     ensure_packages
@@ -108,7 +180,7 @@ case "$cmd" in
     build
     ;;
   *)
-    sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
     [ -z "$cmd" ] && exit 2
     die "unknown command '$cmd'"
     ;;

@@ -1,0 +1,38 @@
+#pragma once
+// Seeds a fuzz target makes for itself at start-up, in the first corpus folder
+// on its command line (where libFuzzer also keeps what it finds): binary
+// inputs (a shot file, a catalog) are made by the current code, so they
+// always match the current format and need no binary blobs in the repository.
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace collide::fuzz {
+
+/// The first argument that is not a libFuzzer flag: the writable corpus
+/// folder; empty when there is none (e.g. a single input is being replayed).
+inline std::string corpusFolder(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (!a.empty() && a[0] != '-' && std::filesystem::is_directory(a)) return a;
+  }
+  return "";
+}
+
+inline std::string readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Copies `source` into `folder` as `name` unless `folder` is empty.
+inline void addSeed(const std::string& folder, const std::string& name, const std::string& source) {
+  if (folder.empty()) return;
+  std::error_code ec;
+  std::filesystem::copy_file(source, std::filesystem::path(folder) / name,
+                             std::filesystem::copy_options::overwrite_existing, ec);
+}
+
+}  // namespace collide::fuzz

@@ -1,0 +1,48 @@
+// Fuzz target: the shot file reader (HDF5), as `collide analyze`, `export`,
+// `replay` and folder scans use it. Every input gives a shot or a one-line
+// error naming the file; a file that crashes libhdf5 itself is contained (read
+// in a child first, see ReadOptions::contained) and reported as corrupt.
+// Dimensions in the file never size an allocation unchecked.
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
+#include "tests/app/shot_fixtures.hpp"
+#include "tests/fuzz/seeds.hpp"
+
+// Seeds: small valid shot files (8 and 16-bit, with truth and results).
+extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv) {
+  const std::string corpus = collide::fuzz::corpusFolder(*argc, *argv);
+  const std::string dir = "/tmp/collide-shot-fuzz-seeds-" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  for (auto format : {collide::vision::PixelFormat::Mono8, collide::vision::PixelFormat::Mono16}) {
+    collide::testing::ShotSpec spec;
+    spec.format = format;
+    spec.width = 8;
+    spec.height = 6;
+    spec.frames = 3;
+    auto shot = collide::testing::makeShot(spec);
+    const std::string name = std::string("seed-") + collide::vision::toString(format) + ".h5";
+    if (collide::app::writeShot(dir + "/" + name, shot))
+      collide::fuzz::addSeed(corpus, name, dir + "/" + name);
+  }
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static const std::string path = "/tmp/collide-shot-fuzz-" + std::to_string(::getpid()) + ".h5";
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  }
+  auto shot = collide::app::readShot(path, {.frames = true, .contained = true});
+  if (!shot && shot.error().message.find(path) == std::string::npos) __builtin_trap();
+  return 0;
+}
