@@ -25,6 +25,8 @@ constexpr int kNoiseTableSize = 1 << 18;
 // surface point (ray-casting costs more per sample than the analytic path).
 constexpr double kBlurStepPx = 0.5;
 constexpr int kMaxBlurSamples = 128;
+// Pixels this far from every silhouette edge may be sampled once (see smooth()).
+constexpr double kSmoothMarginPx = 2.0;
 
 // One sphere at one time sample of the exposure.
 struct Instance {
@@ -33,6 +35,12 @@ struct Instance {
   Eigen::Matrix3d world_to_body = Eigen::Matrix3d::Identity();
   const DotPattern* dots = nullptr;
   double cos_dot = 1;
+  double sin_dot = 0;
+  double dot_radius_rad = 0;
+  // Silhouette thresholds for clearOfEdge(): orthographic, squared distances
+  // from the centre (m^2) inside / outside the margin; perspective, cosines of
+  // the angle to the centre's direction, with 1 / distance to the centre.
+  double edge_inner = 0, edge_outer = 0, inv_distance = 0;
   int sample = 0;
   int u0 = 0, u1 = -1, v0 = 0, v1 = -1;  // pixels it may touch, clipped to the frame
 };
@@ -241,6 +249,22 @@ bool pixelBox(const Optics& o, const Vec3& c, double r, int width, int height, I
   return in.u0 <= in.u1 && in.v0 <= in.v1;
 }
 
+void edgeThresholds(const Optics& o, Instance& in) {
+  if (!o.perspective) {
+    const double inner = std::max(0.0, in.radius - kSmoothMarginPx * o.pixel_size_m);
+    const double outer = in.radius + kSmoothMarginPx * o.pixel_size_m;
+    in.edge_inner = inner > 0 ? inner * inner : -1.0;
+    in.edge_outer = outer * outer;
+    return;
+  }
+  const double dist = (in.centre - o.centre_m).norm();
+  const double alpha = std::asin(std::min(1.0, in.radius / dist));
+  const double margin = kSmoothMarginPx / o.focal_px;
+  in.inv_distance = 1.0 / dist;
+  in.edge_inner = alpha > margin ? std::cos(alpha - margin) : 2.0;  // 2: never inside
+  in.edge_outer = alpha + margin < kPi ? std::cos(alpha + margin) : -2.0;
+}
+
 std::vector<Instance> instances(const RenderSettings& st, const std::vector<SphereView>& spheres,
                                 int samples) {
   const Optics& o = st.imaging->optics;
@@ -254,6 +278,7 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
       in.sample = j;
       if (!(in.radius > 0) || !in.centre.allFinite()) continue;
       if (!pixelBox(o, in.centre, in.radius, st.width, st.height, in)) continue;
+      edgeThresholds(o, in);
       Eigen::Matrix3d rot = sv.orientation.normalized().toRotationMatrix();
       const double spin = sv.spin_rad_s.norm();
       if (spin > 0 && t != 0)
@@ -262,6 +287,8 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
       if (sv.dots != nullptr && !sv.dots->centres.empty()) {
         in.dots = sv.dots;
         in.cos_dot = std::cos(sv.dots->angular_radius_rad);
+        in.sin_dot = std::sin(sv.dots->angular_radius_rad);
+        in.dot_radius_rad = sv.dots->angular_radius_rad;
       }
       out.push_back(in);
     }
@@ -271,7 +298,17 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
 
 // Brightness (fraction of full scale, before the sensor) of a sphere's
 // surface point, Lambert plus Blinn-Phong, or the backlit silhouette.
-double shade(const Lighting& l, const Instance& in, const Hit& h) {
+// Highlights fainter than this (fraction of full scale, a 15th of a 16-bit
+// grey level) are not computed: n.h below the matching cosine skips pow().
+constexpr double kFaintestHighlight = 1e-6;
+
+double highlightCutoff(const Lighting& l) {
+  return l.specular_strength > 0
+             ? std::pow(kFaintestHighlight / l.specular_strength, 1.0 / l.specular_exponent)
+             : 2.0;
+}
+
+double shade(const Lighting& l, double nh_min, const Instance& in, const Hit& h) {
   bool on_dot = false;
   if (in.dots != nullptr) {
     const Vec3 nb = in.world_to_body * h.normal;
@@ -293,7 +330,7 @@ double shade(const Lighting& l, const Instance& in, const Hit& h) {
   double level = albedo * (l.ambient + (1.0 - l.ambient) * std::max(0.0, ndl));
   if (l.specular_strength > 0 && ndl > 0) {
     const double nh = h.normal.dot((l.lamp_direction + h.view).normalized());
-    if (nh > 0) level += l.specular_strength * std::pow(nh, l.specular_exponent);
+    if (nh > nh_min) level += l.specular_strength * std::pow(nh, l.specular_exponent);
   }
   return level;
 }
@@ -326,66 +363,147 @@ bool intersect(const Ray& ray, bool perspective, const Instance& in, double& t_h
   return true;
 }
 
+// The ray through image position (u + fu - 0.5, v + fv - 0.5), fu, fv in [0, 1].
+Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int v, double fu,
+          double fv) {
+  const Optics& o = st.imaging->optics;
+  const double pu = u + fu - 0.5, pv = v + fv - 0.5;
+  Ray ray;
+  if (!o.perspective) {
+    ray.origin =
+        Vec3((pu - o.origin_u_px) * o.pixel_size_m, (o.origin_v_px - pv) * o.pixel_size_m, 0);
+    ray.dir = -Vec3::UnitZ();
+    return ray;
+  }
+  double x, y;
+  if (ray_xy.empty()) {
+    x = (pu - o.principal_u_px) / o.focal_px;
+    y = (pv - o.principal_v_px) / o.focal_px;
+  } else {
+    // Bilinear between the pixel's corners.
+    const std::size_t stride = static_cast<std::size_t>(st.width + 1) * 2;
+    const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
+    const auto lerp = [&](int k) {
+      return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
+             fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
+    };
+    x = lerp(0);
+    y = lerp(1);
+  }
+  ray.origin = o.centre_m;
+  ray.dir = Vec3(x, -y, -1.0).normalized();
+  return ray;
+}
+
+// Instances [a, b) of `active` (one time sample) that may cover column u:
+// the nearest hit along `ray`, or null.
+const Instance* nearestHit(const Ray& ray, bool perspective, const std::vector<Instance>& inst,
+                           const std::vector<int>& active, std::size_t a, std::size_t b, int u,
+                           double& t_hit, Hit& hit) {
+  const Instance* best = nullptr;
+  t_hit = std::numeric_limits<double>::infinity();
+  for (std::size_t k = a; k < b; ++k) {
+    const Instance& in = inst[active[k]];
+    if (u < in.u0 || u > in.u1) continue;
+    double t;
+    Hit h;
+    if (intersect(ray, perspective, in, t, h) && t < t_hit) t_hit = t, best = &in, hit = h;
+  }
+  return best;
+}
+
+// Whether the ray passes at least kSmoothMarginPx inside (or outside) the
+// sphere's silhouette. Under perspective: the angle to the tangent cone's axis
+// against alpha -+ margin / f, which off-axis (pixels subtend less there) and
+// with mild distortion still bounds the distance in pixels.
+bool clearOfEdge(const Optics& o, const Ray& ray, const Instance& in, bool inside) {
+  if (!o.perspective) {
+    const double dx = ray.origin.x() - in.centre.x(), dy = ray.origin.y() - in.centre.y();
+    const double d2 = dx * dx + dy * dy;
+    return inside ? d2 < in.edge_inner : d2 > in.edge_outer;
+  }
+  const double c = ray.dir.dot(in.centre - ray.origin) * in.inv_distance;
+  return inside ? c > in.edge_inner : c < in.edge_outer;
+}
+
+// Whether pixel (u, v) is smooth for one time sample, judged from its centre
+// ray: at least kSmoothMarginPx from every silhouette edge, and (on a sphere)
+// clear of every dot's rim, the terminator and a backlit spot's rim by the
+// surface angle a pixel spans there. Its centre sample then stands for the
+// pixel's mean (the shading's curvature over a pixel is ~1e-4 of full scale);
+// otherwise the pixel is sampled n x n.
+bool smooth(const Imaging& im, const Ray& ray, const std::vector<Instance>& inst,
+            const std::vector<int>& active, std::size_t a, std::size_t b, int u,
+            const Instance* best, double t_hit, const Hit& hit) {
+  const Optics& o = im.optics;
+  for (std::size_t k = a; k < b; ++k) {
+    const Instance& in = inst[active[k]];
+    if (u < in.u0 || u > in.u1) continue;
+    if (!clearOfEdge(o, ray, in, &in == best)) return false;
+  }
+  if (best == nullptr) return true;
+  const double nv = hit.normal.dot(hit.view);
+  if (nv < 0.05) return false;  // near the limb a pixel spans much of the surface
+  // Surface angle across ~1.5 pixels: lateral size / (R cos(view angle)).
+  const double lateral_m = o.perspective ? t_hit / o.focal_px : o.pixel_size_m;
+  const double delta = 1.5 * lateral_m / (best->radius * nv);
+  // The terminator (n.l = 0): |cos a - cos b| <= |a - b| there.
+  const Lighting& l = im.lighting;
+  if (l.mode == Lighting::Mode::Front && std::abs(hit.normal.dot(l.lamp_direction)) < delta)
+    return false;
+  if (l.mode == Lighting::Mode::Back && l.spot_level > 0 &&
+      std::abs(std::acos(std::min(1.0, nv)) - std::asin(l.spot_fraction)) < delta)
+    return false;
+  if (best->dots != nullptr) {
+    // Angles to the dots' centres; most are far, which a bound on
+    // cos(radius + delta) settles without acos.
+    const Vec3 nb = best->world_to_body * hit.normal;
+    const double far = best->cos_dot * (1.0 - 0.5 * delta * delta) - best->sin_dot * delta;
+    for (const Vec3& c : best->dots->centres) {
+      const double cd = c.dot(nb);
+      if (cd < far) continue;
+      if (std::abs(std::acos(std::min(1.0, cd)) - best->dot_radius_rad) < delta) return false;
+    }
+  }
+  return true;
+}
+
 // Mean brightness of pixel (u, v) over its samples and the time samples.
 double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
                   const std::vector<Instance>& inst, const std::vector<int>& active, int samples,
-                  int u, int v) {
+                  double nh_min, int u, int v) {
   const Imaging& im = *st.imaging;
-  const Optics& o = im.optics;
+  const bool persp = im.optics.perspective;
   const int ss = im.samples_per_pixel;
-  double total = 0;
-  for (int j = 0; j < ss; ++j)
-    for (int i = 0; i < ss; ++i) {
-      const double pu = u + (i + 0.5) / ss - 0.5, pv = v + (j + 0.5) / ss - 0.5;
-      Ray ray;
-      if (!o.perspective) {
-        ray.origin =
-            Vec3((pu - o.origin_u_px) * o.pixel_size_m, (o.origin_v_px - pv) * o.pixel_size_m, 0);
-        ray.dir = -Vec3::UnitZ();
-      } else {
-        double x, y;
-        if (ray_xy.empty()) {
-          x = (pu - o.principal_u_px) / o.focal_px;
-          y = (pv - o.principal_v_px) / o.focal_px;
-        } else {
-          // Bilinear between the pixel's corners.
-          const double fu = (i + 0.5) / ss, fv = (j + 0.5) / ss;
-          const std::size_t stride = static_cast<std::size_t>(st.width + 1) * 2;
-          const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
-          const auto lerp = [&](int k) {
-            return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
-                   fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
-          };
-          x = lerp(0);
-          y = lerp(1);
+  const double backdrop = im.lighting.backdrop_level;
+  double total = 0;  // sum over time samples of each one's pixel mean
+  int groups = 0;
+  std::size_t a = 0;
+  while (a < active.size()) {
+    // Instances are grouped by time sample.
+    std::size_t b = a;
+    while (b < active.size() && inst[active[b]].sample == inst[active[a]].sample) ++b;
+    ++groups;
+    double t;
+    Hit hit;
+    const Ray centre = rayAt(st, ray_xy, u, v, 0.5, 0.5);
+    const Instance* best = nearestHit(centre, persp, inst, active, a, b, u, t, hit);
+    if (ss == 1 || smooth(im, centre, inst, active, a, b, u, best, t, hit)) {
+      total += best ? shade(im.lighting, nh_min, *best, hit) : backdrop;
+    } else {
+      double sum = 0;
+      for (int j = 0; j < ss; ++j)
+        for (int i = 0; i < ss; ++i) {
+          const Ray ray = rayAt(st, ray_xy, u, v, (i + 0.5) / ss, (j + 0.5) / ss);
+          const Instance* in = nearestHit(ray, persp, inst, active, a, b, u, t, hit);
+          sum += in ? shade(im.lighting, nh_min, *in, hit) : backdrop;
         }
-        ray.origin = o.centre_m;
-        ray.dir = Vec3(x, -y, -1.0).normalized();
-      }
-      // Instances are grouped by time sample: the nearest hit of each group.
-      int groups = 0;
-      std::size_t a = 0;
-      while (a < active.size()) {
-        const int sample = inst[active[a]].sample;
-        double best_t = std::numeric_limits<double>::infinity();
-        const Instance* best = nullptr;
-        Hit best_hit;
-        for (; a < active.size() && inst[active[a]].sample == sample; ++a) {
-          const Instance& in = inst[active[a]];
-          if (u < in.u0 || u > in.u1) continue;
-          double t;
-          Hit h;
-          if (intersect(ray, o.perspective, in, t, h) && t < best_t)
-            best_t = t, best = &in, best_hit = h;
-        }
-        if (best != nullptr) {
-          total += shade(im.lighting, *best, best_hit);
-          ++groups;
-        }
-      }
-      total += (samples - groups) * im.lighting.backdrop_level;
+      total += sum / (ss * ss);
     }
-  return total / (static_cast<double>(ss) * ss * samples);
+    a = b;
+  }
+  total += (samples - groups) * backdrop;  // time samples with nothing near this pixel
+  return total / samples;
 }
 
 // Light -> grey levels for one row: gain map, flicker, shot and read noise (or
@@ -431,6 +549,7 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
   const int width = st.width, height = st.height;
   const int samples = timeSamples(st, spheres);
   const std::vector<Instance> inst = instances(st, spheres, samples);
+  const double nh_min = highlightCutoff(im.lighting);
 
   // Lamp intensity averaged over the exposure.
   const Sensor& se = im.sensor;
@@ -455,7 +574,8 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
       span1 = std::max(span1, inst[i].u1);
     }
     for (int u = span0; u <= span1; ++u)
-      light[u] = static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, u, v));
+      light[u] =
+          static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, nh_min, u, v));
 
     const float* g1 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
     const float* g2 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
