@@ -227,6 +227,35 @@ TEST(RenderImaging, OffAxisSphereImagesAsTheTangentConesEllipse) {
   EXPECT_GT((b.centroid - cone.centre_projection_px).norm(), 0.5);
 }
 
+TEST(RenderImaging, PerspectiveShadingFollowsTheTrueNormals) {
+  RenderSettings s = perspective(500);
+  s.imaging->samples_per_pixel = 1;
+  Lighting& l = s.imaging->lighting;
+  l.lamp_direction = Vec3(0.3, 0.5, 0.8);
+  l.ambient = 0.1;
+  l.sphere_albedo = 0.8;
+  const Vec3 lamp = l.lamp_direction.normalized();
+  SphereView sv;
+  sv.centre_m = Vec3(0.1, 0.05, 0.0);
+  sv.radius_m = 0.04;
+  const cv::Mat img = Renderer(s).render({sv}, 0);
+  // Each pixel centre's ray from the lens at (0, 0, 0.5) meets the sphere at
+  // the nearer root of |O + t d - C| = R; the normal there sets the level.
+  const Vec3 O(0, 0, 0.5), C = sv.centre_m;
+  int checked = 0;
+  for (int v = 100; v < 240; v += 3)
+    for (int u = 380; u < 520; u += 3) {
+      const Vec3 d = Vec3((u - 319.5) / 500, -(v - 239.5) / 500, -1).normalized();
+      const double b = d.dot(C - O), c = (C - O).squaredNorm() - 0.04 * 0.04;
+      if (b * b - c < 1e-6) continue;  // misses, or grazes the limb
+      const Vec3 n = (O + (b - std::sqrt(b * b - c)) * d - C) / 0.04;
+      const double expected = kFull * 0.8 * (0.1 + 0.9 * std::max(0.0, n.dot(lamp)));
+      EXPECT_NEAR(at(img, v, u), expected, 1.0) << u << ", " << v;
+      ++checked;
+    }
+  EXPECT_GT(checked, 300);
+}
+
 TEST(RenderImaging, OnAxisSphereIsACircleOfRadiusFTanAlpha) {
   const RenderSettings s = perspective(800);
   SphereView sv;
