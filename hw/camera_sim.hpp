@@ -7,6 +7,8 @@
 // it renders a burst as fast as it can once the valves have fired (the physics
 // is then known), so a shot takes less wall time than real time. Fault knobs:
 // lose every Nth frame, or stop streaming after N post-trigger frames.
+// An optional [camera.imaging] table makes the pictures realistic (lamps,
+// perspective lens, sensor; docs/imaging.md).
 //
 // Runs on CLOCK_MONOTONIC (its frame timestamps are compared with the valves'
 // times), so its rig must use the monotonic clock.

@@ -3,6 +3,9 @@
 // a black background, with anti-aliased edges, a darker rim, optional motion
 // blur over the exposure, sensor noise, and the camera's bit depth.
 // Projection is orthographic (the camera looks along -z from far away).
+// With RenderSettings::imaging it draws what a real lab camera records
+// instead: spheres ray-cast in 3-D under lamps, through a pinhole lens with
+// distortion, and a sensor (vision/imaging.hpp, render_raycast.cpp).
 // Image coordinates: u to the right, v down, pixel (0,0)'s centre at (0,0).
 #include <Eigen/Dense>
 #include <cstdint>
