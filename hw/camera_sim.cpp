@@ -285,7 +285,10 @@ std::vector<vision::SphereView> CameraSim::sceneAt(const SimLaunch& launch,
     v.radius_m = 0.5 * p.spheres.diameter_m[i];
     v.velocity_m_s = s.velocity_m_s;
     double margin = 2;
-    if (const auto& im = renderer_->settings().imaging; im && im->optics.perspective) {
+    const vision::Imaging* im = renderer_ && renderer_->settings().imaging
+                                    ? &*renderer_->settings().imaging
+                                    : nullptr;  // none, or not configured yet
+    if (im != nullptr && im->optics.perspective) {
       // Through the lens: the centre's image and the scale at its depth; the
       // silhouette (an ellipse off-axis, bent by distortion) gets a margin.
       const double scale = im->optics.focal_px / (im->optics.centre_m.z() - s.position_m.z());
