@@ -38,10 +38,18 @@ Result<CameraSimSettings> CameraSimSettings::read(SettingsReader& r) {
 
 namespace {
 
+// A key that takes one of two words, `first` (the default) or `second`:
+// whether it says `second`.
+Result<bool> saysSecond(SettingsReader& r, const std::string& key, const std::string& first,
+                        const std::string& second) {
+  Result<std::string> v = r.text(key, first, {first, second});
+  if (!v) return v.error();
+  return v->compare(second) == 0;
+}
+
 Status readLighting(SettingsReader& r, vision::Lighting& l) {
-  COLLIDE_ASSIGN_OR_RETURN(const std::string mode,
-                           r.text("imaging.lighting", "front", {"front", "back"}));
-  l.mode = mode == "back" ? vision::Lighting::Mode::Back : vision::Lighting::Mode::Front;
+  COLLIDE_ASSIGN_OR_RETURN(const bool back, saysSecond(r, "imaging.lighting", "front", "back"));
+  l.mode = back ? vision::Lighting::Mode::Back : vision::Lighting::Mode::Front;
   COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> lamp,
                            r.numbers("imaging.lamp_direction", 3, std::vector<double>{0, 0, 1}));
   l.lamp_direction = Vec3(lamp[0], lamp[1], lamp[2]);
@@ -62,10 +70,8 @@ Status readLighting(SettingsReader& r, vision::Lighting& l) {
 }
 
 Status readLens(SettingsReader& r, SimImagingSettings& s) {
-  COLLIDE_ASSIGN_OR_RETURN(
-      const std::string projection,
-      r.text("imaging.projection", "orthographic", {"orthographic", "perspective"}));
-  s.perspective = projection == "perspective";
+  COLLIDE_ASSIGN_OR_RETURN(s.perspective,
+                           saysSecond(r, "imaging.projection", "orthographic", "perspective"));
   const char* const lens_keys[] = {"imaging.focal_length_mm", "imaging.pixel_pitch_um",
                                    "imaging.working_distance_m", "imaging.principal_point_px",
                                    "imaging.distortion"};
@@ -94,9 +100,7 @@ Status readLens(SettingsReader& r, SimImagingSettings& s) {
 
 Status readSensor(SettingsReader& r, vision::Sensor& se, int& samples) {
   const Bounds unit{.ge = 0.0, .le = 1.0};
-  COLLIDE_ASSIGN_OR_RETURN(const std::string vignetting,
-                           r.text("imaging.vignetting", "none", {"none", "cos4"}));
-  se.vignetting_cos4 = vignetting == "cos4";
+  COLLIDE_ASSIGN_OR_RETURN(se.vignetting_cos4, saysSecond(r, "imaging.vignetting", "none", "cos4"));
   COLLIDE_ASSIGN_OR_RETURN(se.vignetting_falloff,
                            r.number("imaging.vignetting_falloff", 0.0, unit));
   COLLIDE_ASSIGN_OR_RETURN(se.flicker_hz,
