@@ -5,6 +5,8 @@
 //   build/bench/render_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only
 // Measured (AMD EPYC VM, 2 cores shared with other builds, median CPU time):
 // Mono8 7600 frames/s, Mono8 + motion blur (13 time samples) 730, Mono16 7100.
+// Realistic imaging as config/sim-lab.toml (ray-cast, docs/imaging.md): 160
+// frames/s, 30 with motion blur (7 time samples); its sensor alone 750.
 #include <benchmark/benchmark.h>
 
 #include "vision/render.hpp"
@@ -14,6 +16,8 @@ namespace {
 using collide::Quat;
 using collide::Vec3;
 using namespace collide::vision;
+
+constexpr double kPixelM = 2.1167e-4;  // object-plane pixel: 2.54 cm ~ 120 px
 
 struct Scene {
   DotPattern p1 = DotPattern::random(1);
@@ -34,6 +38,13 @@ struct Scene {
     b.spin_rad_s = {50, -200, 100};
     a.dots = &p1;
     b.dots = &p2;
+    // The same spheres in the world, for the ray-cast imaging cases.
+    for (SphereView* s : {&a, &b}) {
+      s->centre_m =
+          Vec3((s->centre_px.x() - 319.5) * kPixelM, -(s->centre_px.y() - 239.5) * kPixelM, 0.0);
+      s->radius_m = s->radius_px * kPixelM;
+      s->velocity_m_s = Vec3(s->velocity_px_s.x(), -s->velocity_px_s.y(), 0.0) * kPixelM;
+    }
     spheres = {a, b};
   }
 };
@@ -75,6 +86,63 @@ void BM_RenderMono16(benchmark::State& state) {
   run(state, base(PixelFormat::Mono16));
 }
 BENCHMARK(BM_RenderMono16)->Unit(benchmark::kMicrosecond);
+
+// Realistic imaging (vision/imaging.hpp) as config/sim-lab.toml sets it: a
+// lamp with a highlight, a 50 mm lens at 0.53 m with distortion, vignetting,
+// flicker, fixed patterns, shot and read noise, 10-bit data in Mono16 words;
+// 2 x 2 rays per pixel.
+RenderSettings lab(double exposure_s) {
+  RenderSettings s = base(PixelFormat::Mono16);
+  s.exposure_s = exposure_s;
+  Imaging im;
+  im.lighting.lamp_direction = Vec3(-0.55, 0.45, 0.70);
+  im.lighting.ambient = 0.12;
+  im.lighting.sphere_albedo = 0.8;
+  im.lighting.dot_albedo = 0.06;
+  im.lighting.specular_strength = 0.3;
+  im.lighting.specular_exponent = 80;
+  im.lighting.backdrop_level = 0.07;
+  im.optics.perspective = true;
+  im.optics.focal_px = 2500;
+  im.optics.principal_u_px = 319.5;
+  im.optics.principal_v_px = 239.5;
+  im.optics.centre_m = Vec3(0, 0, 0.5292);
+  im.optics.k1 = -0.08;
+  im.optics.k2 = 0.02;
+  im.sensor.vignetting_cos4 = true;
+  im.sensor.vignetting_falloff = 0.1;
+  im.sensor.flicker_hz = 100;
+  im.sensor.flicker_amplitude = 0.05;
+  im.sensor.prnu = 0.008;
+  im.sensor.dsnu = 0.002;
+  im.sensor.hot_pixel_fraction = 2e-4;
+  im.sensor.full_well_e = 20000;
+  im.sensor.read_noise_e = 15;
+  im.sensor.adc_bits = 10;
+  s.imaging = im;
+  return s;
+}
+
+void BM_RenderLabImaging(benchmark::State& state) {
+  run(state, lab(0.0));
+}
+BENCHMARK(BM_RenderLabImaging)->Unit(benchmark::kMicrosecond);
+
+// 100 us exposure: 1.4 px of travel plus 1.8 px of spin at the rim, 7 time
+// samples chosen automatically (one per 0.5 px).
+void BM_RenderLabImagingMotionBlur(benchmark::State& state) {
+  run(state, lab(100e-6));
+}
+BENCHMARK(BM_RenderLabImagingMotionBlur)->Unit(benchmark::kMicrosecond);
+
+// Breakdown: the lab's sensor alone (no spheres in view).
+void BM_RenderLabImagingBackgroundOnly(benchmark::State& state) {
+  const Renderer renderer(lab(0.0));
+  std::uint64_t frame = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(renderer.render({}, frame++).data);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_RenderLabImagingBackgroundOnly)->Unit(benchmark::kMicrosecond);
 
 // Breakdown: the same frame without dots, and with no spheres at all.
 void BM_RenderMono8NoDots(benchmark::State& state) {

@@ -7,6 +7,7 @@
 
 #include "hw/backend_registry.hpp"
 #include "hw/clock.hpp"
+#include "hw/format.hpp"
 #include "hw/try.hpp"
 
 namespace collide::hw {
@@ -26,8 +27,142 @@ Result<CameraSimSettings> CameraSimSettings::read(SettingsReader& r) {
   COLLIDE_ASSIGN_OR_RETURN(s.drop_every, r.integer("drop_every", 0, {.ge = 0, .le = 1e9}));
   COLLIDE_ASSIGN_OR_RETURN(s.stop_after_frames,
                            r.integer("stop_after_frames", -1, {.ge = -1, .le = 1e9}));
+  const auto& keys = r.table().values;
+  if (std::any_of(keys.begin(), keys.end(),
+                  [](const auto& kv) { return kv.first.rfind("imaging.", 0) == 0; })) {
+    COLLIDE_ASSIGN_OR_RETURN(s.imaging, SimImagingSettings::read(r));
+  }
   COLLIDE_RETURN_IF_ERROR(r.finish("the sim camera backend"));
   return s;
+}
+
+namespace {
+
+// A key that takes one of two words, `first` (the default) or `second`:
+// whether it says `second`.
+Result<bool> saysSecond(SettingsReader& r, const std::string& key, const std::string& first,
+                        const std::string& second) {
+  Result<std::string> v = r.text(key, first, {first, second});
+  if (!v) return v.error();
+  return v->compare(second) == 0;
+}
+
+Status readLighting(SettingsReader& r, vision::Lighting& l) {
+  COLLIDE_ASSIGN_OR_RETURN(const bool back, saysSecond(r, "imaging.lighting", "front", "back"));
+  l.mode = back ? vision::Lighting::Mode::Back : vision::Lighting::Mode::Front;
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> lamp,
+                           r.numbers("imaging.lamp_direction", 3, std::vector<double>{0, 0, 1}));
+  l.lamp_direction = Vec3(lamp[0], lamp[1], lamp[2]);
+  if (!(l.lamp_direction.norm() > 1e-9))
+    return r.invalid("imaging.lamp_direction", "must point somewhere (towards the lamp)");
+  l.lamp_direction.normalize();
+  const Bounds unit{.ge = 0.0, .le = 1.0};
+  COLLIDE_ASSIGN_OR_RETURN(l.ambient, r.number("imaging.ambient", 0.2, unit));
+  COLLIDE_ASSIGN_OR_RETURN(l.sphere_albedo, r.number("imaging.sphere_albedo", 0.85, unit));
+  COLLIDE_ASSIGN_OR_RETURN(l.dot_albedo, r.number("imaging.dot_albedo", 0.05, unit));
+  COLLIDE_ASSIGN_OR_RETURN(l.specular_strength, r.number("imaging.specular_strength", 0.0, unit));
+  COLLIDE_ASSIGN_OR_RETURN(l.specular_exponent,
+                           r.number("imaging.specular_exponent", 60.0, {.ge = 1.0, .le = 10000.0}));
+  COLLIDE_ASSIGN_OR_RETURN(l.backdrop_level, r.number("imaging.backdrop_level", 0.02, unit));
+  COLLIDE_ASSIGN_OR_RETURN(l.spot_level, r.number("imaging.spot_level", 0.0, unit));
+  COLLIDE_ASSIGN_OR_RETURN(l.spot_fraction, r.number("imaging.spot_fraction", 0.0, unit));
+  return Ok{};
+}
+
+Status readLens(SettingsReader& r, SimImagingSettings& s) {
+  COLLIDE_ASSIGN_OR_RETURN(s.perspective,
+                           saysSecond(r, "imaging.projection", "orthographic", "perspective"));
+  const char* const lens_keys[] = {"imaging.focal_length_mm", "imaging.pixel_pitch_um",
+                                   "imaging.working_distance_m", "imaging.principal_point_px",
+                                   "imaging.distortion"};
+  if (!s.perspective) {
+    for (const char* k : lens_keys)
+      if (r.table().has(k)) return r.invalid(k, "needs imaging.projection = \"perspective\"");
+    return Ok{};
+  }
+  COLLIDE_ASSIGN_OR_RETURN(
+      s.focal_length_mm, r.number("imaging.focal_length_mm", std::nullopt, {.gt = 0.0, .le = 1e4}));
+  COLLIDE_ASSIGN_OR_RETURN(
+      s.pixel_pitch_um, r.number("imaging.pixel_pitch_um", std::nullopt, {.gt = 0.0, .le = 1e3}));
+  COLLIDE_ASSIGN_OR_RETURN(s.working_distance_m, r.number("imaging.working_distance_m",
+                                                          std::nullopt, {.gt = 0.0, .le = 1e3}));
+  if (r.table().has("imaging.principal_point_px")) {
+    COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> pp,
+                             r.numbers("imaging.principal_point_px", 2));
+    s.principal_px = Eigen::Vector2d(pp[0], pp[1]);
+  }
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> k,
+                           r.numbers("imaging.distortion", 4, std::vector<double>{0, 0, 0, 0},
+                                     {.ge = -10.0, .le = 10.0}));
+  std::copy(k.begin(), k.end(), s.distortion.begin());
+  return Ok{};
+}
+
+Status readSensor(SettingsReader& r, vision::Sensor& se, int& samples) {
+  const Bounds unit{.ge = 0.0, .le = 1.0};
+  COLLIDE_ASSIGN_OR_RETURN(se.vignetting_cos4, saysSecond(r, "imaging.vignetting", "none", "cos4"));
+  COLLIDE_ASSIGN_OR_RETURN(se.vignetting_falloff,
+                           r.number("imaging.vignetting_falloff", 0.0, unit));
+  COLLIDE_ASSIGN_OR_RETURN(se.flicker_hz,
+                           r.number("imaging.flicker_hz", 0.0, {.ge = 0.0, .le = 1e6}));
+  COLLIDE_ASSIGN_OR_RETURN(se.flicker_amplitude, r.number("imaging.flicker_amplitude", 0.0, unit));
+  COLLIDE_ASSIGN_OR_RETURN(se.prnu, r.number("imaging.prnu", 0.0, {.ge = 0.0, .le = 0.5}));
+  COLLIDE_ASSIGN_OR_RETURN(se.dsnu, r.number("imaging.dsnu", 0.0, {.ge = 0.0, .le = 0.5}));
+  COLLIDE_ASSIGN_OR_RETURN(se.hot_pixel_fraction,
+                           r.number("imaging.hot_pixel_fraction", 0.0, unit));
+  COLLIDE_ASSIGN_OR_RETURN(se.hot_pixel_level, r.number("imaging.hot_pixel_level", 0.5, unit));
+  COLLIDE_ASSIGN_OR_RETURN(se.full_well_e,
+                           r.number("imaging.full_well_e", 0.0, {.ge = 0.0, .le = 1e8}));
+  COLLIDE_ASSIGN_OR_RETURN(se.read_noise_e,
+                           r.number("imaging.read_noise_e", 0.0, {.ge = 0.0, .le = 1e6}));
+  if (se.read_noise_e > 0 && se.full_well_e == 0)
+    return r.invalid("imaging.read_noise_e", "needs imaging.full_well_e (electrons at full scale)");
+  COLLIDE_ASSIGN_OR_RETURN(const std::int64_t bits,
+                           r.integer("imaging.adc_bits", 0, {.ge = 0, .le = 16}));
+  if (bits != 0 && bits != 8 && bits != 10 && bits != 12 && bits != 16)
+    return r.invalid("imaging.adc_bits", "must be 8, 10, 12 or 16 (0: the format's)");
+  se.adc_bits = static_cast<int>(bits);
+  COLLIDE_ASSIGN_OR_RETURN(const std::int64_t spp,
+                           r.integer("imaging.samples_per_pixel", 2, {.ge = 1, .le = 8}));
+  samples = static_cast<int>(spp);
+  return Ok{};
+}
+
+}  // namespace
+
+Result<SimImagingSettings> SimImagingSettings::read(SettingsReader& r) {
+  SimImagingSettings s;
+  COLLIDE_RETURN_IF_ERROR(readLighting(r, s.imaging.lighting));
+  COLLIDE_RETURN_IF_ERROR(readLens(r, s));
+  COLLIDE_RETURN_IF_ERROR(readSensor(r, s.imaging.sensor, s.imaging.samples_per_pixel));
+  if (s.imaging.sensor.vignetting_cos4 && !s.perspective)
+    return r.invalid("imaging.vignetting", "cos4 needs imaging.projection = \"perspective\"");
+  return s;
+}
+
+vision::Optics SimImagingSettings::optics(int width, int height, Eigen::Vector2d origin_px,
+                                          double pixel_size_m) const {
+  vision::Optics o;
+  o.pixel_size_m = pixel_size_m;
+  o.origin_u_px = origin_px.x();
+  o.origin_v_px = origin_px.y();
+  if (!perspective) return o;
+  o.perspective = true;
+  o.focal_px = focal_length_mm * 1e3 / pixel_pitch_um;
+  const Eigen::Vector2d pp =
+      principal_px.value_or(Eigen::Vector2d(0.5 * (width - 1), 0.5 * (height - 1)));
+  o.principal_u_px = pp.x();
+  o.principal_v_px = pp.y();
+  // The world origin (on the collision plane) appears at origin_px: the
+  // optical centre sits above the point the axis meets the plane.
+  const double d = working_distance_m;
+  o.centre_m =
+      Vec3((pp.x() - origin_px.x()) * d / o.focal_px, (origin_px.y() - pp.y()) * d / o.focal_px, d);
+  o.k1 = distortion[0];
+  o.k2 = distortion[1];
+  o.p1 = distortion[2];
+  o.p2 = distortion[3];
+  return o;
 }
 
 CameraSim::CameraSim(std::shared_ptr<SimWorld> world, CameraSimSettings settings,
@@ -81,6 +216,18 @@ Status CameraSim::onConfigure(const CameraConfig& config) {
   rs.background_level = std::min(1.0, rs.background_level * gain);
   rs.noise_grey = settings_.noise_grey * gain;
   rs.noise_seed = world_->profile().simulation.seed;
+  if (settings_.imaging) {
+    const GeometryProfile& g = world_->profile().geometry;
+    vision::Imaging im = settings_.imaging->imaging;
+    im.optics = settings_.imaging->optics(config.width, config.height,
+                                          {g.origin_u_px, g.origin_v_px}, g.pixel_size_m);
+    im.sensor.gain = gain;
+    if (im.sensor.adc_bits > vision::bitDepth(config.format))
+      return fail("camera \"" + device_ +
+                  "\": imaging.adc_bits = " + std::to_string(im.sensor.adc_bits) +
+                  " does not fit " + vision::toString(config.format) + " pixels");
+    rs.imaging = im;
+  }
   renderer_.emplace(rs);
   config_ = config;
   return Ok{};
@@ -138,8 +285,25 @@ std::vector<vision::SphereView> CameraSim::sceneAt(const SimLaunch& launch,
     v.velocity_px_s = {s.velocity_m_s.x() / px, -s.velocity_m_s.y() / px};
     v.spin_rad_s = s.spin_rad_s;
     v.dots = &launch.dots[i];
+    v.centre_m = s.position_m;
+    v.radius_m = 0.5 * p.spheres.diameter_m[i];
+    v.velocity_m_s = s.velocity_m_s;
+    double margin = 2;
+    const vision::Imaging* im = renderer_ && renderer_->settings().imaging
+                                    ? &*renderer_->settings().imaging
+                                    : nullptr;  // none, or not configured yet
+    if (im != nullptr && im->optics.perspective) {
+      // Through the lens: the centre's image and the scale at its depth; the
+      // silhouette (an ellipse off-axis, bent by distortion) gets a margin.
+      const double scale = im->optics.focal_px / (im->optics.centre_m.z() - s.position_m.z());
+      v.centre_px = im->optics.project(s.position_m);
+      v.radius_px = v.radius_m * scale;
+      v.velocity_px_s = {s.velocity_m_s.x() * scale, -s.velocity_m_s.y() * scale};
+      margin += 0.5 * v.radius_px;
+      if (!v.centre_px.allFinite()) continue;
+    }
     // Skip spheres wholly outside the picture, blur included.
-    const double reach = v.radius_px + v.velocity_px_s.norm() * config_.exposure_us * 1e-6 + 2;
+    const double reach = v.radius_px + v.velocity_px_s.norm() * config_.exposure_us * 1e-6 + margin;
     if (v.centre_px.x() < -reach || v.centre_px.y() < -reach ||
         v.centre_px.x() > config_.width - 1 + reach || v.centre_px.y() > config_.height - 1 + reach)
       continue;
@@ -156,7 +320,7 @@ vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64
   // The launch owns the dot patterns the views point at: keep it alive while rendering.
   const std::vector<vision::SphereView> views =
       launch ? sceneAt(*launch, mid) : std::vector<vision::SphereView>{};
-  f.image = renderer_->render(views, sequence);
+  f.image = renderer_->render(views, sequence, static_cast<double>(mid) * 1e-9);
   return f;
 }
 
@@ -263,6 +427,18 @@ Result<std::unique_ptr<Camera>> makeSim(BackendContext& ctx) {
                 "\": the simulated camera runs on CLOCK_MONOTONIC; build its rig without "
                 "RigHooks::clock");
   COLLIDE_ASSIGN_OR_RETURN(const std::shared_ptr<SimWorld> world, ctx.simWorld());
+  if (settings.imaging && settings.imaging->perspective) {
+    // The analysis turns pixels into metres with geometry.pixel_size_m: the
+    // lens must give that scale at the collision plane.
+    const double lens = settings.imaging->planePixelSizeM();
+    const double geometry = world->profile().geometry.pixel_size_m;
+    if (std::abs(lens / geometry - 1.0) > 0.01)
+      return r.invalid("imaging.working_distance_m",
+                       "the lens gives " + num(lens) +
+                           " m per pixel at the collision plane (pixel_pitch_um x "
+                           "working_distance_m / focal_length_mm) but geometry.pixel_size_m = " +
+                           num(geometry) + ": make them agree within 1 %");
+  }
   return std::unique_ptr<Camera>(std::make_unique<CameraSim>(world, settings, ctx.device.device));
 }
 

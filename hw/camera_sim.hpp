@@ -7,9 +7,12 @@
 // it renders a burst as fast as it can once the valves have fired (the physics
 // is then known), so a shot takes less wall time than real time. Fault knobs:
 // lose every Nth frame, or stop streaming after N post-trigger frames.
+// An optional [camera.imaging] table makes the pictures realistic (lamps,
+// perspective lens, sensor; docs/imaging.md).
 //
 // Runs on CLOCK_MONOTONIC (its frame timestamps are compared with the valves'
 // times), so its rig must use the monotonic clock.
+#include <array>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -24,6 +27,30 @@
 
 namespace collide::hw {
 
+/// [camera.imaging]: how the simulated camera images the scene (lamps, lens,
+/// sensor; vision/imaging.hpp, docs/imaging.md). The lens' pose and pixel
+/// mapping follow from [geometry] and the region at configure time.
+struct SimImagingSettings {
+  vision::Imaging imaging;  ///< lighting, sensor (gain set at configure) and samples
+  bool perspective = false;
+  double focal_length_mm = 0;
+  double pixel_pitch_um = 0;
+  double working_distance_m = 0;                 ///< optical centre to the collision plane z = 0
+  std::optional<Eigen::Vector2d> principal_px;   ///< none: the region's centre
+  std::array<double, 4> distortion{0, 0, 0, 0};  ///< k1, k2, p1, p2
+
+  /// Metres per pixel at the collision plane (perspective).
+  double planePixelSizeM() const {
+    return pixel_pitch_um * 1e-6 * working_distance_m / (focal_length_mm * 1e-3);
+  }
+  /// The lens for an image of `width` x `height` whose world origin appears at
+  /// `origin_px` (ideal pixel) with `pixel_size_m` (orthographic).
+  vision::Optics optics(int width, int height, Eigen::Vector2d origin_px,
+                        double pixel_size_m) const;
+  /// Reads the "imaging.*" keys of the [camera] table.
+  static Result<SimImagingSettings> read(SettingsReader& r);
+};
+
 struct CameraSimSettings {
   int sensor_width = 640;
   int sensor_height = 480;
@@ -33,9 +60,11 @@ struct CameraSimSettings {
   int stop_after_frames = -1;  ///< fault: stop after N post-trigger frames (-1: never)
   double max_fps = 100000.0;
   double max_gain_db = 24.0;
+  /// [camera.imaging]; none: the evenly lit orthographic picture.
+  std::optional<SimImagingSettings> imaging;
 
   /// From the [camera] table (sensor_px, realtime, noise_grey, drop_every,
-  /// stop_after_frames); refuses unknown keys.
+  /// stop_after_frames, and [camera.imaging]); refuses unknown keys.
   static Result<CameraSimSettings> read(SettingsReader& r);
 };
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <sstream>
 
 #include "hw/backend_registry.hpp"
@@ -387,6 +388,11 @@ Status parseSimulation(const SettingsTable& t, RigProfile& p) {
       r.numbers("spin_at_exit_rad_s", 2, std::vector<double>{0.0, 0.0}, {.ge = 0.0}));
   if (spin[0] > spin[1]) return r.invalid("spin_at_exit_rad_s", "must be [smallest, largest]");
   s.spin_at_exit_rad_s = {spin[0], spin[1]};
+  COLLIDE_ASSIGN_OR_RETURN(const double tilt_deg,
+                           r.number("contact_tilt_deg", 0.0, {.ge = -30.0, .le = 30.0}));
+  s.contact_tilt_rad = tilt_deg * std::numbers::pi / 180.0;
+  COLLIDE_ASSIGN_OR_RETURN(s.out_of_plane_drift,
+                           r.number("out_of_plane_drift", 0.0, {.ge = -0.3, .le = 0.3}));
   COLLIDE_ASSIGN_OR_RETURN(const std::string law, r.text("restitution", "constant",
                                                          {"constant", "power", "viscoelastic"}));
   s.restitution = law == "power"          ? RestitutionLaw::Power

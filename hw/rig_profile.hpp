@@ -100,7 +100,14 @@ struct SimulationProfile {
   std::uint64_t seed = 1;
   double speed_scatter = 0.0;                          ///< relative std dev of the exit speed
   double direction_scatter_rad = 0.0;                  ///< std dev of the exit direction, per axis
-  std::array<double, 2> spin_at_exit_rad_s{0.0, 0.0};  ///< magnitude range
+  std::array<double, 2> spin_at_exit_rad_s{0.0, 0.0};  ///< magnitude range, random axis
+  /// Misalignment the rig does not know about: the second sphere leaves its
+  /// muzzle D sin(tilt) nearer the camera (z) than the profile says, so the
+  /// line of centres at contact leans this far out of the image plane.
+  double contact_tilt_rad = 0.0;
+  /// Both tubes point out of the image plane: each exit velocity gains a z
+  /// component of this fraction of its speed (towards the camera if > 0).
+  double out_of_plane_drift = 0.0;
   RestitutionLaw restitution = RestitutionLaw::Constant;
   double restitution_ref_speed_m_s = 1.0;
   double restitution_exponent = 0.0;

@@ -127,6 +127,12 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
       s.mass_kg = profile_.spheres.mass_kg[i];
       s.diameter_m = profile_.spheres.diameter_m[i];
       s.position_m = l.exit_m;
+      // Misalignment: sphere 2 out of the plane by D sin(tilt), D the
+      // distance of the centres at contact.
+      if (i == 1)
+        s.position_m.z() += 0.5 *
+                            (profile_.spheres.diameter_m[0] + profile_.spheres.diameter_m[1]) *
+                            std::sin(sim.contact_tilt_rad);
       setup.launch_time_s[i] = kNeverS;
       setup.orientation_at_launch[i] = randomOrientation(rng_);
       shot->dots[i] = vision::DotPattern::random(rng_());
@@ -142,10 +148,12 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
       shot->pressure_kPa[i] = p_kPa;
       // Without pressure behind it the sphere stays in the tube.
       if (p_kPa < 1.0 || !(v > 0.05)) continue;
-      const Vec3 aim =
-          (l.direction +
-           sim.direction_scatter_rad * Vec3(unit(rng_), unit(rng_), unit(rng_)).cross(l.direction))
-              .normalized();
+      Vec3 aim = (l.direction + sim.direction_scatter_rad *
+                                    Vec3(unit(rng_), unit(rng_), unit(rng_)).cross(l.direction))
+                     .normalized();
+      // Drift out of the plane: a z velocity of about `drift` times the speed
+      // (to first order; the scatter above adds its own).
+      aim = (aim + sim.out_of_plane_drift * Vec3::UnitZ()).normalized();
       s.velocity_m_s = v * aim;
       s.spin_rad_s = spin_rate(rng_) * randomUnit(rng_);
       shot->launched[i] = true;

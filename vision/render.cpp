@@ -7,23 +7,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "vision/random.hpp"
+
 namespace collide::vision {
 namespace {
 
-// splitmix64 (Steele, Lea, Flood 2014): tiny and well mixed, and its output is
-// fixed by its definition (std::normal_distribution's is not), so dot patterns
-// and noise are the same on every platform and compiler.
-std::uint64_t splitmix64(std::uint64_t& state) {
-  std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-
-// Uniform in [0, 1) with 53 random bits.
-double uniform01(std::uint64_t& state) {
-  return static_cast<double>(splitmix64(state) >> 11) * 0x1.0p-53;
-}
+using detail::splitmix64;
+using detail::uniform01;
 
 // Unit Gaussian samples; each row of a frame reads a run of them from a random
 // offset. 2^18 samples (1 MiB) keep rows that share a run rare (~0.5 % of row
@@ -358,9 +348,15 @@ Renderer::Renderer(RenderSettings settings) : settings_(settings) {
     background_table_.resize(2 * static_cast<std::size_t>(n));
     std::memcpy(background_table_.data(), words.data(), background_table_.size());
   }
+  if (settings_.imaging) {
+    settings_.imaging->lighting.lamp_direction.normalize();
+    imaging_ = makeImagingTables(settings_);
+  }
 }
 
-cv::Mat Renderer::render(const std::vector<SphereView>& spheres, std::uint64_t frame_index) const {
+cv::Mat Renderer::render(const std::vector<SphereView>& spheres, std::uint64_t frame_index,
+                         double time_s) const {
+  if (settings_.imaging) return renderImaging(spheres, frame_index, time_s);
   const RenderSettings& st = settings_;
   const int width = st.width, height = st.height;
   const float full = static_cast<float>(maxValue(st.format));

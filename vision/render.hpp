@@ -3,14 +3,20 @@
 // a black background, with anti-aliased edges, a darker rim, optional motion
 // blur over the exposure, sensor noise, and the camera's bit depth.
 // Projection is orthographic (the camera looks along -z from far away).
+// With RenderSettings::imaging it draws what a real lab camera records
+// instead: spheres ray-cast in 3-D under lamps, through a pinhole lens with
+// distortion, and a sensor (vision/imaging.hpp, render_raycast.cpp).
 // Image coordinates: u to the right, v down, pixel (0,0)'s centre at (0,0).
 #include <Eigen/Dense>
 #include <cstdint>
+#include <memory>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "analysis/types.hpp"
 #include "vision/frame.hpp"
+#include "vision/imaging.hpp"
 
 namespace collide::vision {
 
@@ -39,6 +45,11 @@ struct SphereView {
   Eigen::Vector2d velocity_px_s{0, 0};  ///< (du/dt, dv/dt), for motion blur
   Vec3 spin_rad_s = Vec3::Zero();       ///< world frame, for motion blur
   const DotPattern* dots = nullptr;     ///< nullptr: no dots
+  // The same sphere in the world (metres), for RenderSettings::imaging, which
+  // ray-casts in 3-D; the pixel fields above are then not used.
+  Vec3 centre_m = Vec3::Zero();
+  double radius_m = 0;
+  Vec3 velocity_m_s = Vec3::Zero();
 };
 
 struct RenderSettings {
@@ -53,6 +64,12 @@ struct RenderSettings {
   double background_level = 0.02;
   double noise_grey = 0.0;  ///< std dev of additive Gaussian noise, in grey levels of the format
   std::uint64_t noise_seed = 1;
+  /// Lamps, lens and sensor of a real camera (vision/imaging.hpp). Unset: the
+  /// evenly lit orthographic picture described at render(), exactly as ever.
+  /// Set: spheres are ray-cast from their world fields; sphere/rim/dot/
+  /// background levels above are not used, noise_grey is (unless the sensor
+  /// has a full well), exposure_s and blur_samples are.
+  std::optional<Imaging> imaging;
 };
 
 class Renderer {
@@ -69,9 +86,17 @@ class Renderer {
   /// Spheres overlapping in the image: later in the vector is drawn in front.
   /// Grey level = round(clamp(level * maxValue + noise, 0, maxValue)).
   /// Thread-safe (const, no shared mutable state).
-  cv::Mat render(const std::vector<SphereView>& spheres, std::uint64_t frame_index) const;
+  /// `time_s`: the frame's mid-exposure time, seconds on any fixed clock
+  /// (the phase of mains flicker; used only with imaging).
+  cv::Mat render(const std::vector<SphereView>& spheres, std::uint64_t frame_index,
+                 double time_s = 0.0) const;
 
  private:
+  struct ImagingTables;  // render_raycast.cpp
+  static std::shared_ptr<const ImagingTables> makeImagingTables(const RenderSettings& s);
+  cv::Mat renderImaging(const std::vector<SphereView>& spheres, std::uint64_t frame_index,
+                        double time_s) const;
+  std::shared_ptr<const ImagingTables> imaging_;
   RenderSettings settings_;
   std::vector<float> noise_table_;  // precomputed unit Gaussian samples
   // round(background + noise_grey * noise_table_[i]) in the output format's

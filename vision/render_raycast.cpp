@@ -1,0 +1,592 @@
+// Renderer with RenderSettings::imaging: every sphere is ray-cast in 3-D
+// through the lens (orthographic or pinhole with distortion), shaded by the
+// lamps from its true normal, averaged over n x n samples per pixel and over
+// the exposure's time samples (translation and rotation), then passed through
+// the sensor: vignetting, flicker, fixed patterns, shot and read noise, ADC.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+#include "vision/random.hpp"
+#include "vision/render.hpp"
+
+namespace collide::vision {
+
+using detail::splitmix64;
+using detail::uniform01;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr int kNoiseTableSize = 1 << 18;
+// Automatic motion blur: one time sample per this much motion of the fastest
+// surface point (ray-casting costs more per sample than the analytic path).
+constexpr double kBlurStepPx = 0.5;
+constexpr int kMaxBlurSamples = 128;
+// Pixels this far from every silhouette edge may be sampled once (see smooth()).
+constexpr double kSmoothMarginPx = 2.0;
+
+// One sphere at one time sample of the exposure.
+struct Instance {
+  Vec3 centre;
+  double radius = 0;
+  Eigen::Matrix3d world_to_body = Eigen::Matrix3d::Identity();
+  const DotPattern* dots = nullptr;
+  double cos_dot = 1;
+  double sin_dot = 0;
+  double dot_radius_rad = 0;
+  // Silhouette thresholds for clearOfEdge(): orthographic, squared distances
+  // from the centre (m^2) inside / outside the margin; perspective, cosines of
+  // the angle to the centre's direction, with 1 / distance to the centre.
+  double edge_inner = 0, edge_outer = 0, inv_distance = 0;
+  int sample = 0;
+  int u0 = 0, u1 = -1, v0 = 0, v1 = -1;  // pixels it may touch, clipped to the frame
+};
+
+struct Hit {
+  Vec3 normal = Vec3::UnitZ();  // unit, world
+  Vec3 view = Vec3::UnitZ();    // unit, from the surface towards the camera
+};
+
+double gaussian(std::uint64_t& state) {
+  const double u1 = 1.0 - uniform01(state);
+  const double u2 = uniform01(state);
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+}
+
+int clampIndex(double x, int lo, int hi) {
+  if (!(x > lo)) return lo;
+  if (x > hi) return hi;
+  return static_cast<int>(x);
+}
+
+// sin(pi x) / (pi x): the mean of cos over a window of x periods.
+double sinc(double x) {
+  return std::abs(x) < 1e-9 ? 1.0 : std::sin(kPi * x) / (kPi * x);
+}
+
+}  // namespace
+
+// ---- optics -----------------------------------------------------------------
+
+Eigen::Vector2d Optics::distort(const Eigen::Vector2d& xy) const {
+  const double x = xy.x(), y = xy.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
+  return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+          y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+}
+
+Eigen::Vector2d Optics::undistort(const Eigen::Vector2d& xy_distorted) const {
+  // As cv::undistortPoints: x = (x' - tangential(x)) / radial(x), iterated.
+  Eigen::Vector2d xy = xy_distorted;
+  for (int i = 0; i < 20; ++i) {
+    const double x = xy.x(), y = xy.y();
+    const double r2 = x * x + y * y;
+    const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
+    const double dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
+    const double dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
+    xy = {(xy_distorted.x() - dx) / radial, (xy_distorted.y() - dy) / radial};
+  }
+  return xy;
+}
+
+Eigen::Vector2d Optics::project(const Vec3& w) const {
+  if (!perspective) return {origin_u_px + w.x() / pixel_size_m, origin_v_px - w.y() / pixel_size_m};
+  const double depth = centre_m.z() - w.z();
+  if (!(depth > 0)) return {std::nan(""), std::nan("")};
+  const Eigen::Vector2d ideal((w.x() - centre_m.x()) / depth, -(w.y() - centre_m.y()) / depth);
+  const Eigen::Vector2d d = distort(ideal);
+  return {focal_px * d.x() + principal_u_px, focal_px * d.y() + principal_v_px};
+}
+
+// ---- per-renderer tables ------------------------------------------------------
+
+struct Renderer::ImagingTables {
+  int ss = 1;
+  // Distorted lens: the ideal normalised (x, y) of every pixel corner,
+  // index ((v (width + 1) + u) * 2 for the corner at (u - 0.5, v - 0.5);
+  // samples inside a pixel interpolate bilinearly (the map is smooth: the
+  // error is ~1e-4 px). Empty otherwise.
+  std::vector<float> ray_xy;
+  std::vector<float> gain;    // per pixel: vignetting x (1 + prnu)
+  std::vector<float> offset;  // per pixel: dsnu + hot pixels, fraction of full scale
+  std::vector<float> noise;   // unit Gaussians, read in runs from random offsets
+};
+
+std::shared_ptr<const Renderer::ImagingTables> Renderer::makeImagingTables(
+    const RenderSettings& s) {
+  const Imaging& im = *s.imaging;
+  const Optics& o = im.optics;
+  const Sensor& se = im.sensor;
+  const Lighting& l = im.lighting;
+  if (im.samples_per_pixel < 1 || im.samples_per_pixel > 16 || !(o.pixel_size_m > 0) ||
+      !(o.focal_px > 0) || !(l.lamp_direction.norm() > 0) || !(l.ambient >= 0 && l.ambient <= 1) ||
+      !(se.gain > 0) || !(se.full_well_e >= 0) || !(se.read_noise_e >= 0) || !(se.prnu >= 0) ||
+      !(se.dsnu >= 0) || !(se.hot_pixel_fraction >= 0) ||
+      (se.adc_bits != 0 && (se.adc_bits < 1 || se.adc_bits > bitDepth(s.format))))
+    throw std::invalid_argument("Renderer: imaging settings out of range");
+  auto t = std::make_shared<ImagingTables>();
+  const int w = s.width, h = s.height, ss = im.samples_per_pixel;
+  t->ss = ss;
+  if (o.distorted()) {
+    t->ray_xy.resize(static_cast<std::size_t>(w + 1) * (h + 1) * 2);
+    for (int v = 0; v <= h; ++v)
+      for (int u = 0; u <= w; ++u) {
+        const Eigen::Vector2d xy = o.undistort(
+            {(u - 0.5 - o.principal_u_px) / o.focal_px, (v - 0.5 - o.principal_v_px) / o.focal_px});
+        const std::size_t i = (static_cast<std::size_t>(v) * (w + 1) + u) * 2;
+        t->ray_xy[i] = static_cast<float>(xy.x());
+        t->ray_xy[i + 1] = static_cast<float>(xy.y());
+      }
+  }
+  // Vignetting and fixed patterns, reproducible from the noise seed.
+  t->gain.assign(static_cast<std::size_t>(w) * h, 1.0f);
+  t->offset.assign(static_cast<std::size_t>(w) * h, 0.0f);
+  const double cu = o.perspective ? o.principal_u_px : 0.5 * (w - 1);
+  const double cv = o.perspective ? o.principal_v_px : 0.5 * (h - 1);
+  double r_corner2 = 0;
+  for (const double u : {0.0, w - 1.0})
+    for (const double v : {0.0, h - 1.0})
+      r_corner2 = std::max(r_corner2, (u - cu) * (u - cu) + (v - cv) * (v - cv));
+  std::uint64_t state = s.noise_seed ^ 0x5851f42d4c957f2dULL;
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      double g = 1.0;
+      if (se.vignetting_cos4 && o.perspective) {
+        Eigen::Vector2d xy((u - o.principal_u_px) / o.focal_px,
+                           (v - o.principal_v_px) / o.focal_px);
+        if (o.distorted()) xy = o.undistort(xy);
+        const double q = 1.0 + xy.squaredNorm();  // 1 / cos^2 of the field angle
+        g /= q * q;
+      }
+      if (se.vignetting_falloff > 0 && r_corner2 > 0)
+        g *= 1.0 - se.vignetting_falloff * ((u - cu) * (u - cu) + (v - cv) * (v - cv)) / r_corner2;
+      if (se.prnu > 0) g *= 1.0 + se.prnu * gaussian(state);
+      double off = 0.0;
+      if (se.dsnu > 0) off += se.dsnu * gaussian(state);
+      if (se.hot_pixel_fraction > 0 && uniform01(state) < se.hot_pixel_fraction)
+        off += se.hot_pixel_level;
+      const std::size_t i = static_cast<std::size_t>(v) * w + u;
+      t->gain[i] = static_cast<float>(std::max(0.0, g));
+      t->offset[i] = static_cast<float>(off);
+    }
+  std::uint64_t nstate = s.noise_seed ^ 0x9e6c63d0676a9a99ULL;
+  t->noise.resize(static_cast<std::size_t>(kNoiseTableSize) + w);
+  for (float& n : t->noise) n = static_cast<float>(gaussian(nstate));
+  return t;
+}
+
+// ---- rendering --------------------------------------------------------------
+
+namespace {
+
+// Pixels per metre at the sphere's distance (for the number of blur samples).
+double pixelsPerMetre(const Optics& o, const Vec3& c) {
+  if (!o.perspective) return 1.0 / o.pixel_size_m;
+  const double depth = o.centre_m.z() - c.z();
+  return depth > 0 ? o.focal_px / depth : 0.0;
+}
+
+int timeSamples(const RenderSettings& st, const std::vector<SphereView>& spheres) {
+  if (!(st.exposure_s > 0)) return 1;
+  if (st.blur_samples > 0) return st.blur_samples;
+  double fastest_px = 0;
+  for (const SphereView& sv : spheres)
+    fastest_px =
+        std::max(fastest_px, (sv.velocity_m_s.norm() + sv.spin_rad_s.norm() * sv.radius_m) *
+                                 pixelsPerMetre(st.imaging->optics, sv.centre_m) * st.exposure_s);
+  if (!(fastest_px >= 0)) return 1;
+  return static_cast<int>(
+      std::clamp(std::ceil(fastest_px / kBlurStepPx), 1.0, 1.0 * kMaxBlurSamples));
+}
+
+// The pixels a sphere's image may touch: its bounding cube's corners through
+// the lens (a convex body's image lies in the hull of its hull's images), the
+// box's edges sampled through the distortion, plus a pixel of margin.
+bool pixelBox(const Optics& o, const Vec3& c, double r, int width, int height, Instance& in) {
+  double u_lo, u_hi, v_lo, v_hi;
+  if (!o.perspective) {
+    const Eigen::Vector2d p = o.project(c);
+    const double rp = r / o.pixel_size_m;
+    u_lo = p.x() - rp, u_hi = p.x() + rp, v_lo = p.y() - rp, v_hi = p.y() + rp;
+  } else {
+    double x_lo = 1e300, x_hi = -1e300, y_lo = 1e300, y_hi = -1e300;
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 q = c + r * Vec3(k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? 1 : -1);
+      const double depth = o.centre_m.z() - q.z();
+      if (!(depth > 1e-9)) return false;  // reaches behind the lens: not drawn
+      const double x = (q.x() - o.centre_m.x()) / depth, y = -(q.y() - o.centre_m.y()) / depth;
+      x_lo = std::min(x_lo, x), x_hi = std::max(x_hi, x);
+      y_lo = std::min(y_lo, y), y_hi = std::max(y_hi, y);
+    }
+    u_lo = v_lo = 1e300, u_hi = v_hi = -1e300;
+    constexpr int kEdge = 8;
+    for (int e = 0; e <= kEdge; ++e) {
+      const double f = static_cast<double>(e) / kEdge;
+      for (const Eigen::Vector2d& xy : {Eigen::Vector2d(x_lo + f * (x_hi - x_lo), y_lo),
+                                        Eigen::Vector2d(x_lo + f * (x_hi - x_lo), y_hi),
+                                        Eigen::Vector2d(x_lo, y_lo + f * (y_hi - y_lo)),
+                                        Eigen::Vector2d(x_hi, y_lo + f * (y_hi - y_lo))}) {
+        const Eigen::Vector2d d = o.distort(xy);
+        const double u = o.focal_px * d.x() + o.principal_u_px;
+        const double v = o.focal_px * d.y() + o.principal_v_px;
+        u_lo = std::min(u_lo, u), u_hi = std::max(u_hi, u);
+        v_lo = std::min(v_lo, v), v_hi = std::max(v_hi, v);
+      }
+    }
+    const double margin = o.distorted() ? 2.0 : 0.0;
+    u_lo -= margin, v_lo -= margin, u_hi += margin, v_hi += margin;
+  }
+  if (!std::isfinite(u_lo + u_hi + v_lo + v_hi)) return false;
+  in.u0 = clampIndex(std::floor(u_lo - 0.5) + 1, 0, width - 1);
+  in.u1 = clampIndex(std::ceil(u_hi + 0.5) - 1, -1, width - 1);
+  in.v0 = clampIndex(std::floor(v_lo - 0.5) + 1, 0, height - 1);
+  in.v1 = clampIndex(std::ceil(v_hi + 0.5) - 1, -1, height - 1);
+  if (u_hi < -0.5 || v_hi < -0.5 || u_lo > width - 0.5 || v_lo > height - 0.5) return false;
+  return in.u0 <= in.u1 && in.v0 <= in.v1;
+}
+
+void edgeThresholds(const Optics& o, Instance& in) {
+  if (!o.perspective) {
+    const double inner = std::max(0.0, in.radius - kSmoothMarginPx * o.pixel_size_m);
+    const double outer = in.radius + kSmoothMarginPx * o.pixel_size_m;
+    in.edge_inner = inner > 0 ? inner * inner : -1.0;
+    in.edge_outer = outer * outer;
+    return;
+  }
+  const double dist = (in.centre - o.centre_m).norm();
+  const double alpha = std::asin(std::min(1.0, in.radius / dist));
+  const double margin = kSmoothMarginPx / o.focal_px;
+  in.inv_distance = 1.0 / dist;
+  in.edge_inner = alpha > margin ? std::cos(alpha - margin) : 2.0;  // 2: never inside
+  in.edge_outer = alpha + margin < kPi ? std::cos(alpha + margin) : -2.0;
+}
+
+std::vector<Instance> instances(const RenderSettings& st, const std::vector<SphereView>& spheres,
+                                int samples) {
+  const Optics& o = st.imaging->optics;
+  std::vector<Instance> out;
+  for (int j = 0; j < samples; ++j) {
+    const double t = samples == 1 ? 0.0 : st.exposure_s * ((j + 0.5) / samples - 0.5);
+    for (const SphereView& sv : spheres) {
+      Instance in;
+      in.centre = sv.centre_m + sv.velocity_m_s * t;
+      in.radius = sv.radius_m;
+      in.sample = j;
+      if (!(in.radius > 0) || !in.centre.allFinite()) continue;
+      if (!pixelBox(o, in.centre, in.radius, st.width, st.height, in)) continue;
+      edgeThresholds(o, in);
+      Eigen::Matrix3d rot = sv.orientation.normalized().toRotationMatrix();
+      const double spin = sv.spin_rad_s.norm();
+      if (spin > 0 && t != 0)
+        rot = Eigen::AngleAxisd(spin * t, sv.spin_rad_s / spin).toRotationMatrix() * rot;
+      in.world_to_body = rot.transpose();
+      if (sv.dots != nullptr && !sv.dots->centres.empty()) {
+        in.dots = sv.dots;
+        in.cos_dot = std::cos(sv.dots->angular_radius_rad);
+        in.sin_dot = std::sin(sv.dots->angular_radius_rad);
+        in.dot_radius_rad = sv.dots->angular_radius_rad;
+      }
+      out.push_back(in);
+    }
+  }
+  return out;
+}
+
+// Brightness (fraction of full scale, before the sensor) of a sphere's
+// surface point, Lambert plus Blinn-Phong, or the backlit silhouette.
+// Highlights fainter than this (fraction of full scale, a 15th of a 16-bit
+// grey level) are not computed: n.h below the matching cosine skips pow().
+constexpr double kFaintestHighlight = 1e-6;
+
+double highlightCutoff(const Lighting& l) {
+  return l.specular_strength > 0
+             ? std::pow(kFaintestHighlight / l.specular_strength, 1.0 / l.specular_exponent)
+             : 2.0;
+}
+
+double shade(const Lighting& l, double nh_min, const Instance& in, const Hit& h) {
+  bool on_dot = false;
+  if (in.dots != nullptr) {
+    const Vec3 nb = in.world_to_body * h.normal;
+    for (const Vec3& c : in.dots->centres)
+      if (c.dot(nb) >= in.cos_dot) {
+        on_dot = true;
+        break;
+      }
+  }
+  const double albedo = on_dot ? l.dot_albedo : l.sphere_albedo;
+  if (l.mode == Lighting::Mode::Back) {
+    double level = albedo * l.ambient;
+    if (l.spot_level > 0 &&
+        h.normal.dot(h.view) >= std::sqrt(std::max(0.0, 1.0 - l.spot_fraction * l.spot_fraction)))
+      level += l.spot_level;
+    return level;
+  }
+  const double ndl = h.normal.dot(l.lamp_direction);
+  double level = albedo * (l.ambient + (1.0 - l.ambient) * std::max(0.0, ndl));
+  if (l.specular_strength > 0 && ndl > 0) {
+    const double nh = h.normal.dot((l.lamp_direction + h.view).normalized());
+    if (nh > nh_min) level += l.specular_strength * std::pow(nh, l.specular_exponent);
+  }
+  return level;
+}
+
+// The ray through one sample position, intersected with one sphere: the
+// distance along the ray (smaller is nearer) and the hit, or false.
+struct Ray {
+  Vec3 origin;  // perspective: the optical centre; orthographic: (x, y, 0)
+  Vec3 dir;     // unit
+};
+
+bool intersect(const Ray& ray, bool perspective, const Instance& in, double& t_hit, Hit& hit) {
+  if (!perspective) {
+    const double dx = ray.origin.x() - in.centre.x(), dy = ray.origin.y() - in.centre.y();
+    const double d2 = dx * dx + dy * dy, r2 = in.radius * in.radius;
+    if (d2 >= r2) return false;
+    const double dz = std::sqrt(r2 - d2);
+    t_hit = -(in.centre.z() + dz);
+    hit.normal = Vec3(dx, dy, dz) / in.radius;
+    hit.view = Vec3::UnitZ();
+    return true;
+  }
+  const Vec3 L = in.centre - ray.origin;
+  const double b = ray.dir.dot(L);
+  const double disc = b * b - (L.squaredNorm() - in.radius * in.radius);
+  if (disc < 0 || b <= 0) return false;
+  t_hit = b - std::sqrt(disc);
+  hit.normal = (ray.origin + t_hit * ray.dir - in.centre) / in.radius;
+  hit.view = -ray.dir;
+  return true;
+}
+
+// The ray through image position (u + fu - 0.5, v + fv - 0.5), fu, fv in [0, 1].
+Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int v, double fu,
+          double fv) {
+  const Optics& o = st.imaging->optics;
+  const double pu = u + fu - 0.5, pv = v + fv - 0.5;
+  Ray ray;
+  if (!o.perspective) {
+    ray.origin =
+        Vec3((pu - o.origin_u_px) * o.pixel_size_m, (o.origin_v_px - pv) * o.pixel_size_m, 0);
+    ray.dir = -Vec3::UnitZ();
+    return ray;
+  }
+  double x, y;
+  if (ray_xy.empty()) {
+    x = (pu - o.principal_u_px) / o.focal_px;
+    y = (pv - o.principal_v_px) / o.focal_px;
+  } else {
+    // Bilinear between the pixel's corners.
+    const std::size_t stride = static_cast<std::size_t>(st.width + 1) * 2;
+    const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
+    const auto lerp = [&](int k) {
+      return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
+             fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
+    };
+    x = lerp(0);
+    y = lerp(1);
+  }
+  ray.origin = o.centre_m;
+  ray.dir = Vec3(x, -y, -1.0).normalized();
+  return ray;
+}
+
+// Instances [a, b) of `active` (one time sample) that may cover column u:
+// the nearest hit along `ray`, or null.
+const Instance* nearestHit(const Ray& ray, bool perspective, const std::vector<Instance>& inst,
+                           const std::vector<int>& active, std::size_t a, std::size_t b, int u,
+                           double& t_hit, Hit& hit) {
+  const Instance* best = nullptr;
+  t_hit = std::numeric_limits<double>::infinity();
+  for (std::size_t k = a; k < b; ++k) {
+    const Instance& in = inst[active[k]];
+    if (u < in.u0 || u > in.u1) continue;
+    double t;
+    Hit h;
+    if (intersect(ray, perspective, in, t, h) && t < t_hit) t_hit = t, best = &in, hit = h;
+  }
+  return best;
+}
+
+// Whether the ray passes at least kSmoothMarginPx inside (or outside) the
+// sphere's silhouette. Under perspective: the angle to the tangent cone's axis
+// against alpha -+ margin / f, which off-axis (pixels subtend less there) and
+// with mild distortion still bounds the distance in pixels.
+bool clearOfEdge(const Optics& o, const Ray& ray, const Instance& in, bool inside) {
+  if (!o.perspective) {
+    const double dx = ray.origin.x() - in.centre.x(), dy = ray.origin.y() - in.centre.y();
+    const double d2 = dx * dx + dy * dy;
+    return inside ? d2 < in.edge_inner : d2 > in.edge_outer;
+  }
+  const double c = ray.dir.dot(in.centre - ray.origin) * in.inv_distance;
+  return inside ? c > in.edge_inner : c < in.edge_outer;
+}
+
+// Whether pixel (u, v) is smooth for one time sample, judged from its centre
+// ray: at least kSmoothMarginPx from every silhouette edge, and (on a sphere)
+// clear of every dot's rim, the terminator and a backlit spot's rim by the
+// surface angle a pixel spans there. Its centre sample then stands for the
+// pixel's mean (the shading's curvature over a pixel is ~1e-4 of full scale);
+// otherwise the pixel is sampled n x n.
+bool smooth(const Imaging& im, const Ray& ray, const std::vector<Instance>& inst,
+            const std::vector<int>& active, std::size_t a, std::size_t b, int u,
+            const Instance* best, double t_hit, const Hit& hit) {
+  const Optics& o = im.optics;
+  for (std::size_t k = a; k < b; ++k) {
+    const Instance& in = inst[active[k]];
+    if (u < in.u0 || u > in.u1) continue;
+    if (!clearOfEdge(o, ray, in, &in == best)) return false;
+  }
+  if (best == nullptr) return true;
+  const double nv = hit.normal.dot(hit.view);
+  if (nv < 0.05) return false;  // near the limb a pixel spans much of the surface
+  // Surface angle across ~1.5 pixels: lateral size / (R cos(view angle)).
+  const double lateral_m = o.perspective ? t_hit / o.focal_px : o.pixel_size_m;
+  const double delta = 1.5 * lateral_m / (best->radius * nv);
+  // The terminator (n.l = 0): |cos a - cos b| <= |a - b| there.
+  const Lighting& l = im.lighting;
+  if (l.mode == Lighting::Mode::Front && std::abs(hit.normal.dot(l.lamp_direction)) < delta)
+    return false;
+  if (l.mode == Lighting::Mode::Back && l.spot_level > 0 &&
+      std::abs(std::acos(std::min(1.0, nv)) - std::asin(l.spot_fraction)) < delta)
+    return false;
+  if (best->dots != nullptr) {
+    // Angles to the dots' centres; most are far, which a bound on
+    // cos(radius + delta) settles without acos.
+    const Vec3 nb = best->world_to_body * hit.normal;
+    const double far = best->cos_dot * (1.0 - 0.5 * delta * delta) - best->sin_dot * delta;
+    for (const Vec3& c : best->dots->centres) {
+      const double cd = c.dot(nb);
+      if (cd < far) continue;
+      if (std::abs(std::acos(std::min(1.0, cd)) - best->dot_radius_rad) < delta) return false;
+    }
+  }
+  return true;
+}
+
+// Mean brightness of pixel (u, v) over its samples and the time samples.
+double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
+                  const std::vector<Instance>& inst, const std::vector<int>& active, int samples,
+                  double nh_min, int u, int v) {
+  const Imaging& im = *st.imaging;
+  const bool persp = im.optics.perspective;
+  const int ss = im.samples_per_pixel;
+  const double backdrop = im.lighting.backdrop_level;
+  double total = 0;  // sum over time samples of each one's pixel mean
+  int groups = 0;
+  std::size_t a = 0;
+  while (a < active.size()) {
+    // Instances are grouped by time sample.
+    std::size_t b = a;
+    while (b < active.size() && inst[active[b]].sample == inst[active[a]].sample) ++b;
+    ++groups;
+    double t;
+    Hit hit;
+    const Ray centre = rayAt(st, ray_xy, u, v, 0.5, 0.5);
+    const Instance* best = nearestHit(centre, persp, inst, active, a, b, u, t, hit);
+    if (ss == 1 || smooth(im, centre, inst, active, a, b, u, best, t, hit)) {
+      total += best ? shade(im.lighting, nh_min, *best, hit) : backdrop;
+    } else {
+      double sum = 0;
+      for (int j = 0; j < ss; ++j)
+        for (int i = 0; i < ss; ++i) {
+          const Ray ray = rayAt(st, ray_xy, u, v, (i + 0.5) / ss, (j + 0.5) / ss);
+          const Instance* in = nearestHit(ray, persp, inst, active, a, b, u, t, hit);
+          sum += in ? shade(im.lighting, nh_min, *in, hit) : backdrop;
+        }
+      total += sum / (ss * ss);
+    }
+    a = b;
+  }
+  total += (samples - groups) * backdrop;  // time samples with nothing near this pixel
+  return total / samples;
+}
+
+// Light -> grey levels for one row: gain map, flicker, shot and read noise (or
+// plain additive noise), fixed offsets, ADC bits, the format's words.
+template <class T>
+void sensorRow(const RenderSettings& st, const std::vector<float>& gain,
+               const std::vector<float>& offset, const float* g1, const float* g2, double flicker,
+               const float* light, int v, T* out) {
+  const Sensor& se = st.imaging->sensor;
+  const int w = st.width;
+  const int fmt_bits = bitDepth(st.format);
+  const int bits = se.adc_bits > 0 ? se.adc_bits : fmt_bits;
+  const float adc_max = static_cast<float>((1 << bits) - 1);
+  const int shift = fmt_bits - bits;
+  const float full_well = static_cast<float>(se.full_well_e);
+  const float g = static_cast<float>(se.gain);
+  const float read = static_cast<float>(se.read_noise_e);
+  const float grey_sigma = static_cast<float>(st.noise_grey / maxValue(st.format));
+  const float fl = static_cast<float>(flicker);
+  const std::size_t row = static_cast<std::size_t>(v) * w;
+  for (int u = 0; u < w; ++u) {
+    const float signal = light[u] * fl * gain[row + u];
+    float frac;
+    if (full_well > 0) {
+      const float e = std::max(0.0f, signal * full_well);
+      frac = g * (e + std::sqrt(e) * g1[u] + read * g2[u]) / full_well;
+    } else {
+      frac = g * signal + grey_sigma * g1[u];
+    }
+    frac += offset[row + u];
+    const float x = std::min(std::max(frac * adc_max, 0.0f), adc_max);
+    out[u] = static_cast<T>(static_cast<int>(x + 0.5f) << shift);
+  }
+}
+
+}  // namespace
+
+cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uint64_t frame_index,
+                                double time_s) const {
+  const RenderSettings& st = settings_;
+  const Imaging& im = *st.imaging;
+  const ImagingTables& tab = *imaging_;
+  const int width = st.width, height = st.height;
+  const int samples = timeSamples(st, spheres);
+  const std::vector<Instance> inst = instances(st, spheres, samples);
+  const double nh_min = highlightCutoff(im.lighting);
+
+  // Lamp intensity averaged over the exposure.
+  const Sensor& se = im.sensor;
+  const double flicker = se.flicker_hz > 0
+                             ? 1.0 + se.flicker_amplitude * sinc(se.flicker_hz * st.exposure_s) *
+                                         std::cos(2.0 * kPi * se.flicker_hz * time_s)
+                             : 1.0;
+
+  cv::Mat image(height, width, cvType(st.format));
+  std::vector<float> light(static_cast<std::size_t>(width));
+  std::vector<int> active;
+  std::uint64_t rng = st.noise_seed ^ (frame_index * 0xd1b54a32d192ed03ULL) ^ 0x2f8ad3c4e1b7a965ULL;
+  splitmix64(rng);
+  for (int v = 0; v < height; ++v) {
+    std::fill(light.begin(), light.end(), static_cast<float>(im.lighting.backdrop_level));
+    active.clear();
+    int span0 = width, span1 = -1;
+    for (int i = 0; i < static_cast<int>(inst.size()); ++i) {
+      if (v < inst[i].v0 || v > inst[i].v1) continue;
+      active.push_back(i);
+      span0 = std::min(span0, inst[i].u0);
+      span1 = std::max(span1, inst[i].u1);
+    }
+    for (int u = span0; u <= span1; ++u)
+      light[u] =
+          static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, nh_min, u, v));
+
+    const float* g1 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
+    const float* g2 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
+    if (st.format == PixelFormat::Mono8)
+      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
+                image.ptr<std::uint8_t>(v));
+    else
+      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
+                image.ptr<std::uint16_t>(v));
+  }
+  return image;
+}
+
+}  // namespace collide::vision
