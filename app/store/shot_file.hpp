@@ -56,9 +56,9 @@ struct ReadOptions {
   /// Read the file once in a child process first, so that a file corrupt in a
   /// way that crashes the HDF5 library (a damaged global heap makes
   /// libhdf5 1.10 read out of bounds) gives an error naming the file instead
-  /// of ending this process. Folder scans set it: one bad file must not stop
-  /// the rest. Costs a fork and a second read (from the page cache).
-  bool contained = false;
+  /// of ending this process (a folder scan goes on with the other files).
+  /// Costs a fork and a second read (from the page cache); on by default.
+  bool contained = true;
 };
 
 /// Reads a shot file. Errors (one line naming `path`): no such file, not an
