@@ -122,7 +122,7 @@ fuzz_long() {
     name="$(basename "$f" _fuzz)"
     mkdir -p "$dir/tests/fuzz/corpus/$name"
     say "fuzz $name: $runs inputs"
-    (cd "$dir/tests/fuzz" && "$f" -runs="$runs" -timeout=20 -rss_limit_mb=4096 -print_final_stats=1 \
+    (cd "$dir/tests/fuzz" && "$f" -runs="$runs" -timeout=60 -rss_limit_mb=4096 -print_final_stats=1 \
       "$dir/tests/fuzz/corpus/$name" "$here/tests/fuzz/corpus/$name")
   done
 }

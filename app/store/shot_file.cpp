@@ -6,10 +6,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <thread>
 
 #include "app/report/results_summary.hpp"
 #include "app/store/atomic_file.hpp"
@@ -652,8 +655,28 @@ Status probeInChild(const std::string& path, const ReadOptions& options) {
     const bool ok = readShotLocked(path, inner).ok();
     ::_exit(ok ? 0 : 1);
   }
+  // libhdf5 can also loop for ever on a damaged global heap: a read that
+  // takes far longer than the disk needs for the whole file is stopped.
+  std::error_code ec;
+  const double size = static_cast<double>(std::filesystem::file_size(path, ec));
+  const double limit_s = 30.0 + (ec ? 0.0 : size / 20e6);  // 20 MB/s: a slow disk
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::milliseconds(static_cast<long long>(limit_s * 1000));
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  for (auto pause = std::chrono::microseconds(200);;) {
+    const pid_t done = ::waitpid(pid, &status, WNOHANG);
+    if (done == pid || (done < 0 && errno != EINTR)) break;
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+      }
+      return fail("shot file " + path + " is corrupt: reading it did not finish within " +
+                  std::to_string(static_cast<int>(limit_s)) +
+                  " s (the HDF5 library loops on it); restore it from a backup, or move it out "
+                  "of the folder");
+    }
+    std::this_thread::sleep_for(pause);
+    pause = std::min(pause * 2, std::chrono::microseconds(20000));
   }
   if (WIFSIGNALED(status)) {
     const int sig = WTERMSIG(status);
