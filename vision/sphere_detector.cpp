@@ -715,12 +715,16 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
         ++j;
       }
     }
-  // Spheres whose outlines (nearly) meet count as touching even when their blobs
-  // were apart on the grid.
+  // Touching is decided from the final outlines: spheres whose outlines (nearly)
+  // meet touch even when their blobs were apart on the grid, and a blob split
+  // in two whose halves both refined onto one sphere (a shaded sphere with dark
+  // dots can look like two to the coarse fit) leaves a sphere that touches
+  // nothing.
+  for (SphereMeasurement& m : out.spheres) m.touching = false;
   for (std::size_t i = 0; i < out.spheres.size(); ++i)
     for (std::size_t j = i + 1; j < out.spheres.size(); ++j) {
       const CircleFit &a = out.spheres[i].circle, &b = out.spheres[j].circle;
-      if (std::hypot(a.u - b.u, a.v - b.v) < a.radius + b.radius + 2.0)
+      if (std::hypot(a.u - b.u, a.v - b.v) < a.radius + b.radius + std::max(2.0, 1.0 * step))
         out.spheres[i].touching = out.spheres[j].touching = true;
     }
   std::sort(out.spheres.begin(), out.spheres.end(),
