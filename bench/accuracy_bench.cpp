@@ -1,24 +1,32 @@
-// Accuracy of the vision core on simulated shots fired through the whole
+// Accuracy of the analysis on simulated shots fired through the whole
 // simulated rig (hw's SimWorld and CameraSim, launched by the sequencer as
-// `collide campaign` does), against the shots' ground truth (TruthRecord).
+// `collide campaign` does), against the shots' ground truth (TruthRecord),
+// per imaging preset (issue 12):
 //
-//   build/bench/accuracy_bench [--shots N] [--campaign N] [--thesis N] [--seed S]
-//                              [--verbose] [--save-bad DIR]
+//   ideal    config/sim.toml         640x480, 120 px spheres, even light
+//   lab      config/sim-lab.toml     perspective, one-sided light, blur, misalignment
+//   thesis   config/sim-thesis.toml  240x192, 37 px spheres, intensifier noise
+//   fast12   config/sim-fast12.toml  4000 frames/s, 12-bit, 90 px spheres
+//   unequal  config/sim-unequal.toml a 2.54 and a 1.905 cm sphere
+//   backlit  config/sim-backlit.toml silhouettes; spin (and beta) not asked
 //
-// Sections (issue 4 §3):
-//  1. 640 x 480 (config/sim.toml): per-shot errors of e, beta, spins, centres
-//     and radii, and the pulls (error / stated uncertainty).
-//  2. A campaign of Nylon shots at 640 x 480 fitted with analysis/campaign.hpp:
-//     mu and beta_0 against the material's truth.
-//  3. The thesis' imaging (config/sim-thesis.toml, 240 x 192, 37 px spheres):
-//     per-shot errors and the same campaign fit.
-// Figures and the command used go in docs/benchmarks.md ("Vision").
+//   build/bench/accuracy_bench [--shots N] [--preset NAME,NAME] [--seed S]
+//                              [--verbose] [--save-bad DIR] [--reanalyse FILE]
+//
+// Per preset: RMS and worst errors of e, beta, gamma, velocities and spins
+// over the shots the analysis did not flag; the pulls (error / stated sigma)
+// over those and over every analysed shot; the fraction flagged and why; a
+// campaign fit (mu, beta_0) over the unflagged shots; the analysis time; and
+// issue 12's targets, pass or FAIL. A Markdown table closes the run.
+// Figures and the command used go in docs/benchmarks.md ("Accuracy").
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <map>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -58,6 +66,7 @@ struct Stat {
     return v.empty() ? NAN : std::sqrt(s / v.size());
   }
   double maxAbs() const {
+    if (v.empty()) return NAN;
     double m = 0;
     for (double x : v) m = std::max(m, std::abs(x));
     return m;
@@ -98,194 +107,308 @@ bool truthAtContact(const hw::Shot& shot, std::array<Sphere, 2>& before,
   return true;
 }
 
-struct SectionResult {
-  std::vector<CampaignShot> points;
-  Material truth;
+// One imaging preset: a rig profile and the launch speeds it is fired at.
+struct Preset {
+  const char* name;
+  const char* profile;  // under config/
+  double speed_min_m_s, speed_max_m_s;
+  bool spin;    // spins (and so beta) are asked of the analysis
+  bool thesis;  // the thesis' targets (RMS over shots) rather than per shot
+  const char* what;
 };
 
-SectionResult runSection(const char* title, const hw::RigProfile& base, int shots,
-                         std::uint64_t seed, bool print_shots) {
-  std::printf("\n== %s: %d shots (%s, %dx%d, %.0f frames/s)\n", title, shots, base.source.c_str(),
-              base.camera_config.width, base.camera_config.height, base.camera_config.fps);
+const Preset kPresets[] = {
+    {"ideal", "sim.toml", 1.6, 2.6, true, false, "640x480, 120 px spheres, even light, 1000 f/s"},
+    {"lab", "sim-lab.toml", 1.0, 2.0, true, false,
+     "640x480, perspective, one-sided light, 150 us, drift, tilt"},
+    {"thesis", "sim-thesis.toml", 1.6, 2.6, true, true,
+     "240x192, 37 px spheres, 1000 f/s, intensifier noise"},
+    {"fast12", "sim-fast12.toml", 2.0, 3.5, true, false, "4000 f/s, 12-bit, 90 px spheres"},
+    {"unequal", "sim-unequal.toml", 1.6, 2.6, true, false, "2.54 and 1.905 cm spheres"},
+    {"backlit", "sim-backlit.toml", 1.6, 2.6, false, false, "dark silhouettes, no spin asked"},
+};
+
+// What one preset's shots gave.
+struct PresetResult {
+  const Preset* preset = nullptr;
+  int planned = 0, fired = 0, analysed = 0, flagged = 0;
+  std::vector<std::string> failures;
+  std::map<std::string, int> flag_count;
+  // Errors over the analysed shots the analysis did not flag.
+  Stat de, db, dg_deg, dv_rel, dspin, pe, pb, pg;
+  // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
+  Stat pe_all, pb_all, pg_all;
+  std::vector<CampaignShot> points;  // unflagged, for the campaign fit
+  std::optional<FrictionFit> friction;
+  std::optional<RestitutionMean> restitution;
+  std::string fit_error;
+  Material truth;
+  double analysis_s = 0;
+  int frames = 0, max_frames = 0;
+  double worst_shot_ms = 0;
+};
+
+CampaignShot campaignPoint(const vision::CollisionProperties& c) {
+  CampaignShot p;
+  p.v_n_m_s = c.vn_m_s.value;
+  p.v_n_sigma_m_s = c.vn_m_s.sigma;
+  p.v_s_m_s = c.vs_m_s.value;
+  p.v_s_sigma_m_s = c.vs_m_s.sigma;
+  p.e = c.e.value;
+  p.e_sigma = c.e.sigma;
+  p.beta = c.beta.value;
+  p.beta_sigma = c.beta.sigma;
+  p.f = c.f.value;
+  p.f_sigma = c.f.sigma;
+  return p;
+}
+
+void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>& tb,
+                     const std::array<Sphere, 2>& ta) {
+  for (int s = 0; s < 2; ++s) {
+    const vision::SphereKinematics& k = r.sphere[s];
+    const auto row = [](const char* what, const Estimate3& e, const Vec3& truth) {
+      const Vec3 d = e.value - truth;
+      std::printf("    %-10s err (%+.5f %+.5f %+.5f) sigma (%.5f %.5f %.5f)\n", what, d.x(), d.y(),
+                  d.z(), e.sigma.x(), e.sigma.y(), e.sigma.z());
+    };
+    std::printf("  sphere %d:\n", s + 1);
+    row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
+    row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
+    row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
+    row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
+  }
+}
+
+// Errors of one analysed shot against the truth, into `out`.
+void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeasurement& truth,
+               const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta,
+               PresetResult& out) {
+  const vision::CollisionProperties& c = r.collision;
+  const bool flagged = !r.quality_flags.empty();
+  const double e_err = c.e.value - truth.e;
+  const double g_err = c.gamma_deg.value - truth.before.gamma_rad * 180 / std::numbers::pi;
+  out.pe_all.add(e_err / c.e.sigma);
+  out.pg_all.add(g_err / c.gamma_deg.sigma);
+  // beta is defined (and asked for) only with a real tangential and normal speed.
+  const bool beta_asked =
+      pr.spin && std::abs(truth.before.v_n_m_s) >= 0.3 && truth.before.v_s_m_s >= 0.3;
+  const double b_err = c.beta.value - truth.beta;
+  if (beta_asked) out.pb_all.add(b_err / c.beta.sigma);
+  if (flagged) return;
+  out.de.add(e_err);
+  out.pe.add(e_err / c.e.sigma);
+  out.dg_deg.add(g_err);
+  out.pg.add(g_err / c.gamma_deg.sigma);
+  if (beta_asked) {
+    out.db.add(b_err);
+    out.pb.add(b_err / c.beta.sigma);
+  }
+  for (int s = 0; s < 2; ++s) {
+    const vision::SphereKinematics& k = r.sphere[s];
+    // In-plane velocity errors relative to the speed (the z part is a prior).
+    const auto rel = [](const Vec3& m, const Vec3& t) {
+      return (m - t).head<2>().norm() / std::max(1e-9, t.head<2>().norm());
+    };
+    out.dv_rel.add(rel(k.velocity_before_m_s.value, tb[s].velocity_m_s));
+    out.dv_rel.add(rel(k.velocity_after_m_s.value, ta[s].velocity_m_s));
+    if (pr.spin) {
+      out.dspin.add((k.spin_before_rad_s.value - tb[s].spin_rad_s).norm());
+      out.dspin.add((k.spin_after_rad_s.value - ta[s].spin_rad_s).norm());
+    }
+  }
+}
+
+PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
+                       std::uint64_t seed) {
+  PresetResult out;
+  out.preset = &pr;
+  out.planned = shots;
+  out.truth = base.spheres.material;
+  std::printf("\n== %s (%s): %d shots, %s, %dx%d, %.0f frames/s\n", pr.name, pr.what, shots,
+              base.source.c_str(), base.camera_config.width, base.camera_config.height,
+              base.camera_config.fps);
   app::CampaignOptions o;
   o.shots = shots;
   o.seed = seed;
+  o.speed_min_m_s = pr.speed_min_m_s;
+  o.speed_max_m_s = pr.speed_max_m_s;
   const std::vector<app::PlannedShot> plan = app::planCampaign(o);
-  Stat de, db, dbi, pe, pb, dc, dr, spin_rel, dvn, dt_us;
-  int ok = 0, failed = 0, flagged = 0;
-  SectionResult out;
-  out.truth = base.spheres.material;
-  double analysis_s = 0;
-  int frames_total = 0;
   for (std::size_t i = 0; i < plan.size(); ++i) {
     auto aimed = app::aimForIncidence(base, plan[i].incidence_deg, plan[i].speed_m_s);
     if (!aimed) {
-      std::printf("shot %2zu: not aimed: %s\n", i, aimed.error().message.c_str());
-      ++failed;
+      out.failures.push_back("shot " + std::to_string(i) + " not aimed: " + aimed.error().message);
       continue;
     }
     aimed->simulation.seed = seed * 1000003ULL + i;
     auto fired =
         app::fireShot(*aimed, hw::ShotRequest::atSpeeds(plan[i].speed_m_s[0], plan[i].speed_m_s[1]),
-                      "bench-" + std::to_string(i));
+                      std::string(pr.name) + "-" + std::to_string(i));
     if (!fired || fired->status != hw::ShotStatus::Ok || !fired->truth) {
-      std::printf("shot %2zu: not fired: %s\n", i,
-                  fired ? fired->failure_reason.c_str() : fired.error().message.c_str());
-      ++failed;
+      out.failures.push_back("shot " + std::to_string(i) + " not fired: " +
+                             (fired ? fired->failure_reason : fired.error().message));
       continue;
     }
+    ++out.fired;
     const hw::Shot& shot = *fired;
     const auto t0 = std::chrono::steady_clock::now();
     auto r = vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
-    analysis_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    frames_total += static_cast<int>(shot.burst.frames.size());
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.analysis_s += dt;
+    out.frames += static_cast<int>(shot.burst.frames.size());
+    out.max_frames = std::max(out.max_frames, static_cast<int>(shot.burst.frames.size()));
+    out.worst_shot_ms = std::max(out.worst_shot_ms, 1e3 * dt);
     std::array<Sphere, 2> tb, ta;
     if (!truthAtContact(shot, tb, ta)) {
-      std::printf("shot %2zu: no collision in the truth\n", i);
-      ++failed;
+      out.failures.push_back("shot " + std::to_string(i) + ": no collision in the truth");
       continue;
     }
     auto truth = measureCollision(tb, ta);
     if (!r || !truth) {
-      std::printf("shot %2zu: analysis failed: %s\n", i,
-                  r ? truth.error().message.c_str() : r.error().message.c_str());
-      if (!r) saveBad(shot, r.error().message);
-      ++failed;
+      const std::string why = r ? truth.error().message : r.error().message;
+      out.failures.push_back("shot " + std::to_string(i) + " not analysed: " + why);
+      if (!r) saveBad(shot, why);
       continue;
     }
-    ++ok;
+    ++out.analysed;
+    out.flagged += !r->quality_flags.empty();
+    for (const std::string& f : r->quality_flags) ++out.flag_count[f];
+    scoreShot(pr, *r, *truth, tb, ta, out);
     const vision::CollisionProperties& c = r->collision;
+    if (r->quality_flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 &&
+        c.e.sigma > 0)
+      out.points.push_back(campaignPoint(c));
     const double e_err = c.e.value - truth->e, b_err = c.beta.value - truth->beta;
-    de.add(e_err);
-    pe.add(e_err / c.e.sigma);
-    dvn.add(c.vn_m_s.value - truth->before.v_n_m_s);
-    const bool beta_range = std::abs(truth->before.v_n_m_s) >= 0.3 && truth->before.v_s_m_s >= 0.3;
-    if (beta_range) {
-      db.add(b_err);
-      dbi.add(c.beta_from_impulse.value - truth->beta);
-      pb.add(b_err / c.beta.sigma);
-    }
-    if (!r->quality_flags.empty()) ++flagged;
-    if (std::abs(e_err) > 5 * c.e.sigma + 1e-4 || std::abs(b_err) > 5 * c.beta.sigma + 1e-3) {
-      std::printf("shot %2zu: e error %+.5f (sigma %.5f), beta error %+.4f (sigma %.4f)\n", i,
-                  e_err, c.e.sigma, b_err, c.beta.sigma);
-      saveBad(shot, "error beyond 5 sigma");
-    }
-    // Collision instant on the truth's clock (seconds after frame 0's mid-exposure).
-    const hw::TruthRecord& t = *shot.truth;
-    std::size_t first = 0;
-    while (first < shot.burst.frames.size() && !shot.burst.frames[first].good()) ++first;
-    dt_us.add((c.t_collision_s.value + t.t_s[first] - t.t_collision_s) * 1e6);
-    // Centres and radii, every frame and sphere.
-    const double px = shot.scene.pixel_size_m;
-    for (const vision::FrameDetections& fd : r->frames) {
-      const auto it = std::find(t.frame_id.begin(), t.frame_id.end(), fd.frame_id);
-      if (it == t.frame_id.end()) continue;
-      const auto& st = t.states[it - t.frame_id.begin()];
-      for (int s = 0; s < 2; ++s) {
-        if (!fd.sphere[s] || fd.sphere[s]->cut_by_border) continue;
-        dc.add(fd.sphere[s]->u_px - (shot.scene.origin_u_px + st[s].position_m.x() / px));
-        dc.add(fd.sphere[s]->v_px - (shot.scene.origin_v_px - st[s].position_m.y() / px));
-        dr.add(fd.sphere[s]->radius_px - 0.5 * shot.scene.diameter_m[s] / px);
-      }
-    }
-    for (int s = 0; s < 2; ++s) {
-      const vision::SphereKinematics& k = r->sphere[s];
-      if (tb[s].spin_rad_s.norm() >= 50)
-        spin_rel.add((k.spin_before_rad_s.value - tb[s].spin_rad_s).norm() /
-                     tb[s].spin_rad_s.norm());
-      if (ta[s].spin_rad_s.norm() >= 50)
-        spin_rel.add((k.spin_after_rad_s.value - ta[s].spin_rad_s).norm() /
-                     ta[s].spin_rad_s.norm());
-    }
-    if (print_shots) {
+    const double g_err = c.gamma_deg.value - truth->before.gamma_rad * 180 / std::numbers::pi;
+    const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||
+                     (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
+    if (bad) saveBad(shot, "error beyond 4 sigma");
+    if (g_verbose || bad) {
       std::printf(
-          "shot %2zu: psi %4.1f deg vn %+.2f vs %.2f | e %.4f (truth %.4f, sigma %.4f) "
-          "beta %+.4f (truth %+.4f, sigma %.4f)",
-          i, plan[i].incidence_deg, c.vn_m_s.value, c.vs_m_s.value, c.e.value, truth->e, c.e.sigma,
-          c.beta.value, truth->beta, c.beta.sigma);
+          "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "
+          "sigma) gamma %.2f deg (err %+.2f, %.1f sigma)",
+          i, plan[i].incidence_deg, c.e.value, e_err, e_err / c.e.sigma, c.beta.value, b_err,
+          b_err / c.beta.sigma, c.gamma_deg.value, g_err, g_err / c.gamma_deg.sigma);
       for (const std::string& f : r->quality_flags) std::printf(" [%s]", f.c_str());
       std::printf("\n");
-      if (g_verbose)
-        for (int s = 0; s < 2; ++s) {
-          const vision::SphereKinematics& k = r->sphere[s];
-          const auto row = [](const char* what, const Estimate3& e, const Vec3& truth) {
-            const Vec3 d = e.value - truth;
-            std::printf("    %-10s err (%+.5f %+.5f %+.5f) sigma (%.5f %.5f %.5f)\n", what, d.x(),
-                        d.y(), d.z(), e.sigma.x(), e.sigma.y(), e.sigma.z());
-          };
-          std::printf("  sphere %d:\n", s + 1);
-          row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
-          row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
-          row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
-          row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
-        }
+      if (g_verbose) printShotDetail(*r, tb, ta);
     }
-    CampaignShot p;
-    p.v_n_m_s = c.vn_m_s.value;
-    p.v_n_sigma_m_s = c.vn_m_s.sigma;
-    p.v_s_m_s = c.vs_m_s.value;
-    p.v_s_sigma_m_s = c.vs_m_s.sigma;
-    p.e = c.e.value;
-    p.e_sigma = c.e.sigma;
-    p.beta = c.beta.value;
-    p.beta_sigma = c.beta.sigma;
-    p.f = c.f.value;
-    p.f_sigma = c.f.sigma;
-    if (std::isfinite(p.beta) && p.beta_sigma > 0 && p.e_sigma > 0) out.points.push_back(p);
   }
-  std::printf(
-      "analysed %d of %d (%d not fired/failed), %d with quality flags; analysis %.1f ms "
-      "per shot (%.0f frames/s end to end)\n",
-      ok, shots, failed, flagged, 1e3 * analysis_s / std::max(1, ok),
-      frames_total / std::max(1e-9, analysis_s));
-  std::printf(
-      "centre error RMS %.4f px per axis (max %.4f, %zu samples), radius RMS %.4f px "
-      "(mean %+.4f)\n",
-      dc.rms(), dc.maxAbs(), dc.v.size(), dr.rms(), dr.mean());
-  std::printf(
-      "e error RMS %.5f (max %.5f); beta error RMS %.4f (max %.4f) and from impulse "
-      "%.4f, over %zu shots with |v_n|, v_s >= 0.3 m/s\n",
-      de.rms(), de.maxAbs(), db.rms(), db.maxAbs(), dbi.rms(), db.v.size());
-  std::printf("v_n error RMS %.5f m/s; collision instant error RMS %.2f us\n", dvn.rms(),
-              dt_us.rms());
-  std::printf("spin error RMS %.3f %% of |omega| (max %.3f %%, %zu spins >= 50 rad/s)\n",
-              100 * spin_rel.rms(), 100 * spin_rel.maxAbs(), spin_rel.v.size());
-  std::printf("pull RMS (error / stated sigma): e %.2f, beta %.2f\n", pe.rms(), pb.rms());
+  if (auto e = fitRestitutionMean(out.points); !e) {
+    out.fit_error = e.error().message;
+  } else {
+    out.restitution = *e;
+    if (auto f = fitFriction(out.points, e->e); f)
+      out.friction = *f;
+    else
+      out.fit_error = f.error().message;
+  }
   return out;
 }
 
-void fitSection(const SectionResult& s) {
-  auto e = fitRestitutionMean(s.points);
-  if (!e) {
-    std::printf("campaign fit: %s\n", e.error().message.c_str());
-    return;
-  }
-  auto f = fitFriction(s.points, e->e);
-  if (!f) {
-    std::printf("campaign fit: %s\n", f.error().message.c_str());
-    return;
-  }
+// "pass" / "FAIL" against a bound; "-" when there is nothing to judge.
+const char* verdict(double value, double bound) {
+  if (!std::isfinite(value)) return "-";
+  return std::abs(value) <= bound ? "pass" : "FAIL";
+}
+
+void printPreset(const PresetResult& r) {
+  const Preset& pr = *r.preset;
+  std::printf("-- %s: fired %d of %d, analysed %d, flagged %d (%.0f %%)\n", pr.name, r.fired,
+              r.planned, r.analysed, r.flagged, 100.0 * r.flagged / std::max(1, r.analysed));
+  for (const std::string& f : r.failures) std::printf("   %s\n", f.c_str());
+  for (const auto& [flag, n] : r.flag_count) std::printf("   flag %s: %d shots\n", flag.c_str(), n);
   std::printf(
-      "campaign fit over %zu shots: e %.4f +- %.4f (truth %.3f), mu %.4f +- %.4f "
-      "(truth %.3f, error %+.4f), beta0 %.4f +- %.4f (truth %.3f, error %+.4f); "
-      "%d sliding, %d rolling\n",
-      s.points.size(), e->e.value, e->e.sigma, s.truth.e, f->mu.value, f->mu.sigma, s.truth.mu,
-      f->mu.value - s.truth.mu, f->beta0.value, f->beta0.sigma, s.truth.beta0,
-      f->beta0.value - s.truth.beta0, f->sliding_count, f->rolling_count);
+      "   over %zu unflagged shots: e RMS %.5f worst %.5f | beta RMS %.4f worst %.4f (%zu) | "
+      "gamma RMS %.3f worst %.3f deg\n",
+      r.de.v.size(), r.de.rms(), r.de.maxAbs(), r.db.rms(), r.db.maxAbs(), r.db.v.size(),
+      r.dg_deg.rms(), r.dg_deg.maxAbs());
+  std::printf("   velocity RMS %.3f %% worst %.3f %% | spin RMS %.2f worst %.2f rad/s\n",
+              100 * r.dv_rel.rms(), 100 * r.dv_rel.maxAbs(), r.dspin.rms(), r.dspin.maxAbs());
+  std::printf(
+      "   pulls (error/sigma), unflagged: e RMS %.2f worst %.1f | beta RMS %.2f worst %.1f "
+      "| gamma RMS %.2f worst %.1f\n",
+      r.pe.rms(), r.pe.maxAbs(), r.pb.rms(), r.pb.maxAbs(), r.pg.rms(), r.pg.maxAbs());
+  std::printf(
+      "   pulls, every analysed shot: e RMS %.2f worst %.1f | beta RMS %.2f worst %.1f | "
+      "gamma RMS %.2f worst %.1f\n",
+      r.pe_all.rms(), r.pe_all.maxAbs(), r.pb_all.rms(), r.pb_all.maxAbs(), r.pg_all.rms(),
+      r.pg_all.maxAbs());
+  if (r.friction)
+    std::printf(
+        "   campaign over %zu shots: mu %.4f +- %.4f (truth %.3f, error %+.4f), beta0 %.4f "
+        "+- %.4f (truth %.3f, error %+.4f)\n",
+        r.points.size(), r.friction->mu.value, r.friction->mu.sigma, r.truth.mu,
+        r.friction->mu.value - r.truth.mu, r.friction->beta0.value, r.friction->beta0.sigma,
+        r.truth.beta0, r.friction->beta0.value - r.truth.beta0);
+  else if (pr.spin)
+    std::printf("   campaign fit: %s\n", r.fit_error.c_str());
+  std::printf("   analysis %.1f ms per shot (worst %.1f ms, up to %d frames), %.0f frames/s\n",
+              1e3 * r.analysis_s / std::max(1, r.fired), r.worst_shot_ms, r.max_frames,
+              r.frames / std::max(1e-9, r.analysis_s));
+  // Issue 12's targets. Per shot (worst) except at the thesis' imaging (RMS,
+  // with looser worst-shot bounds); flagged shots are not errors, but at most
+  // 1 in 10 may be flagged.
+  const bool t = pr.thesis;
+  const double e_stat = t ? r.de.rms() : r.de.maxAbs();
+  const double b_stat = t ? r.db.rms() : r.db.maxAbs();
+  std::printf("   targets: e %s %s", t ? "RMS" : "worst", verdict(e_stat, 0.005));
+  if (t) std::printf(", e worst %s", verdict(r.de.maxAbs(), 0.01));
+  if (pr.spin) {
+    std::printf(", beta %s %s", t ? "RMS" : "worst", verdict(b_stat, t ? 0.05 : 0.03));
+    if (t) std::printf(", beta worst %s", verdict(r.db.maxAbs(), 0.1));
+  }
+  if (!t) std::printf(", gamma worst %s", verdict(r.dg_deg.maxAbs(), 0.5));
+  std::printf(", flagged <= 10 %% %s",
+              r.flagged * 10 <= r.analysed && r.analysed > 0 ? "pass" : "FAIL");
+  const auto pullOk = [](const Stat& p) {
+    if (p.v.empty()) return "-";
+    return p.rms() >= 0.7 && p.rms() <= 1.5 && p.maxAbs() <= 4 ? "pass" : "FAIL";
+  };
+  std::printf(", pulls e %s, gamma %s", pullOk(r.pe), pullOk(r.pg));
+  if (pr.spin) std::printf(", beta %s", pullOk(r.pb));
+  if (r.friction)
+    std::printf(", mu %s, beta0 %s", verdict(r.friction->mu.value - r.truth.mu, 0.005),
+                verdict(r.friction->beta0.value - r.truth.beta0, 0.02));
+  std::printf("\n");
+}
+
+// The summary as a Markdown table, for docs/benchmarks.md.
+void printTable(const std::vector<PresetResult>& all) {
+  std::printf(
+      "\n| preset | analysed | flagged | e RMS / worst | beta RMS / worst | gamma RMS / worst "
+      "(deg) | v RMS (%%) | spin RMS (rad/s) | pull e / beta / gamma (RMS, worst) | mu err | "
+      "beta0 err | ms/shot |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const PresetResult& r : all) {
+    const auto fit = [&](bool mu) -> std::string {
+      if (!r.friction) return "-";
+      char b[32];
+      std::snprintf(
+          b, sizeof b, "%+.4f",
+          mu ? r.friction->mu.value - r.truth.mu : r.friction->beta0.value - r.truth.beta0);
+      return b;
+    };
+    std::printf(
+        "| %s | %d/%d | %d | %.4f / %.4f | %.3f / %.3f | %.2f / %.2f | %.2f | %.1f | %.1f, %.1f / "
+        "%.1f, %.1f / %.1f, %.1f | %s | %s | %.0f |\n",
+        r.preset->name, r.analysed, r.planned, r.flagged, r.de.rms(), r.de.maxAbs(), r.db.rms(),
+        r.db.maxAbs(), r.dg_deg.rms(), r.dg_deg.maxAbs(), 100 * r.dv_rel.rms(), r.dspin.rms(),
+        r.pe.rms(), r.pe.maxAbs(), r.pb.rms(), r.pb.maxAbs(), r.pg.rms(), r.pg.maxAbs(),
+        fit(true).c_str(), fit(false).c_str(), 1e3 * r.analysis_s / std::max(1, r.fired));
+  }
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  int shots = 30, campaign = 40, thesis = 40;
+  int shots = 30;
   std::uint64_t seed = 4;
+  std::string presets;  // empty: all
   for (int i = 1; i < argc; ++i)
     if (!std::strcmp(argv[i], "--verbose")) g_verbose = true;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--shots")) shots = std::atoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--campaign")) campaign = std::atoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--thesis")) thesis = std::atoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--preset")) presets = argv[i + 1];
     if (!std::strcmp(argv[i], "--seed")) seed = std::strtoull(argv[i + 1], nullptr, 10);
     if (!std::strcmp(argv[i], "--save-bad")) g_save_bad = argv[i + 1];
   }
@@ -338,16 +461,23 @@ int main(int argc, char** argv) {
       return 0;
     }
   const std::string root = COLLIDE_SOURCE_DIR;
-  auto sim = hw::loadRigProfile(root + "/config/sim.toml");
-  auto sim_thesis = hw::loadRigProfile(root + "/config/sim-thesis.toml");
-  if (!sim || !sim_thesis) {
-    std::fprintf(stderr, "%s\n", (sim ? sim_thesis : sim).error().message.c_str());
-    return 1;
+  std::vector<PresetResult> results;
+  for (const Preset& pr : kPresets) {
+    if (!presets.empty() &&
+        ("," + presets + ",").find("," + std::string(pr.name) + ",") == std::string::npos)
+      continue;
+    auto profile = hw::loadRigProfile(root + "/config/" + pr.profile);
+    if (!profile) {
+      std::fprintf(stderr, "%s\n", profile.error().message.c_str());
+      return 1;
+    }
+    results.push_back(runPreset(pr, *profile, shots, seed));
+    printPreset(results.back());
   }
-  if (shots > 0) runSection("640 x 480 shots", *sim, shots, seed, true);
-  if (campaign > 0)
-    fitSection(runSection("640 x 480 Nylon campaign", *sim, campaign, seed + 1, false));
-  if (thesis > 0)
-    fitSection(runSection("thesis imaging campaign", *sim_thesis, thesis, seed + 2, g_verbose));
+  if (results.empty()) {
+    std::fprintf(stderr, "no preset named in --preset %s\n", presets.c_str());
+    return 2;
+  }
+  printTable(results);
   return 0;
 }
