@@ -172,7 +172,9 @@ TEST(SequencerSim, CameraThatStopsEarlyFailsButKeepsTheFramesThatArrived) {
 
   ASSERT_EQ(shot.status, ShotStatus::Failed);
   EXPECT_THAT(shot.failure_reason, HasSubstr("the camera fell short of frames"));
-  EXPECT_THAT(shot.failure_reason, HasSubstr("5 of 45 post-trigger frames"));
+  EXPECT_THAT(shot.failure_reason,
+              HasSubstr("5 of " + std::to_string(rig.profile.burst.post_trigger_frames) +
+                        " post-trigger frames"));
   EXPECT_FALSE(shot.burst.complete);
   const int pre = rig.profile.burst.pre_trigger_frames;
   ASSERT_EQ(shot.burst.frames.size(), static_cast<std::size_t>(pre + 5));
