@@ -5,9 +5,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <regex>
 
+#include "app/plan.hpp"
 #include "app/rig_setup.hpp"
 #include "app/store/atomic_file.hpp"
 #include "app/store/save.hpp"
@@ -50,6 +52,31 @@ Result<hw::RigProfile> profileWithOffset(const hw::RigProfile& p, double dy_m) {
   return hw::parseRigProfile(*text, p.source);
 }
 
+struct Replanned {
+  ShotPlan plan;
+  std::string note;
+};
+
+// The shot nearest to `planned` that the rig can fire (collide plan's
+// answer), with a note saying what changed and why.
+std::optional<Replanned> nearestFeasible(const hw::RigProfile& profile,
+                                         const PlannedShot& planned) {
+  PlanRequest want;
+  want.incidence_deg = planned.incidence_deg;
+  want.speed_m_s = planned.speed_m_s;
+  Infeasible why;
+  auto plan = planShot(profile, want, &why);
+  if (!plan && why.nearest) plan = planShot(profile, *why.nearest);
+  if (!plan) return std::nullopt;
+  char note[160];
+  std::snprintf(note, sizeof note,
+                "planned %.1f deg at %.2f and %.2f m/s instead of %.1f deg (the nearest shot "
+                "the rig can fire)",
+                plan->incidence_deg, plan->speed_at_contact_m_s[0], plan->speed_at_contact_m_s[1],
+                planned.incidence_deg);
+  return Replanned{std::move(*plan), note};
+}
+
 }  // namespace
 
 Result<hw::RigProfile> aimForIncidence(const hw::RigProfile& profile, double incidence_deg,
@@ -57,38 +84,58 @@ Result<hw::RigProfile> aimForIncidence(const hw::RigProfile& profile, double inc
                                        double* slide_offset_m) {
   const double target = incidence_deg * kPi / 180.0;
   const double sigma = 0.5 * (profile.spheres.diameter_m[0] + profile.spheres.diameter_m[1]);
-  auto angleAt = [&](double dy) -> Result<double> {
-    auto p = profileWithOffset(profile, dy);
-    if (!p) return p.error();
-    return plannedIncidence(*p, speed_m_s);
+  // The slide moves only within its travel (when the profile gives it).
+  const auto& travel = profile.launchers[1].slide_travel_m;
+  const auto inTravel = [&](double dy) {
+    return !travel || (dy >= (*travel)[0] - 1e-12 && dy <= (*travel)[1] + 1e-12);
   };
-  // The angle moves monotonically with the slide from one grazing side through
-  // head-on to the other; walk out from 0 on each side until it passes the
-  // target, then bisect.
-  for (double side : {1.0, -1.0}) {
-    const int steps = 24;
-    double lo = 0.0;
-    auto a_lo = angleAt(lo);
-    if (!a_lo) return a_lo.error();
-    for (int k = 1; k <= steps; ++k) {
-      const double hi = side * sigma * 1.1 * k / steps;
-      auto a_hi = angleAt(hi);
-      if (!a_hi) break;  // missed each other or left the image
-      const double f_lo = std::abs(*a_lo) - target, f_hi = std::abs(*a_hi) - target;
-      if (f_lo <= 0 && f_hi >= 0 && std::abs(*a_hi) >= std::abs(*a_lo)) {
-        double a = lo, b = hi;
-        for (int i = 0; i < 50; ++i) {
-          const double mid = 0.5 * (a + b);
-          auto am = angleAt(mid);
-          if (!am) return am.error();
-          (std::abs(*am) < target ? a : b) = mid;
+  // Trial positions move the parsed exit point (the text is edited once, for
+  // the position chosen).
+  hw::RigProfile trial = profile;
+  const Vec3 exit = profile.launchers[1].exit_m;
+  auto angleAt = [&](double dy) -> Result<double> {
+    trial.launchers[1].exit_m = exit + Vec3(0, dy, 0);
+    return plannedIncidence(trial, speed_m_s);
+  };
+  // The signed angle moves monotonically with the slide, from one grazing side
+  // through head-on to the other: for each sign of the wanted angle, walk out
+  // from 0 on each side until the angle passes it, then bisect. Of the (at
+  // most two) positions found, the one nearer the profile's wins.
+  auto a0 = angleAt(0.0);
+  if (!a0) return a0.error();
+  std::optional<double> best;
+  for (const double want : {target, -target}) {
+    for (const double side : {1.0, -1.0}) {
+      const int steps = 24;
+      double lo = 0.0, f_lo = *a0 - want;
+      for (int k = 1; k <= steps; ++k) {
+        const double hi = side * sigma * 1.1 * k / steps;
+        if (!inTravel(hi) || (best && std::abs(hi) > std::abs(*best) + sigma)) break;
+        auto a_hi = angleAt(hi);
+        if (!a_hi) break;  // missed each other or left the image
+        const double f_hi = *a_hi - want;
+        if ((f_lo <= 0) != (f_hi <= 0) || f_lo == 0) {
+          double a = lo, b = hi;
+          bool a_below = f_lo <= 0;
+          for (int i = 0; i < 50; ++i) {
+            const double mid = 0.5 * (a + b);
+            auto am = angleAt(mid);
+            if (!am) return am.error();
+            ((*am - want <= 0) == a_below ? a : b) = mid;
+          }
+          const double dy = 0.5 * (a + b);
+          if (!best || std::abs(dy) < std::abs(*best)) best = dy;
+          break;
         }
-        if (slide_offset_m) *slide_offset_m = 0.5 * (a + b);
-        return profileWithOffset(profile, 0.5 * (a + b));
+        lo = hi;
+        f_lo = f_hi;
       }
-      lo = hi;
-      a_lo = a_hi;
     }
+    if (target == 0) break;  // +0 and -0 are one angle
+  }
+  if (best) {
+    if (slide_offset_m) *slide_offset_m = *best;
+    return profileWithOffset(profile, *best);
   }
   char buf[200];
   std::snprintf(buf, sizeof buf,
@@ -156,16 +203,23 @@ Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const Campaign
     }
     const PlannedShot& planned = plan[i];
     const std::string id = makeShotId(wallTimeUnixNs(), static_cast<int>(i));
-    auto aimed = aimForIncidence(profile, planned.incidence_deg, planned.speed_m_s);
+    std::array<double, 2> speed = planned.speed_m_s;
+    auto aimed = aimForIncidence(profile, planned.incidence_deg, speed);
     if (!aimed) {
-      ++report.failed;
-      report.failures.push_back(id + ": " + aimed.error().message);
-      continue;
+      // The rig cannot fire this one: the planner's nearest shot instead.
+      auto replanned = nearestFeasible(profile, planned);
+      if (!replanned) {
+        ++report.failed;
+        report.failures.push_back(id + ": " + aimed.error().message);
+        continue;
+      }
+      report.replanned.push_back(id + ": " + replanned->note);
+      aimed = std::move(replanned->plan.aimed);
+      speed = replanned->plan.exit_speed_m_s;
     }
     // A different simulation seed per shot: dots, spins and scatter differ.
     aimed->simulation.seed = o.seed * 1000003ULL + i;
-    auto fired = fireShot(
-        *aimed, hw::ShotRequest::atSpeeds(planned.speed_m_s[0], planned.speed_m_s[1]), id, cancel);
+    auto fired = fireShot(*aimed, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel);
     if (!fired) return fail("shot " + std::to_string(i + 1) + ": " + fired.error().message);
     hw::Shot& shot = *fired;
     ++report.fired;

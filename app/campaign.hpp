@@ -53,6 +53,10 @@ struct CampaignReport {
   std::string stopped_because;
   /// Shots planned but never fired (stopped or cancelled early).
   int not_fired = 0;
+  /// "<shot id>: planned ... instead of ..." for each shot the rig could not
+  /// fire as swept (too grazing for its speeds, ...): the planner's nearest
+  /// feasible shot was fired instead.
+  std::vector<std::string> replanned;
 };
 
 /// Called after each shot is saved: shots done so far, total, the shot.

@@ -63,6 +63,13 @@ Result<LaunchPlan> planLaunch(const RigProfile& p, const std::array<double, 2>& 
   plan.contact_point_m = 0.5 * (before[0].position_m + before[1].position_m);
   plan.contact_normal = (before[0].position_m - before[1].position_m).normalized();
   plan.relative_velocity_m_s = before[0].velocity_m_s - before[1].velocity_m_s;
+  for (int i = 0; i < 2; ++i) {
+    Sphere& s = plan.before_contact[i];
+    s = setup.spheres[i];
+    s.position_m = before[i].position_m;
+    s.velocity_m_s = before[i].velocity_m_s;
+    s.spin_rad_s = before[i].spin_rad_s;
+  }
   plan.contact_px = worldToPixel(p, plan.contact_point_m);
   const double u = plan.contact_px.x(), vpx = plan.contact_px.y();
   if (u < 0 || vpx < 0 || u > p.camera_config.width - 1 || vpx > p.camera_config.height - 1)

@@ -25,6 +25,9 @@ struct LaunchPlan {
   Vec3 contact_normal = Vec3::UnitX();
   /// v1 - v2 just before contact, m/s (spins aside, the approach velocity).
   Vec3 relative_velocity_m_s = Vec3::Zero();
+  /// Both spheres just before contact (positions, velocities; no spin): what
+  /// Walton's model is given to predict the shot.
+  std::array<Sphere, 2> before_contact{};
 };
 
 /// The world point the spheres are aimed to meet at: geometry.meet_point_m, or

@@ -295,6 +295,14 @@ Status parseLaunchers(const Document& doc, RigProfile& p) {
     if (!(l.direction.norm() > 1e-9))
       return r.invalid("direction", "must point somewhere (it is the tube's axis)");
     l.direction.normalize();
+    if (doc.launchers[i].has("slide_travel_m")) {
+      COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> travel, r.numbers("slide_travel_m", 2));
+      if (!(travel[0] <= 0 && travel[1] >= 0 && travel[1] - travel[0] <= 1.0))
+        return r.invalid("slide_travel_m",
+                         "must be [down, up] in metres around exit_m, down <= 0 <= up, at most "
+                         "1 m apart");
+      l.slide_travel_m = std::array<double, 2>{travel[0], travel[1]};
+    }
     if (i == 1 && l.valve == p.launchers[0].valve)
       return r.invalid("valve", "launcher[1] fires that valve already");
     if (i == 1 && l.regulator_channel == p.launchers[0].regulator_channel)

@@ -44,6 +44,9 @@ struct LauncherProfile {
   int regulator_channel = 0;       ///< regulator output that feeds this tube
   Vec3 exit_m = Vec3::Zero();      ///< where the sphere's centre leaves the muzzle, world frame
   Vec3 direction = Vec3::UnitX();  ///< unit tube axis, out of the muzzle
+  /// How far the launcher's vertical slide can move exit_m down (<= 0) and up
+  /// (>= 0), m; none: not limited (`collide plan` then cannot check travel).
+  std::optional<std::array<double, 2>> slide_travel_m;
 };
 
 struct GeometryProfile {

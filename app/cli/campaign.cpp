@@ -55,6 +55,7 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
     }
     std::cout << report->fired << " shots fired (" << report->ok << " ok, " << report->failed
               << " failed) into " << o->out_dir << "\n";
+    for (const auto& r : report->replanned) std::cout << "  replanned: " << r << "\n";
     for (const auto& f : report->failures) std::cout << "  failed: " << f << "\n";
     if (report->cancelled)
       std::cout << "stopped early on request (" << report->not_fired

@@ -60,6 +60,10 @@ TEST(RigProfile, SimProfileParsesWithTheValuesWrittenInIt) {
   EXPECT_EQ(p.launchers[1].valve, 1);
   EXPECT_TRUE(p.launchers[1].direction.isApprox(collide::Vec3(-1, 0, 0)));
   EXPECT_DOUBLE_EQ(p.launchers[0].exit_m.x(), -0.085);
+  EXPECT_FALSE(p.launchers[0].slide_travel_m.has_value());
+  ASSERT_TRUE(p.launchers[1].slide_travel_m.has_value());
+  EXPECT_DOUBLE_EQ((*p.launchers[1].slide_travel_m)[0], -0.04);
+  EXPECT_DOUBLE_EQ((*p.launchers[1].slide_travel_m)[1], 0.04);
   EXPECT_EQ(p.spheres.material_name, "nylon-6/6");
   EXPECT_DOUBLE_EQ(p.spheres.diameter_m[1], 0.0254);
   EXPECT_DOUBLE_EQ(p.spheres.material.beta0, 0.44);
@@ -236,6 +240,19 @@ TEST(RigProfile, LaunchersMustUseDifferentValves) {
   const std::string text = withKey(simProfileText(), "launcher", "valve", "0", 2);
   EXPECT_EQ(errorFor(text), at(text, "launcher", "valve", 2) +
                                 "launcher[2].valve = 0: launcher[1] fires that valve already");
+}
+
+TEST(RigProfile, SlideTravelMustStraddleTheExitPoint) {
+  for (const char* bad : {"[0.01, 0.04]", "[-0.04, -0.01]", "[-0.6, 0.6]"}) {
+    const std::string text = withKey(simProfileText(), "launcher", "slide_travel_m", bad, 2);
+    EXPECT_THAT(errorFor(text), HasSubstr("slide_travel_m")) << bad;
+    EXPECT_THAT(errorFor(text), HasSubstr("down <= 0 <= up")) << bad;
+  }
+  const std::string text = withKey(simProfileText(), "launcher", "slide_travel_m", "[-0.01, 0.0]");
+  const auto r = parseRigProfile(text, kSource);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_TRUE(r->launchers[0].slide_travel_m.has_value());
+  EXPECT_DOUBLE_EQ((*r->launchers[0].slide_travel_m)[0], -0.01);
 }
 
 TEST(RigProfile, ZeroDirectionIsRefused) {

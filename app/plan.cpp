@@ -1,0 +1,295 @@
+#include "app/plan.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "app/campaign.hpp"
+
+namespace collide::app {
+namespace {
+
+constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+
+std::string num(const char* spec, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, spec, v);
+  return buf;
+}
+
+// The rig aimed at `incidence_deg` with exit speeds that give the wanted
+// speeds at contact: the exit speeds are rescaled until gravity's change on
+// the way is accounted for (a few rounds; the change is a few per cent).
+struct Aim {
+  hw::RigProfile profile;
+  double slide_offset_m = 0.0;
+  std::array<double, 2> exit_speed_m_s{0.0, 0.0};
+  hw::LaunchPlan launch;
+};
+
+Result<Aim> aimAt(const hw::RigProfile& p, double incidence_deg,
+                  const std::array<double, 2>& want_m_s) {
+  std::array<double, 2> exit = want_m_s;
+  for (int round = 0; round < 8; ++round) {
+    Aim a;
+    auto aimed = aimForIncidence(p, incidence_deg, exit, &a.slide_offset_m);
+    if (!aimed) return aimed.error();
+    auto launch = hw::planLaunch(*aimed, exit);
+    if (!launch) return launch.error();
+    a.profile = std::move(*aimed);
+    a.launch = *launch;
+    a.exit_speed_m_s = exit;
+    bool settled = true;
+    for (int i = 0; i < 2; ++i) {
+      const double ratio = want_m_s[i] / a.launch.before_contact[i].velocity_m_s.norm();
+      settled = settled && std::abs(ratio - 1) < 1e-5;
+      exit[i] *= ratio;
+    }
+    if (settled || round == 7) return a;
+  }
+  return fail("unreachable");
+}
+
+// The largest incidence in [0, wanted] that can be aimed at these speeds
+// (bisection: the aimable angles run from head-on up to a limit).
+std::optional<double> largestAimable(const hw::RigProfile& p, double wanted_deg,
+                                     const std::array<double, 2>& speed) {
+  if (!aimAt(p, 0.0, speed)) return std::nullopt;
+  double lo = 0.0, hi = wanted_deg;
+  for (int i = 0; i < 30 && hi - lo > 0.01; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (aimAt(p, mid, speed) ? lo : hi) = mid;
+  }
+  return std::floor(lo * 10) / 10;  // one decimal, on the feasible side
+}
+
+// The smallest common scale (>= 1, at most `max_scale`) of both speeds at
+// which `incidence_deg` can be aimed (slow spheres fall out of the image).
+std::optional<std::array<double, 2>> fasterAimable(const hw::RigProfile& p, double incidence_deg,
+                                                   const std::array<double, 2>& speed,
+                                                   double max_scale) {
+  const auto scaled = [&](double k) { return std::array<double, 2>{k * speed[0], k * speed[1]}; };
+  if (!(max_scale > 1) || !aimAt(p, incidence_deg, scaled(max_scale))) return std::nullopt;
+  double lo = 1.0, hi = max_scale;
+  for (int i = 0; i < 30 && hi - lo > 1e-3; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (aimAt(p, incidence_deg, scaled(mid)) ? hi : lo) = mid;
+  }
+  std::array<double, 2> out = scaled(hi);
+  for (double& v : out) v = std::ceil(v * 100) / 100;  // two decimals, on the feasible side
+  return out;
+}
+
+// Speeds at contact scaled so that the exit speeds stay inside [lo, hi] m/s.
+std::array<double, 2> speedsInside(const Aim& a, const std::array<double, 2>& want, double lo,
+                                   double hi) {
+  std::array<double, 2> out = want;
+  for (int i = 0; i < 2; ++i) {
+    const double exit = a.exit_speed_m_s[i];
+    const double clamped = std::clamp(exit, lo * 1.001, hi * 0.999);
+    out[i] = want[i] * clamped / exit;
+  }
+  return out;
+}
+
+std::string describeRequest(const PlanRequest& r) {
+  std::string s = num("%.1f deg at ", r.incidence_deg) + num("%.2f", r.speed_m_s[0]);
+  if (std::abs(r.speed_m_s[1] - r.speed_m_s[0]) > 1e-9) s += num(" and %.2f", r.speed_m_s[1]);
+  return s + " m/s";
+}
+
+std::string refusal(const Infeasible& why) {
+  return why.reason + (why.nearest ? "; the nearest shot the rig can fire: " +
+                                         describeRequest(*why.nearest) + " (plan that instead)"
+                                   : "; no nearby shot can be fired: check the launchers' "
+                                     "geometry in the profile");
+}
+
+Result<ShotPlan> refuse(Infeasible* out, const std::string& reason,
+                        std::optional<PlanRequest> nearest) {
+  *out = {reason, nearest};
+  return fail(refusal(*out));
+}
+
+Status checkRequest(const PlanRequest& r) {
+  if (!(r.incidence_deg >= 0 && r.incidence_deg < 90))
+    return fail("--incidence-deg must be at least 0 and below 90 degrees (got " +
+                num("%g", r.incidence_deg) + "; 0 is head-on)");
+  for (int i = 0; i < 2; ++i)
+    if (!(r.speed_m_s[i] > 0 && std::isfinite(r.speed_m_s[i])))
+      return fail(std::string(i == 0 ? "--speed-m-s" : "--speed2-m-s") +
+                  " must be a speed > 0 in m/s (got " + num("%g", r.speed_m_s[i]) + ")");
+  if (r.material)
+    if (auto ok = validateMaterial(*r.material); !ok) return ok.error();
+  return Ok{};
+}
+
+// One attempt: the plan, or why not with a nearest wish that clears the limit
+// named (another limit may still stand in its way).
+Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& request,
+                          Infeasible* infeasible) {
+  if (auto ok = checkRequest(request); !ok) return ok.error();
+  auto curve = profile.calibration.curve();
+  if (!curve) return curve.error();
+  const double v_lo = curve->minSpeed_m_s(), v_hi = curve->maxSpeed_m_s();
+  const double p_max = std::min(curve->maxPressure_kPa(), profile.regulator_config.max_kPa);
+
+  // Aimed without the slide's travel, which is checked below with its own message.
+  hw::RigProfile free = profile;
+  free.launchers[1].slide_travel_m.reset();
+  auto aim = aimAt(free, request.incidence_deg, request.speed_m_s);
+  if (!aim) {
+    const auto largest = largestAimable(free, request.incidence_deg, request.speed_m_s);
+    std::optional<PlanRequest> nearest;
+    if (largest) {
+      nearest = request;
+      nearest->incidence_deg = *largest;
+    } else if (const auto faster_head_on =
+                   fasterAimable(free, 0.0, request.speed_m_s,
+                                 v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]));
+               faster_head_on &&
+               !fasterAimable(free, request.incidence_deg, request.speed_m_s,
+                              v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]))) {
+      // Too slow for any angle and too grazing at any speed: faster, then
+      // as near the angle as that speed allows.
+      const auto angle = largestAimable(free, request.incidence_deg, *faster_head_on);
+      if (angle) {
+        nearest = request;
+        nearest->speed_m_s = *faster_head_on;
+        nearest->incidence_deg = *angle;
+      }
+    } else if (const auto faster =
+                   fasterAimable(free, request.incidence_deg, request.speed_m_s,
+                                 v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]))) {
+      nearest = request;
+      nearest->speed_m_s = *faster;
+    }
+    return refuse(
+        infeasible,
+        "an incidence of " + describeRequest(request) + " cannot be fired: " + aim.error().message,
+        nearest);
+  }
+  // The slide's travel.
+  if (const auto& travel = profile.launchers[1].slide_travel_m;
+      travel && (aim->slide_offset_m < (*travel)[0] || aim->slide_offset_m > (*travel)[1])) {
+    // The slide's offset grows with the angle: bisect for the largest angle
+    // whose slide stays inside the travel.
+    const auto inside = [&](double g) {
+      auto a = aimAt(free, g, request.speed_m_s);
+      return a && a->slide_offset_m >= (*travel)[0] && a->slide_offset_m <= (*travel)[1];
+    };
+    std::optional<PlanRequest> nearest;
+    if (inside(0.0)) {
+      double lo = 0.0, hi = request.incidence_deg;
+      while (hi - lo > 0.01) (inside(0.5 * (lo + hi)) ? lo : hi) = 0.5 * (lo + hi);
+      nearest = request;
+      nearest->incidence_deg = std::floor(lo * 10) / 10;
+    }
+    return refuse(infeasible,
+                  describeRequest(request) + " needs launcher " + profile.launchers[1].name +
+                      "'s slide " + num("%+.1f", aim->slide_offset_m * 1e3) +
+                      " mm from exit_m, outside its travel (" + num("%+.1f", (*travel)[0] * 1e3) +
+                      " to " + num("%+.1f", (*travel)[1] * 1e3) + " mm, launcher.slide_travel_m)",
+                  nearest);
+  }
+  // The calibrated speeds, and the pressures the regulator may give.
+  ShotPlan plan;
+  for (int i = 0; i < 2; ++i) {
+    const double v = aim->exit_speed_m_s[i];
+    auto p = curve->pressure_kPa(v);
+    if (!p || *p > p_max) {
+      const double v_max = p ? std::min(v_hi, curve->speed_m_s(p_max)) : v_hi;
+      PlanRequest nearest = request;
+      nearest.speed_m_s = speedsInside(*aim, request.speed_m_s, v_lo, v_max);
+      const bool ok = static_cast<bool>(aimAt(free, nearest.incidence_deg, nearest.speed_m_s));
+      return refuse(infeasible,
+                    "launcher " + profile.launchers[i].name + " would need an exit speed of " +
+                        num("%.2f", v) +
+                        " m/s, outside what the launch calibration and the "
+                        "regulator give (" +
+                        num("%.2f", v_lo) + " to " + num("%.2f", v_max) + " m/s, " +
+                        num("%.0f", curve->minPressure_kPa()) + " to " + num("%.0f", p_max) +
+                        " kPa)",
+                    ok ? std::optional<PlanRequest>(nearest) : std::nullopt);
+    }
+    plan.pressure_kPa[i] = *p;
+  }
+  plan.request = request;
+  plan.slide_offset_m = aim->slide_offset_m;
+  plan.exit_speed_m_s = aim->exit_speed_m_s;
+  plan.launch = aim->launch;
+  plan.aimed = std::move(aim->profile);
+  for (int i = 0; i < 2; ++i) {
+    plan.exit_m[i] = plan.aimed.launchers[i].exit_m;
+    plan.speed_at_contact_m_s[i] = plan.launch.before_contact[i].velocity_m_s.norm();
+  }
+  const Vec3 n = plan.launch.contact_normal;
+  const Vec3 approach = -plan.launch.relative_velocity_m_s.normalized();
+  plan.incidence_deg = std::acos(std::clamp(n.dot(approach), -1.0, 1.0)) * kDegPerRad;
+  plan.material = request.material.value_or(profile.spheres.material);
+  auto predicted =
+      collideSpheres(plan.launch.before_contact[0], plan.launch.before_contact[1], plan.material);
+  if (!predicted)
+    return fail("Walton's model on the planned contact: " + predicted.error().message);
+  plan.prediction = *predicted;
+  return plan;
+}
+
+}  // namespace
+
+Result<ShotPlan> planShot(const hw::RigProfile& profile, const PlanRequest& request,
+                          Infeasible* infeasible) {
+  Infeasible why;
+  auto plan = planOnce(profile, request, &why);
+  if (plan || why.reason.empty()) return plan;
+  // The nearest wish must itself be feasible: follow it through the other
+  // limits (a faster shot may then need a smaller angle, ...).
+  for (int round = 0; round < 4 && why.nearest; ++round) {
+    Infeasible next;
+    if (planOnce(profile, *why.nearest, &next)) break;
+    why.nearest = next.nearest;
+  }
+  if (infeasible) *infeasible = why;
+  return fail(refusal(why));
+}
+
+std::string describePlan(const ShotPlan& p) {
+  std::string s;
+  const auto line = [&](const std::string& l) { s += l + "\n"; };
+  line("plan: " + describeRequest(p.request) + " at contact, rig " + p.aimed.name);
+  for (int i = 0; i < 2; ++i) {
+    const Vec3& x = p.exit_m[i];
+    std::string slide = i == 1 ? (std::abs(p.slide_offset_m) < 5e-7
+                                      ? " (slide as in the profile)"
+                                      : " (slide " + num("%+.2f", p.slide_offset_m * 1e3) +
+                                            " mm from the profile's exit_m)")
+                               : " (as in the profile)";
+    line("  launcher " + p.aimed.launchers[i].name + ": exit at (" + num("%.2f", x.x() * 1e3) +
+         ", " + num("%.2f", x.y() * 1e3) + ", " + num("%.2f", x.z() * 1e3) + ") mm" + slide +
+         "; exit speed " + num("%.3f", p.exit_speed_m_s[i]) + " m/s, pressure " +
+         num("%.2f", p.pressure_kPa[i]) + " kPa; valve opens at " +
+         num("%.2f", p.launch.valve_open_s[i] * 1e3) + " ms");
+  }
+  line("  contact: " + num("%.2f", p.launch.contact_s * 1e3) +
+       " ms after the first valve opens, at (" + num("%.2f", p.launch.contact_point_m.x() * 1e3) +
+       ", " + num("%.2f", p.launch.contact_point_m.y() * 1e3) + ") mm, pixel (" +
+       num("%.1f", p.launch.contact_px.x()) + ", " + num("%.1f", p.launch.contact_px.y()) + ")");
+  line("  incidence " + num("%.2f", p.incidence_deg) + " deg; speeds at contact " +
+       num("%.3f", p.speed_at_contact_m_s[0]) + " and " + num("%.3f", p.speed_at_contact_m_s[1]) +
+       " m/s (spin and launch scatter aside)");
+  const ContactOutcome& c = p.prediction.contact;
+  line("  Walton's model (e " + num("%.3f", p.material.e) + ", mu " + num("%.3f", p.material.mu) +
+       ", beta0 " + num("%.3f", p.material.beta0) + "): " +
+       (c.regime == Regime::Sliding ? "sliding" : "rolling") + ", beta " + num("%.3f", c.beta) +
+       ", gamma " + num("%.2f", c.before.gamma_rad * kDegPerRad) + " deg, v_n " +
+       num("%.3f", c.before.v_n_m_s) + " m/s, v_s " + num("%.3f", c.before.v_s_m_s) + " m/s");
+  for (int i = 0; i < 2; ++i) {
+    const Sphere& a = p.prediction.after[i];
+    line("    sphere " + std::to_string(i + 1) + " after: velocity (" +
+         num("%.3f", a.velocity_m_s.x()) + ", " + num("%.3f", a.velocity_m_s.y()) + ", " +
+         num("%.3f", a.velocity_m_s.z()) + ") m/s, spin (" + num("%.1f", a.spin_rad_s.x()) + ", " +
+         num("%.1f", a.spin_rad_s.y()) + ", " + num("%.1f", a.spin_rad_s.z()) + ") rad/s");
+  }
+  return s;
+}
+
+}  // namespace collide::app
