@@ -162,8 +162,7 @@ std::vector<PlannedShot> planCampaign(const CampaignOptions& o) {
   return shots;
 }
 
-Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const CampaignOptions& o,
-                                   const CampaignProgress& progress, std::stop_token cancel) {
+Status prepareCampaign(const hw::RigProfile& profile, const CampaignOptions& o) {
   if (o.shots < 1) return fail("--shots must be at least 1");
   if (!(o.angle_min_deg >= 0 && o.angle_min_deg <= o.angle_max_deg && o.angle_max_deg < 90))
     return fail("incidence angles must satisfy 0 <= min <= max < 90 degrees");
@@ -183,61 +182,75 @@ Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const Campaign
       1e6;
   if (auto room = checkFreeSpace(o.out_dir, shot_bytes, "save a shot in " + o.out_dir); !room)
     return room.error();
+  return Ok{};
+}
 
+std::string stopReason(const CampaignOptions& o, int failed_in_a_row,
+                       const CampaignReport& report) {
+  if (o.max_consecutive_failures <= 0 || failed_in_a_row < o.max_consecutive_failures) return "";
+  return std::to_string(failed_in_a_row) +
+         " shots in a row failed on the rig (last: " + report.failures.back() +
+         "): check the devices, then fire the remaining shots";
+}
+
+Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
+                                                 const PlannedShot& planned,
+                                                 const CampaignOptions& o, int index,
+                                                 CampaignReport& report, std::stop_token cancel) {
+  const std::string id = makeShotId(wallTimeUnixNs(), index);
+  std::array<double, 2> speed = planned.speed_m_s;
+  auto aimed = aimForIncidence(profile, planned.incidence_deg, speed);
+  if (!aimed) {
+    // The rig cannot fire this one: the planner's nearest shot instead.
+    auto replanned = nearestFeasible(profile, planned);
+    if (!replanned) {
+      ++report.failed;
+      report.failures.push_back(id + ": " + aimed.error().message);
+      return std::optional<hw::Shot>();
+    }
+    report.replanned.push_back(id + ": " + replanned->note);
+    aimed = std::move(replanned->plan.aimed);
+    speed = replanned->plan.exit_speed_m_s;
+  }
+  // A different simulation seed per shot: dots, spins and scatter differ.
+  aimed->simulation.seed = o.seed * 1000003ULL + index;
+  auto fired = fireShot(*aimed, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel);
+  if (!fired) return fail("shot " + std::to_string(index + 1) + ": " + fired.error().message);
+  hw::Shot& shot = *fired;
+  ++report.fired;
+  auto saved = saveShot(o.out_dir, shot);
+  if (!saved)
+    return fail(saved.error().message + " (" + std::to_string(report.files.size()) +
+                " shots saved in " + o.out_dir + " before this one are intact)");
+  shot.id = *saved;  // the next free id when an earlier shot had this one
+  report.files.push_back((std::filesystem::path(o.out_dir) / shotFileName(shot.id)).string());
+  if (shot.status == hw::ShotStatus::Ok) {
+    ++report.ok;
+  } else {
+    ++report.failed;
+    report.failures.push_back(shot.id + ": " + shot.failure_reason);
+  }
+  return std::optional<hw::Shot>(std::move(shot));
+}
+
+Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const CampaignOptions& o,
+                                   const CampaignProgress& progress, std::stop_token cancel) {
+  if (auto ready = prepareCampaign(profile, o); !ready) return ready.error();
   CampaignReport report;
   const std::vector<PlannedShot> plan = planCampaign(o);
   int failed_in_a_row = 0;
   for (std::size_t i = 0; i < plan.size(); ++i) {
-    if (cancel.stop_requested()) {
-      report.cancelled = true;
+    report.stopped_because = stopReason(o, failed_in_a_row, report);
+    if (cancel.stop_requested() || !report.stopped_because.empty()) {
+      report.cancelled = cancel.stop_requested();
       report.not_fired = static_cast<int>(plan.size() - i);
       break;
     }
-    if (o.max_consecutive_failures > 0 && failed_in_a_row >= o.max_consecutive_failures) {
-      report.stopped_because =
-          std::to_string(failed_in_a_row) +
-          " shots in a row failed on the rig (last: " + report.failures.back() +
-          "): check the devices, then fire the remaining shots";
-      report.not_fired = static_cast<int>(plan.size() - i);
-      break;
-    }
-    const PlannedShot& planned = plan[i];
-    const std::string id = makeShotId(wallTimeUnixNs(), static_cast<int>(i));
-    std::array<double, 2> speed = planned.speed_m_s;
-    auto aimed = aimForIncidence(profile, planned.incidence_deg, speed);
-    if (!aimed) {
-      // The rig cannot fire this one: the planner's nearest shot instead.
-      auto replanned = nearestFeasible(profile, planned);
-      if (!replanned) {
-        ++report.failed;
-        report.failures.push_back(id + ": " + aimed.error().message);
-        continue;
-      }
-      report.replanned.push_back(id + ": " + replanned->note);
-      aimed = std::move(replanned->plan.aimed);
-      speed = replanned->plan.exit_speed_m_s;
-    }
-    // A different simulation seed per shot: dots, spins and scatter differ.
-    aimed->simulation.seed = o.seed * 1000003ULL + i;
-    auto fired = fireShot(*aimed, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel);
-    if (!fired) return fail("shot " + std::to_string(i + 1) + ": " + fired.error().message);
-    hw::Shot& shot = *fired;
-    ++report.fired;
-    auto saved = saveShot(o.out_dir, shot);
-    if (!saved)
-      return fail(saved.error().message + " (" + std::to_string(report.files.size()) +
-                  " shots saved in " + o.out_dir + " before this one are intact)");
-    shot.id = *saved;  // the next free id when an earlier shot had this one
-    report.files.push_back((std::filesystem::path(o.out_dir) / shotFileName(shot.id)).string());
-    if (shot.status == hw::ShotStatus::Ok) {
-      ++report.ok;
-      failed_in_a_row = 0;
-    } else {
-      ++report.failed;
-      ++failed_in_a_row;
-      report.failures.push_back(shot.id + ": " + shot.failure_reason);
-    }
-    if (progress) progress(static_cast<int>(i + 1), static_cast<int>(plan.size()), shot);
+    auto shot = fireCampaignShot(profile, plan[i], o, static_cast<int>(i), report, cancel);
+    if (!shot) return shot.error();
+    if (!*shot) continue;  // could not be aimed (counted as failed)
+    failed_in_a_row = (*shot)->status == hw::ShotStatus::Ok ? 0 : failed_in_a_row + 1;
+    if (progress) progress(static_cast<int>(i + 1), static_cast<int>(plan.size()), **shot);
   }
   return report;
 }

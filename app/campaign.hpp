@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <stop_token>
 #include <string>
 #include <vector>
@@ -73,6 +74,25 @@ Result<hw::RigProfile> aimForIncidence(const hw::RigProfile& profile, double inc
 
 /// The sweep: `options.shots` launch conditions, reproducible from the seed.
 std::vector<PlannedShot> planCampaign(const CampaignOptions& options);
+
+/// Checks the options, creates options.out_dir and checks it is writable and
+/// has room for a shot: what must hold before anything is fired.
+Status prepareCampaign(const hw::RigProfile& profile, const CampaignOptions& options);
+
+/// Aims (or replans, see CampaignReport::replanned), fires and saves one shot
+/// of a campaign, counting it in `report`. None: it could not be aimed (counted
+/// as failed, with the reason). Errors: the rig could not fire at all, or the
+/// shot could not be saved (the message says the earlier shots are intact).
+Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
+                                                 const PlannedShot& planned,
+                                                 const CampaignOptions& options, int index,
+                                                 CampaignReport& report,
+                                                 std::stop_token cancel = {});
+
+/// Why a campaign must stop: options.max_consecutive_failures shots in a row
+/// failed (empty: go on).
+std::string stopReason(const CampaignOptions& options, int failed_in_a_row,
+                       const CampaignReport& report);
 
 /// Fires and saves the campaign into options.out_dir (created if missing).
 /// Failed shots are saved too (status failed, with the reason) and the

@@ -2,14 +2,64 @@
 // angle and store them as shot files plus a catalog.
 #include "app/campaign.hpp"
 
+#include <cstdio>
 #include <iostream>
 
+#include "app/adaptive_campaign.hpp"
 #include "app/cli/command.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
 #include "app/rig_setup.hpp"
 
 namespace {
+
+int runAdaptive(const collide::hw::RigProfile& profile, const collide::app::CampaignOptions& o,
+                const collide::AdaptiveOptions& design, std::stop_token stop) {
+  using namespace collide;
+  const auto sigmas = [](const AdaptiveStatus& st) {
+    if (!st.friction) return "no friction fit yet: " + st.fit_error;
+    char b[160];
+    std::snprintf(b, sizeof b, "mu %.4f +- %.4f, beta0 %.4f +- %.4f", st.friction->mu.value,
+                  st.friction->mu.sigma, st.friction->beta0.value, st.friction->beta0.sigma);
+    return std::string(b);
+  };
+  AdaptiveOptions checked = design;
+  checked.angle_min_deg = o.angle_min_deg, checked.angle_max_deg = o.angle_max_deg;
+  if (auto bad = chooseNextShot({}, {}, checked); !bad) {
+    std::cerr << "collide campaign: " << bad.error().message << "\n";
+    return cli::kExitBadInput;
+  }
+  auto report = app::runAdaptiveCampaign(
+      profile, o, design,
+      [&](int done, int budget, const app::AdaptiveShot& shot, const AdaptiveStatus& st) {
+        char head[96];
+        std::snprintf(head, sizeof head, "shot %d of at most %d: %.1f deg, ", done, budget,
+                      shot.incidence_deg);
+        std::cout << head << (shot.id.empty() ? "not fired" : shot.id) << "\n  why: " << shot.why
+                  << "\n";
+        if (!shot.note.empty()) std::cout << "  note: " << shot.note << "\n";
+        std::cout << "  now: " << sigmas(st) << std::endl;
+      },
+      stop);
+  if (!report) {
+    std::cerr << "collide campaign: " << report.error().message << "\n";
+    return cli::kExitFailure;
+  }
+  const app::CampaignReport& c = report->campaign;
+  std::cout << c.fired << " shots fired (" << c.ok << " ok, " << c.failed << " failed) into "
+            << o.out_dir << "; " << sigmas(report->status) << "\n";
+  if (report->targets_met) {
+    std::cout << "targets reached (sigma_mu <= " << design.target_sigma_mu
+              << ", sigma_beta0 <= " << design.target_sigma_beta0 << ") after " << c.fired
+              << " shots\n";
+  } else if (!c.cancelled) {
+    std::cerr << "collide campaign: targets not reached within " << o.shots << " shots ("
+              << sigmas(report->status) << "): raise --shots or loosen the targets\n";
+  }
+  if (!c.stopped_because.empty())
+    std::cerr << "collide campaign: stopped: " << c.stopped_because << "\n";
+  return report->targets_met && c.stopped_because.empty() ? cli::kExitOk : cli::kExitFailure;
+}
 
 void setupCampaign(CLI::App& sub, std::function<int()>& run) {
   auto rig = std::make_shared<std::string>();
@@ -24,6 +74,17 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
       ->capture_default_str();
   sub.add_option("--speed-min", o->speed_min_m_s, "Slowest exit speed, m/s")->capture_default_str();
   sub.add_option("--speed-max", o->speed_max_m_s, "Fastest exit speed, m/s")->capture_default_str();
+  auto adaptive = std::make_shared<bool>(false);
+  auto design = std::make_shared<collide::AdaptiveOptions>();
+  sub.add_flag("--adaptive", *adaptive,
+               "Choose each shot's angle where mu or beta_0 is least known; stop at the targets "
+               "(--shots is then the budget)");
+  sub.add_option("--target-sigma-mu", design->target_sigma_mu,
+                 "With --adaptive: stop when sigma(mu) is at most this")
+      ->capture_default_str();
+  sub.add_option("--target-sigma-beta0", design->target_sigma_beta0,
+                 "With --adaptive: stop when sigma(beta_0) is at most this")
+      ->capture_default_str();
   sub.footer(
       "Incidence angle: between the line of centres and the relative velocity at contact\n"
       "(0 = head-on); it is set by moving launcher 2's vertical slide. Each shot is saved as\n"
@@ -41,6 +102,7 @@ void setupCampaign(CLI::App& sub, std::function<int()>& run) {
       return collide::cli::kExitBadInput;
     }
     collide::cli::StopOnInterrupt stop;
+    if (*adaptive) return runAdaptive(*profile, *o, *design, stop.token());
     collide::cli::ProgressBar bar("campaign", o->shots);
     auto report = collide::app::runCampaign(
         *profile, *o,

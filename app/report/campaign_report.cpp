@@ -18,6 +18,26 @@ const std::vector<std::string>& excludingFlags() {
   return flags;
 }
 
+void useResults(CampaignEntry& entry, const std::string& results_json, bool include_flagged) {
+  auto r = parseResultsJson(results_json);
+  if (!r) {
+    entry.excluded_because = r.error().message;
+    return;
+  }
+  entry.results = *r;
+  std::string bad_flag;
+  for (const auto& f : r->quality_flags)
+    if (std::find(excludingFlags().begin(), excludingFlags().end(), f) != excludingFlags().end())
+      bad_flag = f;
+  if (!bad_flag.empty() && !include_flagged) {
+    entry.excluded_because = "quality flag " + bad_flag + " (--include-flagged keeps it)";
+  } else if (auto cs = toCampaignShot(*r); !cs) {
+    entry.excluded_because = cs.error().message;
+  } else {
+    entry.shot = *cs;
+  }
+}
+
 Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool include_flagged) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return fail(dir + ": no such folder");
@@ -42,22 +62,8 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool inc
       entry.excluded_because = "failed shot: " + shot->failure_reason;
     } else if (shot->results_json.empty()) {
       entry.excluded_because = "not analysed (run `collide analyze " + dir + "`)";
-    } else if (auto r = parseResultsJson(shot->results_json); !r) {
-      entry.excluded_because = r.error().message;
     } else {
-      entry.results = *r;
-      std::string bad_flag;
-      for (const auto& f : r->quality_flags)
-        if (std::find(excludingFlags().begin(), excludingFlags().end(), f) !=
-            excludingFlags().end())
-          bad_flag = f;
-      if (!bad_flag.empty() && !include_flagged) {
-        entry.excluded_because = "quality flag " + bad_flag + " (--include-flagged keeps it)";
-      } else if (auto cs = toCampaignShot(*r); !cs) {
-        entry.excluded_because = cs.error().message;
-      } else {
-        entry.shot = *cs;
-      }
+      useResults(entry, shot->results_json, include_flagged);
     }
     entries.push_back(std::move(entry));
   }

@@ -28,6 +28,11 @@ struct CampaignEntry {
 /// own large uncertainties, which the weighted fits take into account.
 const std::vector<std::string>& excludingFlags();
 
+/// Fills `entry` from one shot's stored results JSON: the parsed results, and
+/// the CampaignShot the fits use unless a quality flag (excludingFlags) or the
+/// results themselves leave it out (excluded_because says why).
+void useResults(CampaignEntry& entry, const std::string& results_json, bool include_flagged);
+
 /// Reads every shot file in `dir` (without frames). Errors: `dir` missing or
 /// without shot files. Unreadable files become entries with the reason.
 Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir,
@@ -43,7 +48,7 @@ struct CampaignFitReport {
 /// Fits the usable shots (analysis/campaign.hpp fitCampaign) and bootstraps
 /// the friction fit (`resamples` >= 10, or 0 for none).
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
-                                         int resamples = 200, std::uint64_t seed = 1);
+                                            int resamples = 200, std::uint64_t seed = 1);
 
 /// The five plots, named for their files: beta_vs_cot (beta against -v_n/v_s
 /// with the fitted Walton line), tangent_form (-v_s'/v_n against -v_s/v_n),

@@ -1,0 +1,47 @@
+#pragma once
+// `collide campaign --adaptive` (issue 16 §2): fire, analyse, refit, and choose
+// the next shot's incidence where the uncertainty of mu or beta_0 falls most
+// (analysis/adaptive_design.hpp), until both reach their targets or the shot
+// budget is spent. Every shot is saved and analysed as in a plain campaign.
+#include <functional>
+#include <stop_token>
+#include <string>
+#include <vector>
+
+#include "analysis/adaptive_design.hpp"
+#include "analysis/result.hpp"
+#include "app/campaign.hpp"
+#include "hw/rig_profile.hpp"
+
+namespace collide::app {
+
+/// One shot of the adaptive campaign and why it was chosen.
+struct AdaptiveShot {
+  std::string id;
+  double incidence_deg = 0.0;  ///< as chosen (psi, 0 head-on)
+  std::string why;             ///< the design's reason
+  std::string note;            ///< replanned / not analysed / left out of the fits, and why
+  bool used = false;           ///< its measurement entered the fits
+};
+
+struct AdaptiveCampaignReport {
+  CampaignReport campaign;  ///< shots fired, saved, failed (as a plain campaign)
+  std::vector<AdaptiveShot> shots;
+  AdaptiveStatus status;  ///< the fits after the last shot
+  bool targets_met = false;
+};
+
+/// Called after each shot is fired, saved and analysed.
+using AdaptiveProgress =
+    std::function<void(int done, int budget, const AdaptiveShot& shot, const AdaptiveStatus&)>;
+
+/// `options.shots` is the budget; the angle range and exit speeds come from
+/// `options` as for a plain campaign (speeds drawn per shot). Errors as
+/// runCampaign's, and bad design options (named).
+Result<AdaptiveCampaignReport> runAdaptiveCampaign(const hw::RigProfile& profile,
+                                                   const CampaignOptions& options,
+                                                   const AdaptiveOptions& design,
+                                                   const AdaptiveProgress& progress = {},
+                                                   std::stop_token cancel = {});
+
+}  // namespace collide::app
