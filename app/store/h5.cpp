@@ -1,5 +1,6 @@
 #include "app/store/h5.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
@@ -26,6 +27,32 @@ void silenceErrorPrinting() {
   static std::once_flag once;
   std::call_once(once, [] { H5dont_atexit(); });
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
+
+std::uint32_t fletcher32(const void* bytes, std::size_t size) {
+  const auto* p = static_cast<const std::uint8_t*>(bytes);
+  std::uint32_t sum1 = 0, sum2 = 0;
+  const auto fold = [&] {
+    sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+    sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+  };
+  // Blocks of at most 360 words keep the running sums within 32 bits.
+  for (std::size_t words = size / 2; words > 0;) {
+    const std::size_t block = std::min<std::size_t>(words, 360);
+    words -= block;
+    for (std::size_t k = 0; k < block; ++k, p += 2) {
+      sum1 += (static_cast<std::uint32_t>(p[0]) << 8) | p[1];
+      sum2 += sum1;
+    }
+    fold();
+  }
+  if (size % 2) {
+    sum1 += static_cast<std::uint32_t>(*p) << 8;
+    sum2 += sum1;
+    fold();
+  }
+  fold();
+  return (sum2 << 16) | sum1;
 }
 
 Cause lastCause() {

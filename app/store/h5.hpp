@@ -30,6 +30,12 @@ struct Cause {
 };
 Cause lastCause();
 
+/// HDF5's Fletcher-32 checksum of `bytes` (the H5Z_FILTER_FLETCHER32 filter's:
+/// 16-bit big-endian words summed in blocks of 360, an odd last byte as the
+/// high half of a word). A chunk written past the filter pipeline (direct
+/// chunk write) into a dataset with that filter must end in it, little-endian.
+std::uint32_t fletcher32(const void* bytes, std::size_t size);
+
 /// Owns one HDF5 id (file, group, dataset, dataspace, datatype, attribute,
 /// property list) and closes it with the matching H5?close.
 class Handle {

@@ -192,6 +192,9 @@ void writeImages(h5::Writer& w, const vision::Burst& burst, const FrameGeometry&
       H5Pset_shuffle(dcpl.get());
       H5Pset_deflate(dcpl.get(), static_cast<unsigned>(std::clamp(options.deflate_level, 1, 9)));
     }
+    // Last in the pipeline: a checksum of each frame as stored, so a damaged
+    // frame is named on reading instead of analysed as if it were true.
+    H5Pset_fletcher32(dcpl.get());
   }
   Handle d = w.createDataset(kImages, type, {n, rows, cols}, dcpl.get());
   if (!w.ok()) return;
@@ -200,6 +203,7 @@ void writeImages(h5::Writer& w, const vision::Burst& burst, const FrameGeometry&
   if (!chunked) return;
 
   const std::size_t frame_bytes = rows * cols * (mono8 ? 1 : 2);
+  std::vector<std::uint8_t> chunk;  // a frame and its checksum, for direct writes
   Handle file_space(H5Dget_space(d.get()), H5Sclose);
   const hsize_t mem_dims[3] = {1, rows, cols};
   Handle mem_space(H5Screate_simple(3, mem_dims, nullptr), H5Sclose);
@@ -211,8 +215,15 @@ void writeImages(h5::Writer& w, const vision::Burst& burst, const FrameGeometry&
     herr_t status;
     if (!options.compress) {
       // Direct chunk write: the frame's bytes go to the file as they are,
-      // without a pass through HDF5's chunk cache (keeps writes at disk speed).
-      status = H5Dwrite_chunk(d.get(), H5P_DEFAULT, 0, offset, frame_bytes, m.data);
+      // without a pass through HDF5's chunk cache (keeps writes at disk speed),
+      // followed by the checksum the fletcher32 filter would have appended
+      // (little-endian).
+      chunk.resize(frame_bytes + 4);
+      std::memcpy(chunk.data(), m.data, frame_bytes);
+      const std::uint32_t sum = h5::fletcher32(m.data, frame_bytes);
+      for (int b = 0; b < 4; ++b)
+        chunk[frame_bytes + b] = static_cast<std::uint8_t>(sum >> (8 * b));
+      status = H5Dwrite_chunk(d.get(), H5P_DEFAULT, 0, offset, chunk.size(), chunk.data());
     } else {
       const hsize_t count[3] = {1, rows, cols};
       H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, offset, nullptr, count, nullptr);
@@ -456,8 +467,19 @@ void readImages(h5::Reader& r, vision::Burst& burst, const std::vector<std::uint
     const hsize_t count[3] = {1, dims[1], dims[2]};
     H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, offset, nullptr, count, nullptr);
     if (H5Dread(d.get(), mono8 ? H5T_NATIVE_UINT8 : H5T_NATIVE_UINT16, mem_space.get(), space.get(),
-                H5P_DEFAULT, image.data) < 0)
-      return r.failHdf5("reading frame " + std::to_string(i) + " of " + kImages);
+                H5P_DEFAULT, image.data) < 0) {
+      const h5::Cause cause = h5::lastCause();
+      if (cause.text.find("checksum") == std::string::npos)
+        return r.failHdf5("reading frame " + std::to_string(i) + " of " + kImages, cause);
+      // One damaged frame: the rest of the shot is still good. The frame is
+      // set aside (as a frame lost in transport would be) and named.
+      vision::Frame& f = burst.frames[i];
+      f.status = vision::FrameStatus::Failed;
+      burst.note += std::string(burst.note.empty() ? "" : "; ") + "frame " + std::to_string(i) +
+                    " (id " + std::to_string(f.id) +
+                    ") fails its checksum in the file (damaged on disk): left out";
+      continue;
+    }
     burst.frames[i].image = image;
   }
 }
