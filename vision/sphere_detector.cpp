@@ -490,18 +490,15 @@ void shapeMoments(const float* p, const EdgeContext& ctx, Profile& pr) {
     fbar += f[j - 1];
   }
   fbar /= ctx.n_in;
-  ShapeMat gram = ShapeMat::Zero();
-  ShapeVec cross = ShapeVec::Zero();
-  double yy = 0;
+  double g00 = 0, g01 = 0, g02 = 0, g11 = 0, g12 = 0, g22 = 0, c0 = 0, c1 = 0, c2 = 0, yy = 0;
   for (int j = 1; j <= ctx.n_in; ++j) {
-    const ShapeVec fc = f[j - 1] - fbar;
+    const double a = f[j - 1](0) - fbar(0), b = f[j - 1](1) - fbar(1), c = f[j - 1](2) - fbar(2);
     const double y = p[s0 + j - 1] - pr.mean_in;
-    gram.selfadjointView<Eigen::Upper>().rankUpdate(fc);
-    cross += y * fc;
-    yy += y * y;
+    g00 += a * a, g01 += a * b, g02 += a * c, g11 += b * b, g12 += b * c, g22 += c * c;
+    c0 += y * a, c1 += y * b, c2 += y * c, yy += y * y;
   }
-  pr.gram = gram.selfadjointView<Eigen::Upper>();
-  pr.cross = cross;
+  pr.gram << g00, g01, g02, g01, g11, g12, g02, g12, g22;
+  pr.cross = ShapeVec(c0, c1, c2);
   pr.yy = yy;
 }
 
@@ -594,7 +591,8 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
 // significantly better (by more than the noise can explain). Profiles whose
 // inside samples stray from their shape (a dot edge, a highlight) are dropped
 // and the fit repeated.
-void fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
+// Returns whether any stretch took the square-root shape.
+bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   struct Sums {
     ShapeMat m = ShapeMat::Zero();
     ShapeVec r = ShapeVec::Zero();
@@ -603,20 +601,23 @@ void fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
     void add(const Sums& o) { m += o.m, r += o.r, yy += o.yy, n += o.n; }
   };
   constexpr int kMinProfiles = 16;
+  bool any_root = false;
   // Two shapes of two terms each: (delta, delta^2), the smooth falloff of an
   // evenly lit or side-lit limb, and (delta, sqrt(delta)), a limb facing the
   // lamp's axis. The square root is taken only when it fits significantly
   // better: where the truth is smooth it would only add noise.
   const auto solveWith = [&](const Sums& z, int drop, ShapeVec& b, double& rss) {
-    ShapeMat m = z.m;
-    ShapeVec r = z.r;
-    m.row(drop).setZero(), m.col(drop).setZero(), m(drop, drop) = 1, r(drop) = 0;
-    const Eigen::LDLT<ShapeMat> ldlt(m);
-    if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-12)) return false;
-    b = ldlt.solve(r);
-    rss = std::max(0.0, z.yy - b.dot(r));
-    return b.allFinite();
+    const int k = drop == 2 ? 1 : 2;  // the second term kept besides delta
+    const double m00 = z.m(0, 0), m0k = z.m(0, k), mkk = z.m(k, k);
+    const double det = m00 * mkk - m0k * m0k;
+    if (!(det > 1e-12 * m00 * mkk) || !std::isfinite(det)) return false;
+    b.setZero();
+    b(0) = (mkk * z.r(0) - m0k * z.r(k)) / det;
+    b(k) = (m00 * z.r(k) - m0k * z.r(0)) / det;
+    rss = std::max(0.0, z.yy - b(0) * z.r(0) - b(k) * z.r(k));
+    return std::isfinite(b(0)) && std::isfinite(b(k));
   };
+
   const auto solve = [&](const Sums& z, ShapeVec& b) {
     ShapeVec smooth, root;
     double rss_smooth = 0, rss_root = 0;
@@ -661,9 +662,11 @@ void fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
       }
     }
     bool dropped = false;
+    any_root = false;
     for (Profile& pr : profiles) {
       if (!pr.ok) continue;
       pr.shape = shape[pr.bin];
+      any_root |= pr.shape(2) != 0;
       if (round == 1) continue;
       // Drop profiles that do not follow their shape; refit if any went.
       const ShapeVec& b = pr.shape;
@@ -676,6 +679,7 @@ void fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
     }
     if (!dropped) break;
   }
+  return any_root;
 }
 
 // The edge of one screened profile, in profile coordinates (sample i's centre
@@ -692,7 +696,7 @@ double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, 
   double sum = 0;
   for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
   double len = pr.len0, level = 0;
-  for (int it = 0; it < 5; ++it) {
+  for (int it = 0, iterations = st ? 4 : 2; it < iterations; ++it) {
     ShapeVec fbar = ShapeVec::Zero(), dfbar = ShapeVec::Zero();
     for (int j = 1; j <= ctx.n_in; ++j) {
       const double along = len + pr.in_off + j - 1, dd = depthAlong(along, g, h);
@@ -713,7 +717,7 @@ double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, 
     if (!(df > 0)) return std::nan("");
     const double step = std::clamp(f / df, -1.0, 1.0);
     len = std::max(0.05, len - step);
-    if (std::abs(step) < 1e-4) break;
+    if (std::abs(step) < 1e-3) break;
   }
   if (!(len > 0.05 && len < b - a + 1.0)) return std::nan("");
   // The model's level at the window's inner end must be a sphere's.
@@ -738,36 +742,39 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   sampleProfiles<T>(img, c, ctx, profiles, samples, len, margin, st);
   for (std::size_t k = 0; k < profiles.size(); ++k)
     screenProfile(samples.data() + k * len, len, margin, ctx, profiles[k], st);
-  fitShading(profiles, ctx);
+  const bool root = fitShading(profiles, ctx);
   // The shape was read at depths from the level crossing, which a limb
   // much darker than the sphere just inside puts too deep: measure the edge,
   // re-read the depths from it, and fit the shape again. The correction is
   // averaged over a stretch of the outline: one profile's own (noisy) edge
   // would correlate the depths with its samples' noise and bias the shape.
-  std::array<double, kSectors> shift{};
-  std::array<int, kSectors> count{};
-  for (std::size_t k = 0; k < profiles.size(); ++k) {
-    const Profile& pr = profiles[k];
-    if (!pr.ok) continue;
-    const double x = edgeOfProfile(samples.data() + k * len, pr, ctx, nullptr);
-    if (std::isnan(x)) continue;
-    shift[pr.bin] += pr.c + ctx.hw + 0.5 - x - pr.len0;
-    ++count[pr.bin];
-  }
-  for (std::size_t k = 0; k < profiles.size(); ++k) {
-    Profile& pr = profiles[k];
-    if (!pr.ok) continue;
-    double sum = 0;
-    int n = 0;
-    for (int w = -1; w <= 1; ++w) {
-      const int bin = (pr.bin + w + kSectors) % kSectors;
-      sum += shift[bin], n += count[bin];
+  // (Polynomial shapes do not depend on where the depths start.)
+  if (root) {
+    std::array<double, kSectors> shift{};
+    std::array<int, kSectors> count{};
+    for (std::size_t k = 0; k < profiles.size(); ++k) {
+      const Profile& pr = profiles[k];
+      if (!pr.ok) continue;
+      const double x = edgeOfProfile(samples.data() + k * len, pr, ctx, nullptr);
+      if (std::isnan(x)) continue;
+      shift[pr.bin] += pr.c + ctx.hw + 0.5 - x - pr.len0;
+      ++count[pr.bin];
     }
-    if (n == 0) continue;
-    pr.len0 += sum / n;
-    shapeMoments(samples.data() + k * len, ctx, pr);
+    for (std::size_t k = 0; k < profiles.size(); ++k) {
+      Profile& pr = profiles[k];
+      if (!pr.ok) continue;
+      double sum = 0;
+      int n = 0;
+      for (int w = -1; w <= 1; ++w) {
+        const int bin = (pr.bin + w + kSectors) % kSectors;
+        sum += shift[bin], n += count[bin];
+      }
+      if (n == 0) continue;
+      pr.len0 += sum / n;
+      shapeMoments(samples.data() + k * len, ctx, pr);
+    }
+    fitShading(profiles, ctx);
   }
-  fitShading(profiles, ctx);
   for (std::size_t k = 0; k < profiles.size(); ++k) {
     const Profile& pr = profiles[k];
     if (!pr.ok) continue;
