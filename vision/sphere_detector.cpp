@@ -161,8 +161,9 @@ Levels measureLevels(const Grid& grid, int max_value) {
   }
   l.threshold = l.bg + std::max(0.15 * (l.bright - l.bg), 6.0 * l.sigma + width);
   // A shaded limb can be far darker than the sphere's lit side (ambient x
-  // albedo): blobs extend down to what noise cannot reach.
-  l.low = std::min(l.threshold, l.bg + std::max(6.0 * l.sigma + width, 0.01 * (l.bright - l.bg)));
+  // albedo): blobs extend down to what noise rarely reaches (isolated noise
+  // makes no blob: a blob must also reach the threshold above).
+  l.low = std::min(l.threshold, l.bg + std::max(4.0 * l.sigma + width, 0.01 * (l.bright - l.bg)));
   l.saturated_fraction = static_cast<double>(at_max) / std::max(1, n);
   return l;
 }
@@ -525,7 +526,8 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
   for (int i = 0; i < ctx.n_out; ++i)
     if (std::abs(p[i] - far) > tol) return;
   // Where the profile first leaves the background (two samples in a row).
-  const float leave = static_cast<float>(far + std::max(tol, ctx.min_contrast));
+  const double step = std::max(3.0 * ctx.sigma + 1.0, ctx.min_contrast);
+  const float leave = static_cast<float>(far + step);
   int c0 = -1;
   for (int i = first - 1, end = std::min(last + 2 * ctx.hw, len - 2); i <= end; ++i)
     if (p[i] >= leave && p[i + 1] >= leave) {
@@ -536,7 +538,7 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
   // The limb's level just beyond the widest transition, and the crossing level.
   const int k = std::min(c0 + 2 * ctx.hw + 1, len - 2);
   const double near_in = 0.5 * (p[k] + p[k + 1]);
-  if (!(near_in - far > 1.5 * std::max(tol, ctx.min_contrast))) return;
+  if (!(near_in - far > 1.5 * step)) return;
   const float thr = static_cast<float>(far + 0.3 * (near_in - far));
   int c = -1;
   for (int i = std::max(first, c0 - ctx.hw - 1); i <= std::min(last, k); ++i)
@@ -829,7 +831,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   // at contact, glare): the profile is not used.
   ctx.dark_limit = lv.bg + std::max(5.0 * lv.sigma + 1.0, 0.1 * (lv.threshold - lv.bg));
   ctx.dark_limit = std::min(ctx.dark_limit, lv.threshold);
-  ctx.min_contrast = lv.low - lv.bg;
+  ctx.min_contrast = 0.01 * (lv.bright - lv.bg);
   ctx.max_value = max_value;
   ctx.hw = std::max(1, static_cast<int>(std::ceil(set.edge_half_width_px)));
 

@@ -4,7 +4,7 @@
 //
 // Method. (1) Levels: the background and noise from a sparse sample of the
 // frame (median, MAD). (2) Coarse: threshold a subsampled grid at a low level
-// (background + 6 sigma: where a pixel leaves the background, so a limb in
+// (background + 4 sigma: where a pixel leaves the background, so a limb in
 // shadow, barely above the backdrop, is part of its sphere), keep connected
 // blobs that also hold a sample above a high level (between background and
 // the brightest pixels: hysteresis, so noise alone makes no blob), fit a
