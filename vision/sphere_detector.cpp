@@ -1082,8 +1082,42 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
     out.notes.push_back("not a one-channel 8- or 16-bit image");
     return out;
   }
-  if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_);
-  return detectTyped<std::uint16_t>(image, max_value, settings_);
+  using Polarity = SphereDetectorSettings::Polarity;
+  bool dark = settings_.polarity == Polarity::Dark;
+  if (settings_.polarity == Polarity::Auto && max_value > 0) {
+    // A sparse sample: most of it above half of full scale, and little of it
+    // clipped (a white, overexposed frame stays a bright one and is reported so).
+    int above = 0, clipped = 0, n = 0;
+    const int sy = std::max(1, image.rows / 48), sx = std::max(1, image.cols / 64);
+    for (int y = sy / 2; y < image.rows; y += sy)
+      for (int x = sx / 2; x < image.cols; x += sx) {
+        const int v =
+            image.depth() == CV_8U ? image.at<std::uint8_t>(y, x) : image.at<std::uint16_t>(y, x);
+        above += 2 * v > max_value;
+        clipped += v >= max_value;
+        ++n;
+      }
+    dark = 2 * above > n && 5 * clipped < n;
+  }
+  if (!dark) {
+    if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_);
+    return detectTyped<std::uint16_t>(image, max_value, settings_);
+  }
+  // Saturating: levels above full scale give 0.
+  cv::Mat negative;
+  cv::subtract(cv::Scalar(max_value), image, negative);
+  FrameSpheres out = image.depth() == CV_8U
+                         ? detectTyped<std::uint8_t>(negative, max_value, settings_)
+                         : detectTyped<std::uint16_t>(negative, max_value, settings_);
+  out.dark_spheres = true;
+  out.background = max_value - out.background;
+  out.threshold = max_value - out.threshold;
+  out.low_threshold = max_value - out.low_threshold;
+  for (SphereMeasurement& m : out.spheres) {
+    m.background = max_value - m.background;
+    m.rim_level = max_value - m.rim_level;
+  }
+  return out;
 }
 
 }  // namespace collide::vision

@@ -30,10 +30,14 @@
 // then a geometric (Gauss-Newton) one with iterative outlier rejection; the
 // covariance gives each sphere's uncertainty.
 //
-// Limits (issue 12): on shaded 60 px spheres the radius comes out ~0.04-0.08
+// Backlit frames (dark silhouettes on a bright field, settings().polarity)
+// are measured as their negative; their levels (background, rim) are
+// reported in the frame's own grey levels.
+//
+// Limits (issue 12): on shaded 60 px spheres the radius comes out ~0.04-0.07
 // px small (a sqrt-shaped limb is extrapolated only approximately); on 18 px
-// shaded spheres centres are off by ~0.5 px RMS; a limb darker than the
-// backdrop, and backlit (dark) spheres, are not handled.
+// shaded spheres centres are off by ~0.3 px RMS; a limb darker than the
+// backdrop is not handled.
 //
 // Image coordinates: u right, v down, origin at the top-left pixel's centre.
 #include <opencv2/core.hpp>
@@ -68,6 +72,12 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
                             double min_reject_px = 0.05, bool ordered = false);
 
 struct SphereDetectorSettings {
+  /// Bright spheres on a dark background (front light), dark silhouettes on a
+  /// bright field (backlight), or Auto: dark when most of the frame is
+  /// brighter than half of full scale (and not clipped there). Dark frames are
+  /// measured as their negative (full scale - grey level), by the same method.
+  enum class Polarity { Auto, Bright, Dark };
+  Polarity polarity = Polarity::Auto;
   /// Smaller blobs are ignored (noise, specks); 0: 1/40 of the image's smaller side.
   double min_radius_px = 0.0;
   double max_radius_px = 0.0;  ///< 0: half the image's smaller side
@@ -100,6 +110,7 @@ struct FrameSpheres {
   double threshold = 0;            ///< blob seed threshold (between background and brightest)
   double low_threshold = 0;        ///< where a pixel leaves the background (blob extents)
   bool saturated = false;          ///< a large part of the frame at full scale
+  bool dark_spheres = false;       ///< measured as dark silhouettes (backlit)
   int blobs_ignored = 0;           ///< blobs too small, too large or not round
   std::vector<std::string> notes;  ///< why something was not found
 };

@@ -217,6 +217,7 @@ struct ShadedSetup {
   int adc_bits = 0;
   double full_well_e = 20000, read_noise_e = 15;
   double dot_fraction = 0.1;
+  bool backlit = false;  // sim-backlit's bright field and dark silhouettes instead
 };
 
 // One frame of two dotted spheres, apart, under a random one-sided lamp
@@ -252,6 +253,17 @@ ShadedFrame shadedFrame(std::mt19937_64& rng, const ShadedSetup& s, int frame) {
   if (frame % 2) {
     im.lighting.specular_strength = 0.3;
     im.lighting.specular_exponent = 80;
+  }
+  if (s.backlit) {
+    // config/sim-backlit.toml's field, with a bright central spot.
+    im.lighting.mode = Lighting::Mode::Back;
+    im.lighting.ambient = 0.15 + 0.2 * uni(rng);
+    im.lighting.sphere_albedo = 0.5;
+    im.lighting.dot_albedo = 0.05;
+    im.lighting.backdrop_level = 0.7 + 0.2 * uni(rng);
+    im.lighting.spot_level = frame % 2 ? 0.35 : 0.0;
+    im.lighting.spot_fraction = 0.15;
+    im.lighting.specular_strength = 0;
   }
   im.sensor.full_well_e = s.full_well_e;
   im.sensor.read_noise_e = s.read_noise_e;
@@ -354,6 +366,32 @@ TEST(SphereDetector, DISABLED_ShadedSmallSpheresMeetTheAccuracyTarget) {
   ASSERT_GT(err.n, 0);
   EXPECT_LE(err.centreRms(), 0.1);
   EXPECT_LE(err.radiusRms(), 0.1);
+}
+
+// Backlit (issue 12): dark silhouettes on a bright field, a bright central
+// spot on every other frame; the polarity is found automatically. The old
+// detector took such frames for overexposed and found nothing.
+TEST(SphereDetector, BacklitSilhouettesAreMeasured) {
+  for (const auto& [format, bits] :
+       {std::pair{PixelFormat::Mono8, 8}, std::pair{PixelFormat::Mono12, 12}}) {
+    ShadedSetup s;
+    s.format = format;
+    s.adc_bits = bits;
+    s.backlit = true;
+    s.full_well_e = 12000;
+    s.read_noise_e = 12;
+    int missed = 0;
+    const Errors err = shadedErrors(s, 12, 90 + bits, missed);
+    char what[64];
+    std::snprintf(what, sizeof what, "backlit 60 px, %d-bit", bits);
+    err.print(what);
+    EXPECT_EQ(missed, 0) << what;
+    ASSERT_GT(err.n, 0) << what;
+    EXPECT_LE(err.centreRms(), 0.05) << what;
+    EXPECT_LE(err.radiusRms(), 0.05) << what;
+    EXPECT_LE(err.max_c, 0.2) << what;
+    EXPECT_LE(err.max_r, 0.2) << what;
+  }
 }
 
 TEST(SphereDetector, DarkerRimGivesNoRadiusBias) {
