@@ -24,7 +24,10 @@ template <class T>
 DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
   DotFrame out;
   const double cu = s.circle.u, cv = s.circle.v, r = s.circle.radius;
-  const double bg = s.background, rim = s.rim_level;
+  // The dark reference dots are measured against: the backdrop, or black for
+  // a silhouette on a bright field (backlit: the sphere darker than its
+  // background; its dots darker still).
+  const double bg = s.rim_level > s.background ? s.background : 0.0, rim = s.rim_level;
   if (!(r > 3) || !(rim > bg)) return out;
   const double margin = set.rim_margin_px > 0 ? set.rim_margin_px : std::max(2.5, 0.03 * r + 1.5);
   const double rin = r - margin;

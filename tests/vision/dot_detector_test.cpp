@@ -54,6 +54,10 @@ DotStats run(RenderSettings rs, double radius, int frames, std::uint64_t seed,
           Vec3(std::sin(off) * std::cos(az), std::sin(off) * std::sin(az), std::cos(off));
       im.lighting.ambient = 0.05 + 0.25 * uni(rng);
       im.lighting.specular_strength = f % 2 ? 0.3 : 0.0;
+      if (im.lighting.mode == Lighting::Mode::Back) {
+        im.lighting.ambient = 0.2 + 0.15 * uni(rng);
+        im.lighting.spot_level = f % 2 ? 0.35 : 0.0;
+      }
     }
     const cv::Mat img = Renderer(rs).render({v}, f);
     const FrameSpheres fs = det.detect(img, maxValue(rs.format));
@@ -214,6 +218,25 @@ TEST(FindDots, ShadedThesisScale) {
   EXPECT_LE(st.spurious, 0.15 * st.matched);
   EXPECT_GE(st.found_visible, 0.85 * st.visible);
   EXPECT_LT(st.angleRms(), 0.025);  // ~0.46 px
+}
+
+// Backlit (sim-backlit's field): dark dots on a dark silhouette, the front
+// room light on the spheres' faces, a bright central spot on every other frame.
+TEST(FindDots, BacklitSilhouettes) {
+  RenderSettings rs = shadedImaging(640, 480, 12000);
+  rs.imaging->lighting.mode = Lighting::Mode::Back;
+  rs.imaging->lighting.sphere_albedo = 0.5;
+  rs.imaging->lighting.dot_albedo = 0.05;
+  rs.imaging->lighting.backdrop_level = 0.85;
+  rs.imaging->lighting.spot_fraction = 0.15;
+  const DotStats st = run(rs, 60, 20, 17);
+  std::printf(
+      "backlit 60 px: %d dots, angle RMS %.5f rad (%.4f px), found %d of %d within 60 deg, "
+      "%d spurious\n",
+      st.matched, st.angleRms(), st.angleRms() * 60, st.found_visible, st.visible, st.spurious);
+  EXPECT_LE(st.spurious, 2);
+  EXPECT_GE(st.found_visible, 0.9 * st.visible);
+  EXPECT_LT(st.angleRms(), 0.0065);
 }
 
 TEST(FindDots, PlainSphereAndBadInputGiveNoDots) {
