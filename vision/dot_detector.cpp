@@ -87,7 +87,7 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   const auto shade = [&](int x, int y) {
     return static_cast<double>(level.at<float>(y - v0, x - bx0));
   };
-  // A pixel is a dot candidate below halfway from the backdrop to B.
+  // A pixel is a dot candidate below halfway from the dark reference to B.
   const auto dark = [&](int x, int y, double value) { return value < 0.5 * (shade(x, y) + bg); };
 
   // Runs of dark pixels, joined into 8-connected groups.
