@@ -51,9 +51,8 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
 
   // The bare sphere's brightness B around every pixel: a grey-level closing
   // (dilation then erosion) with a square wider than a dot (separable: fast)
-  // fills the dark dots
-  // in from their surroundings and keeps the shading, however one-sided the
-  // lamp or wherever a highlight is; a light blur takes the noise's upward
+  // fills the dark dots in from their surroundings and keeps the shading,
+  // however one-sided the lamp or wherever a highlight is; a light blur takes the noise's upward
   // bias off. A dot is then dark RELATIVE to its own surroundings, so dots on
   // the shaded side (barely above the backdrop) are found as well as on the
   // lit side.
