@@ -1,9 +1,11 @@
 #include "vision/dot_detector.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <opencv2/imgproc.hpp>
 
 namespace collide::vision {
 namespace {
@@ -22,7 +24,10 @@ template <class T>
 DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
   DotFrame out;
   const double cu = s.circle.u, cv = s.circle.v, r = s.circle.radius;
-  const double bg = s.background, rim = s.rim_level;
+  // The dark reference dots are measured against: the backdrop, or black for
+  // a silhouette on a bright field (backlit: the sphere darker than its
+  // background; its dots darker still).
+  const double bg = s.rim_level > s.background ? s.background : 0.0, rim = s.rim_level;
   if (!(r > 3) || !(rim > bg)) return out;
   const double margin = set.rim_margin_px > 0 ? set.rim_margin_px : std::max(2.5, 0.03 * r + 1.5);
   const double rin = r - margin;
@@ -30,7 +35,6 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   const int v0 = std::max(0, static_cast<int>(std::ceil(cv - rin)));
   const int v1 = std::min(img.rows - 1, static_cast<int>(std::floor(cv + rin)));
   if (v0 > v1) return out;
-  const double t_dot = bg + 0.5 * (rim - bg);
 
   // Chord of the analysed disc in each row, clipped to the frame.
   const int rows = v1 - v0 + 1;
@@ -45,45 +49,45 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     clipped[y - v0] = a < 0 || b > img.cols - 1 || y == 0 || y == img.rows - 1;
   }
 
-  // Shading B = a + b r^2 from a sparse sample of bright pixels, refitted once
-  // without the samples that stray (dot borders, glints).
-  double sa = 0, sb = 0;
+  // The bare sphere's brightness B around every pixel: a grey-level closing
+  // (dilation then erosion) with a square wider than a dot (separable: fast)
+  // fills the dark dots in from their surroundings and keeps the shading,
+  // however one-sided the lamp or wherever a highlight is; a light blur takes the noise's upward
+  // bias off. A dot is then dark RELATIVE to its own surroundings, so dots on
+  // the shaded side (barely above the backdrop) are found as well as on the
+  // lit side.
+  const int bx0 = std::max(0, static_cast<int>(std::floor(cu - rin)) - 3);
+  const int bx1 = std::min(img.cols - 1, static_cast<int>(std::ceil(cu + rin)) + 3);
+  if (bx0 > bx1) return out;
+  cv::Mat level;
   {
-    std::vector<double> q, val;
-    for (int y = v0; y <= v1; y += 3) {
-      const T* row = img.ptr<T>(y);
-      const double dy2 = (y - cv) * (y - cv);
-      for (int x = lo[y - v0]; x <= hi[y - v0]; x += 3) {
-        if (row[x] <= t_dot) continue;
-        q.push_back(((x - cu) * (x - cu) + dy2) / (r * r));
-        val.push_back(row[x]);
-      }
+    cv::Mat roi;
+    img(cv::Range(v0, v1 + 1), cv::Range(bx0, bx1 + 1)).convertTo(roi, CV_32F);
+    const int k = 2 * std::max(2, static_cast<int>(std::lround(0.17 * r))) + 1;
+    const cv::Mat square = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k));
+    cv::morphologyEx(roi, level, cv::MORPH_CLOSE, square, cv::Point(-1, -1), 1,
+                     cv::BORDER_REPLICATE);
+    cv::GaussianBlur(level, level, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+    // The closing rides on the noise's maxima: take the noise's spread in
+    // the sphere off (the median of closing - image over bare pixels).
+    std::vector<float> diff;
+    for (int y = 0; y < roi.rows; y += 3) {
+      const float* a = roi.ptr<float>(y);
+      const float* b = level.ptr<float>(y);
+      const int iy = y;
+      for (int x = std::max(0, lo[iy] - bx0); x <= std::min(roi.cols - 1, hi[iy] - bx0); x += 3)
+        diff.push_back(b[x] - a[x]);
     }
-    if (q.size() < 6) return out;
-    std::vector<char> use(q.size(), 1);
-    std::vector<double> absr;
-    for (int round = 0; round < 2; ++round) {
-      double n = 0, sq = 0, sqq = 0, sv = 0, sqv = 0;
-      for (std::size_t i = 0; i < q.size(); ++i)
-        if (use[i]) n += 1, sq += q[i], sqq += q[i] * q[i], sv += val[i], sqv += q[i] * val[i];
-      const double det = n * sqq - sq * sq;
-      if (!(det > 0)) {
-        sa = sv / std::max(1.0, n), sb = 0;
-      } else {
-        sb = (n * sqv - sq * sv) / det;
-        sa = (sv - sb * sq) / n;
-      }
-      absr.clear();
-      for (std::size_t i = 0; i < q.size(); ++i) absr.push_back(std::abs(val[i] - sa - sb * q[i]));
-      std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
-      const double limit = 4.0 * 1.4826 * absr[absr.size() / 2] + 1.0;
-      for (std::size_t i = 0; i < q.size(); ++i)
-        use[i] = std::abs(val[i] - sa - sb * q[i]) <= limit;
+    if (diff.size() >= 10) {
+      std::nth_element(diff.begin(), diff.begin() + diff.size() / 2, diff.end());
+      level -= std::max(0.0f, diff[diff.size() / 2]);
     }
   }
-  const auto shade = [&](double x, double y) {
-    return sa + sb * ((x - cu) * (x - cu) + (y - cv) * (y - cv)) / (r * r);
+  const auto shade = [&](int x, int y) {
+    return static_cast<double>(level.at<float>(y - v0, x - bx0));
   };
+  // A pixel is a dot candidate below halfway from the dark reference to B.
+  const auto dark = [&](int x, int y, double value) { return value < 0.5 * (shade(x, y) + bg); };
 
   // Runs of dark pixels, joined into 8-connected groups.
   std::vector<Run> runs;
@@ -93,10 +97,10 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     row_first[iy] = static_cast<int>(runs.size());
     const T* row = img.ptr<T>(y);
     for (int x = lo[iy]; x <= hi[iy];) {
-      while (x <= hi[iy] && row[x] >= t_dot) ++x;
+      while (x <= hi[iy] && !dark(x, y, row[x])) ++x;
       if (x > hi[iy]) break;
       const int x0 = x;
-      while (x <= hi[iy] && row[x] < t_dot) ++x;
+      while (x <= hi[iy] && dark(x, y, row[x])) ++x;
       const int self = static_cast<int>(runs.size());
       const bool edge = x0 == lo[iy] || x - 1 == hi[iy] || iy == 0 || iy == rows - 1 || clipped[iy];
       runs.push_back({y, x0, x - 1, self, edge});
@@ -148,18 +152,31 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   // often more on real spheres): the median of the dots' darkest pixels. The
   // coverage is then (B - I) / (B - paint), so the areas (and the dots' size
   // used for the limb correction) come out right.
-  double bg_level = bg;
+  // Under uneven light the paint is lit as the sphere around it is: its
+  // level P = p0 + p1 B is fitted to the dots' darkest pixels (p1 = 0 for a
+  // paint of one level, p0 = 0 for a paint lit like the sphere).
+  double p0 = bg, p1 = 0;
   {
+    double n = 0, sb = 0, sbb = 0, si = 0, sbi = 0;
     std::vector<double> core;
-    const double t_core = bg + 0.25 * (rim - bg);
     for (const Run& run : runs) {
       const T* row = img.ptr<T>(run.y);
-      for (int x = run.x0; x <= run.x1; ++x)
-        if (row[x] < t_core) core.push_back(row[x]);
+      for (int x = run.x0; x <= run.x1; ++x) {
+        const double b = shade(x, run.y), i = row[x];
+        if (!(i - bg < 0.25 * (b - bg))) continue;
+        n += 1, sb += b, sbb += b * b, si += i, sbi += b * i;
+        core.push_back(i);
+      }
     }
     if (core.size() >= 5) {
       std::nth_element(core.begin(), core.begin() + core.size() / 2, core.end());
-      bg_level = core[core.size() / 2];
+      p0 = core[core.size() / 2];
+      const double var_b = sbb / n - (sb / n) * (sb / n);
+      const double mean_b = sb / n;
+      if (n >= 20 && var_b > 1e-4 * mean_b * mean_b) {
+        p1 = std::clamp((sbi / n - mean_b * si / n) / var_b, 0.0, 0.5);
+        p0 = si / n - p1 * mean_b;
+      }
     }
   }
   const double max_area = 0.25 * r * r;
@@ -170,6 +187,68 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
       ++out.rejected;
       continue;
     }
+    // B under the dot, for its coverage weights: a quadratic in (x, y)
+    // fitted to the bare sphere in a frame around the dot (smooth and
+    // unbiased, where the closing above is only good enough to find dots),
+    // refitted once without the pixels that stray (a neighbouring dot, a glint).
+    const int gap = 2, ring = std::max(3, static_cast<int>(std::lround(0.06 * r)));
+    const double mx = 0.5 * (gr.x0 + gr.x1), my = 0.5 * (gr.y0 + gr.y1);
+    Eigen::Matrix<double, 6, 1> coef = Eigen::Matrix<double, 6, 1>::Zero();
+    bool local = false;
+    {
+      std::vector<Eigen::Matrix<double, 6, 1>> fx;
+      std::vector<double> fy;
+      for (int y = std::max(v0, gr.y0 - gap - ring); y <= std::min(v1, gr.y1 + gap + ring); ++y) {
+        const int iy = y - v0;
+        const T* row = img.ptr<T>(y);
+        const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
+        for (int x = std::max(lo[iy], gr.x0 - gap - ring);
+             x <= std::min(hi[iy], gr.x1 + gap + ring); ++x) {
+          if (x >= gr.x0 - gap && x <= gr.x1 + gap && y >= gr.y0 - gap && y <= gr.y1 + gap)
+            continue;
+          if (o[x] >= 0) continue;
+          const double dx = x - mx, dy = y - my;
+          Eigen::Matrix<double, 6, 1> f;
+          f << 1, dx, dy, dx * dx, dx * dy, dy * dy;
+          fx.push_back(f);
+          fy.push_back(row[x]);
+        }
+      }
+      std::vector<char> use(fy.size(), 1);
+      for (int round = 0; round < 2 && fy.size() >= 24; ++round) {
+        Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Zero();
+        Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+        for (std::size_t i = 0; i < fy.size(); ++i) {
+          if (!use[i]) continue;
+          const Eigen::Matrix<double, 6, 1>& f = fx[i];
+          for (int c = 0; c < 6; ++c)
+            for (int d = c; d < 6; ++d) a(c, d) += f[c] * f[d];
+          rhs += f * fy[i];
+        }
+        for (int c = 0; c < 6; ++c)
+          for (int d = 0; d < c; ++d) a(c, d) = a(d, c);
+        const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(a);
+        if (ldlt.info() != Eigen::Success) break;
+        coef = ldlt.solve(rhs);
+        local = coef.allFinite();
+        if (!local) break;
+        std::vector<double> res(fy.size());
+        std::vector<double> absr;
+        for (std::size_t i = 0; i < fy.size(); ++i) {
+          res[i] = fy[i] - coef.dot(fx[i]);
+          if (use[i]) absr.push_back(std::abs(res[i]));
+        }
+        std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
+        const double limit = 3.5 * 1.4826 * absr[absr.size() / 2] + 1.0;
+        for (std::size_t i = 0; i < fy.size(); ++i) use[i] = std::abs(res[i]) <= limit;
+      }
+    }
+    const auto bare = [&](int x, int y) {
+      if (!local) return shade(x, y);
+      const double dx = x - mx, dy = y - my;
+      return coef[0] + coef[1] * dx + coef[2] * dy + coef[3] * dx * dx + coef[4] * dx * dy +
+             coef[5] * dy * dy;
+    };
     double sw_ = 0, su = 0, sv = 0;
     for (int y = std::max(v0, gr.y0 - 2); y <= std::min(v1, gr.y1 + 2); ++y) {
       const int iy = y - v0;
@@ -177,8 +256,8 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
       const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
       for (int x = std::max(lo[iy], gr.x0 - 2); x <= std::min(hi[iy], gr.x1 + 2); ++x) {
         if (o[x] >= 0 && o[x] != static_cast<int>(g)) continue;
-        const double b = shade(x, y);
-        const double w = (b - row[x]) / (b - bg_level);
+        const double b = bare(x, y);
+        const double w = (b - row[x]) / std::max(1e-6 * (b + 1), b - (p0 + p1 * b));
         sw_ += w, su += w * x, sv += w * y;
       }
     }

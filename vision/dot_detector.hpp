@@ -2,14 +2,22 @@
 // The dark dots on one sphere in one frame, located to a small fraction of a
 // pixel and lifted onto the sphere (SPEC step 4).
 //
-// Method. The sphere's brightness is modelled as a + b r^2 (r from the centre)
-// from a sparse sample of its bright pixels. Pixels darker than halfway between
-// the limb brightness and the background are dot candidates; 8-connected
-// groups of them are dots. Each dot's centre is the centroid of its coverage,
-// (B(r) - I) / (B(r) - background) per pixel, over its pixels and a two-pixel
-// ring around them, so the blurred, anti-aliased border counts in proportion
-// and the sphere's shading does not pull the centre. Dots within a margin of
-// the limb (partly hidden, or merged with the dark background) are dropped.
+// Method. The bare sphere's brightness B around every pixel comes from a
+// grey-level closing of the sphere's box with a square wider than a dot (the
+// dots filled in from their surroundings, the shading kept whatever the lamp
+// and wherever a highlight is). Pixels darker than halfway between a dark
+// reference and their own B are dot candidates, the reference being the
+// backdrop (front light) or black (a backlit silhouette, darker than its
+// field); so dots on a shaded side, barely brighter than the backdrop, are
+// dark relative to it. 8-connected groups of candidates are dots. Each dot's
+// centre is the centroid of its coverage, (B - I) / (B - P) per pixel, over
+// its pixels and a two-pixel ring around them, with B here a quadratic fitted
+// to the bare sphere in a frame around the dot (smooth and unbiased) and the
+// paint's level P = p0 + p1 B fitted to the dots' darkest pixels (a paint of
+// one level, or lit like the sphere), so the blurred, anti-aliased border
+// counts in proportion and the shading does not pull the centre. Dots within
+// a margin of the limb (partly hidden, or merged with the dark background)
+// are dropped.
 //
 // Lifting. A dot at image offset (dx, dy) from the centre, radius R, becomes
 // the unit vector (x, y, z) = (dx / R', -dy / R', sqrt(1 - x^2 - y^2)) in

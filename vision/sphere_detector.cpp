@@ -81,6 +81,7 @@ bool geometricFit(const std::vector<CirclePoint>& p, const std::vector<char>& us
 
 struct Levels {
   double bg = 0, sigma = 0, bright = 0, threshold = 0;
+  double low = 0;  // where a pixel leaves the background (noise), for blob extents
   double saturated_fraction = 0;
 };
 
@@ -159,6 +160,10 @@ Levels measureLevels(const Grid& grid, int max_value) {
     }
   }
   l.threshold = l.bg + std::max(0.15 * (l.bright - l.bg), 6.0 * l.sigma + width);
+  // A shaded limb can be far darker than the sphere's lit side (ambient x
+  // albedo): blobs extend down to what noise rarely reaches (isolated noise
+  // makes no blob: a blob must also reach the threshold above).
+  l.low = std::min(l.threshold, l.bg + std::max(4.0 * l.sigma + width, 0.01 * (l.bright - l.bg)));
   l.saturated_fraction = static_cast<double>(at_max) / std::max(1, n);
   return l;
 }
@@ -167,6 +172,7 @@ Levels measureLevels(const Grid& grid, int max_value) {
 
 struct Blob {
   std::vector<CirclePoint> outline;  // grid-resolution outline points, pixels
+  bool seeded = false;               // holds a sample at or above the seed level
   std::vector<cv::Point2d> cells;    // cell centres (pixels), for splitting
   int area = 0;                      // cells
 };
@@ -175,9 +181,10 @@ struct Blob {
 // runs along the grid rows joined by union-find, with each blob's outline:
 // the ends of its extent in every grid row and column, where they are not on
 // the frame's border, placed half a cell outside the last bright sample.
-std::vector<Blob> findBlobs(const Grid& g, double threshold_level) {
+std::vector<Blob> findBlobs(const Grid& g, double threshold_level, double seed_level) {
   // Samples are whole numbers: compare as integers.
   const int threshold = static_cast<int>(std::ceil(threshold_level));
+  const int seed = static_cast<int>(std::ceil(seed_level));
   struct Run {
     int y, x0, x1, parent;
   };
@@ -223,6 +230,14 @@ std::vector<Blob> findBlobs(const Grid& g, double threshold_level) {
     const int b = blob_of[root];
     blob_of[i] = b;
     blobs[b].area += runs[i].x1 - runs[i].x0 + 1;
+    if (!blobs[b].seeded) {
+      const std::uint16_t* row = g.v.data() + static_cast<std::size_t>(runs[i].y) * g.w;
+      for (int x = runs[i].x0; x <= runs[i].x1; ++x)
+        if (row[x] >= seed) {
+          blobs[b].seeded = true;
+          break;
+        }
+    }
     Extent& e = box[b];
     e.x0 = std::min(e.x0, runs[i].x0), e.x1 = std::max(e.x1, runs[i].x1);
     e.y1 = std::max(e.y1, runs[i].y);
@@ -337,12 +352,17 @@ bool splitPair(const Blob& blob, int step, std::array<CircleFit, 2>& out) {
 
 struct EdgeContext {
   double threshold = 0, dark_limit = 0, sigma = 0;
+  double min_contrast = 0;  // smallest step off the background taken for an edge
   int max_value = 0;
-  int hw = 2;           // transition window: [c - 1 - hw, c + hw]
-  int n_out = 3;        // background samples before it
-  int n_in = 5;         // sphere samples after it (the brightness at the limb)
-  int search = 6;       // crossing searched within +-search of the predicted edge
-  int line_stride = 1;  // every n-th row / column
+  int hw = 2;                    // transition window: [c - 1 - hw, c + hw]
+  int n_out = 3;                 // background samples before it
+  int n_in = 5;                  // sphere samples after it (the brightness at the limb)
+  int search = 6;                // crossing searched within +-search of the predicted edge
+  int line_stride = 1;           // every n-th row / column
+  double radius = 1;             // of the coarse circle
+  double local_shape_chi2 = 25;  // a stretch's own shading when it fits this much better
+  double root_shape_chi2 = 3;    // the square-root shape when it fits this much better
+  bool quadratic = true;         // shape with a delta^2 term (enough inside samples for it)
 };
 
 struct EdgeStats {
@@ -350,53 +370,64 @@ struct EdgeStats {
   int accepted = 0, border = 0, saturated = 0;
 };
 
+// Shape of the sphere's brightness just inside the limb as a function of the
+// depth delta (pixels inside the outline, along the radius):
+//   D(delta) = A + b1 delta + b2 delta^2 + b3 sqrt(delta).
+// The square root is Lambert's law at a limb that faces the lamp's axis (the
+// normal's z component grows as sqrt(2 delta / R)), the polynomial the
+// smooth rest (a front-lit rim, a lamp from the side, where the light falls
+// off towards the terminator). The level A is per profile; (b1, b2, b3) are
+// shared by the profiles of one stretch of the outline, so the per-profile
+// noise does not enter the shape, whose noise would otherwise bias the
+// covered length at second order.
+constexpr int kShape = 3;
+using ShapeVec = Eigen::Matrix<double, kShape, 1>;
+using ShapeMat = Eigen::Matrix<double, kShape, kShape>;
+
+// Depth below the limb of a point `along` pixels inwards from the edge on a
+// line that meets the limb at cosine g: R - sqrt(R^2 - 2 R g l + l^2).
+inline double depthAlong(double along, double g, double h) {
+  return std::max(1e-6, g * along - h * along * along);
+}
+inline ShapeVec shapeBasis(double delta, bool quadratic) {
+  return ShapeVec(delta, quadratic ? delta * delta : 0.0, std::sqrt(delta));
+}
+
 // One line across the limb, sampled from outside to inside.
 struct Profile {
   int line = 0, side = 0, axis = 0;
-  int start = 0;   // pixel (along the line) of sample 0
-  int c = 0;       // first sample at or above the threshold
-  double g = 0;    // cosine between the line and the radius at the limb
-  double out = 0;  // background level
-  double mean_in = 0, mean_x = 0, mean_x2 = 0;  // of the inside samples (x from b + 0.5)
-  // Centred moments of the inside samples y_j at x_j = j - 1/2: sum (y - mean) (x - mean_x),
-  // sum (y - mean) (x^2 - mean_x2), sum (y - mean)^2. The shading fit and the
-  // residual checks need nothing else.
-  double p1 = 0, p2 = 0, yy = 0;
+  int start = 0;       // pixel (along the line) of sample 0
+  int c = 0;           // first sample at or above the profile's own threshold
+  double thr = 0;      // that threshold: 30 % of the way from its background to the limb
+  double g = 0;        // cosine between the line and the radius at the limb
+  int bin = 0;         // angular sector of the outline it crosses (shading is fitted per sector)
+  double out = 0;      // background level
+  double mean_in = 0;  // of the inside samples (beyond the window)
+  double len0 = 0;     // first guess of the covered length of the window (edge to its end)
+  double in_off = 0;   // first inside sample's position from the window's end (+ inwards)
+  // The inside samples' centred shape regressors: Gram matrix, their products
+  // with the centred samples, and the samples' centred sum of squares. The
+  // shading fit and the residual checks need nothing else.
+  ShapeMat gram = ShapeMat::Zero();
+  ShapeVec cross = ShapeVec::Zero();
+  double yy = 0;
+  ShapeVec shape = ShapeVec::Zero();  // the fitted (b1, b2, b3) around it
   bool ok = false;
 };
 
-// Moments of the inside sample positions x_j = j - 1/2, j = 1..n (the same for
-// every profile): means, and sums of X1 = x - mean_x, X2 = x^2 - mean_x2.
-struct InsideGrid {
-  double mean_x = 0, mean_x2 = 0, a11 = 0, a12 = 0, a22 = 0;  // sums X1^2, X1 X2, X2^2
-  explicit InsideGrid(int n) {
-    for (int j = 1; j <= n; ++j) mean_x += j - 0.5, mean_x2 += (j - 0.5) * (j - 0.5);
-    mean_x /= n, mean_x2 /= n;
-    for (int j = 1; j <= n; ++j) {
-      const double x1 = j - 0.5 - mean_x, x2 = (j - 0.5) * (j - 0.5) - mean_x2;
-      a11 += x1 * x1, a12 += x1 * x2, a22 += x2 * x2;
-    }
-  }
-  // Sum of squared residuals of a profile about the shape (slope s, curvature q).
-  double residual2(const Profile& pr, double s, double q) const {
-    return std::max(
-        0.0, pr.yy - 2 * s * pr.p1 - 2 * q * pr.p2 + s * s * a11 + 2 * s * q * a12 + q * q * a22);
-  }
-};
-
-// Shape of the sphere's brightness just inside the limb, shared by all
-// profiles of one sphere (isotropic shading): along a line meeting the limb at
-// cosine g, at x pixels inside the window end,
-//   D(x) = d + b1 g x + (b2 g^2 - b1 (1 - g^2) / R) x^2 / 2,
-// b1 the brightness' derivative inwards along the radius at the limb, b2 its
-// second derivative (the second term is the line's own curvature across the
-// radial field). Only d is per profile, so the per-profile noise does not enter the
-// slope, whose noise would otherwise bias the covered length at second order.
-struct Shading {
-  double b1 = 0, b2 = 0, radius = 1;
-  double slope(double g) const { return b1 * g; }
-  double curv(double g) const { return 0.5 * (b2 * g * g - b1 * (1 - g * g) / radius); }
-};
+// Sectors of the outline for the shading fit, by a cheap monotonic pseudo-angle
+// of (dx, dy) in [0, 4) (no trigonometry per profile).
+constexpr int kSectors = 32;
+int angleBin(double dx, double dy) {
+  const double s = std::abs(dx) + std::abs(dy);
+  if (!(s > 0)) return 0;
+  double a;
+  if (dy >= 0)
+    a = dx >= 0 ? dy / s : 2.0 - dy / s;
+  else
+    a = dx < 0 ? 2.0 - dy / s : 4.0 + dy / s;
+  return std::clamp(static_cast<int>(a * (kSectors / 4.0)), 0, kSectors - 1);
+}
 
 template <class T>
 void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
@@ -440,37 +471,97 @@ void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
           Profile p;
           p.line = line, p.side = side, p.axis = axis, p.start = start;
           p.g = half / c.r;
+          p.bin = angleBin(axis == 0 ? side * half : d, axis == 0 ? d : side * half);
           profiles.push_back(p);
         }
       }
   }
 }
 
-// Finds the crossing and checks the background and the inside of one profile.
-void screenProfile(const float* p, int len, int predicted, const EdgeContext& ctx,
-                   const InsideGrid& grid, Profile& pr, EdgeStats& st) {
+// The centred shape regressors of a profile's inside samples, their Gram
+// matrix and products with the samples, for depths measured from the edge at
+// pr.len0 from the window's end.
+void shapeMoments(const float* p, const EdgeContext& ctx, Profile& pr) {
+  const int s0 = pr.c + 2;
+  const double h = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
+  std::array<ShapeVec, 16> f;
+  ShapeVec fbar = ShapeVec::Zero();
+  for (int j = 1; j <= ctx.n_in; ++j) {
+    f[j - 1] = shapeBasis(depthAlong(pr.len0 + pr.in_off + j - 1, pr.g, h), ctx.quadratic);
+    fbar += f[j - 1];
+  }
+  fbar /= ctx.n_in;
+  double g00 = 0, g01 = 0, g02 = 0, g11 = 0, g12 = 0, g22 = 0, c0 = 0, c1 = 0, c2 = 0, yy = 0;
+  for (int j = 1; j <= ctx.n_in; ++j) {
+    const double a = f[j - 1](0) - fbar(0), b = f[j - 1](1) - fbar(1), c = f[j - 1](2) - fbar(2);
+    const double y = p[s0 + j - 1] - pr.mean_in;
+    g00 += a * a, g01 += a * b, g02 += a * c, g11 += b * b, g12 += b * c, g22 += c * c;
+    c0 += y * a, c1 += y * b, c2 += y * c, yy += y * y;
+  }
+  pr.gram << g00, g01, g02, g01, g11, g12, g02, g12, g22;
+  pr.cross = ShapeVec(c0, c1, c2);
+  pr.yy = yy;
+}
+
+// Finds the edge's crossing on one profile against the profile's own levels
+// and checks the background and the inside. The background is the mean of
+// the outermost samples (beyond any edge the search admits); the limb's level
+// is read just inside the first place the profile leaves that background
+// (by more than noise), and the crossing is where the profile passes 30 % of
+// the way from the one to the other (the old global threshold's place on an
+// evenly lit sphere). So a limb in shadow, barely above the backdrop, and a lit
+// limb are both cut at their own level, wherever the frame's brightest
+// pixels are.
+void screenProfile(const float* p, int len, int predicted, const EdgeContext& ctx, Profile& pr,
+                   EdgeStats& st) {
   pr.ok = false;
   const int first = std::max(ctx.n_out + ctx.hw + 1, predicted - ctx.search);
   const int last = std::min(len - ctx.hw - ctx.n_in - 1, predicted + ctx.search);
-  const float thr = static_cast<float>(ctx.threshold);
+  // Background far out: flat and dark (no other sphere, no glare).
+  double far = 0;
+  for (int i = 0; i < ctx.n_out; ++i) far += p[i];
+  far /= ctx.n_out;
+  if (far >= ctx.dark_limit) return;
+  const double tol = 5.0 * ctx.sigma + 1.0;
+  for (int i = 0; i < ctx.n_out; ++i)
+    if (std::abs(p[i] - far) > tol) return;
+  // Where the profile first leaves the background (two samples in a row).
+  const double step = std::max(3.0 * ctx.sigma + 1.0, ctx.min_contrast);
+  const float leave = static_cast<float>(far + step);
+  int c0 = -1;
+  for (int i = first - 1, end = std::min(last + 2 * ctx.hw, len - 2); i <= end; ++i)
+    if (p[i] >= leave && p[i + 1] >= leave) {
+      c0 = i;
+      break;
+    }
+  if (c0 < 0 || c0 > last) return;
+  // The limb's level just beyond the widest transition, and the crossing level.
+  const int k = std::min(c0 + 2 * ctx.hw + 1, len - 2);
+  const double near_in = 0.5 * (p[k] + p[k + 1]);
+  if (!(near_in - far > 1.5 * step)) return;
+  const float thr = static_cast<float>(far + 0.3 * (near_in - far));
   int c = -1;
-  for (int i = first; i <= last; ++i)
+  for (int i = std::max(first, c0 - ctx.hw - 1); i <= std::min(last, k); ++i)
     if (p[i - 1] < thr && p[i] >= thr) {
       c = i;
       break;
     }
   if (c < 0) return;
   const int a = c - 1 - ctx.hw, b = c + ctx.hw;
-  // Background: flat and dark (no other sphere, no glare).
+  // Background next to the window: as flat as far out.
   double out = 0;
   for (int i = a - ctx.n_out; i < a; ++i) {
-    if (p[i] >= ctx.dark_limit) return;
+    if (std::abs(p[i] - far) > tol) return;
     out += p[i];
   }
-  // Sphere just inside: bright (no dot), not clipped.
+  // Sphere just inside: above the crossing level (no dot), not clipped. The
+  // samples read for its shape start two past the crossing, clear of the edge
+  // pixel and of a blur of edge_half_width, so the shape is extrapolated to the
+  // limb over as little as possible.
+  const int s0 = c + 2;
   double sy = 0;
   for (int j = 1; j <= ctx.n_in; ++j) {
-    const float y = p[b + j];
+    const float y = p[s0 + j - 1];
     if (y < thr) return;
     if (y >= ctx.max_value) {
       ++st.saturated;
@@ -479,93 +570,166 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
     sy += y;
   }
   const double mean = sy / ctx.n_in;
-  double p1 = 0, p2 = 0, yy = 0;
-  for (int j = 1; j <= ctx.n_in; ++j) {
-    const double y = p[b + j] - mean, x = j - 0.5;
-    p1 += y * (x - grid.mean_x);
-    p2 += y * (x * x - grid.mean_x2);
-    yy += y * y;
-  }
+  // The edge is first put where the profile crosses that level; the
+  // inside samples' depths below the limb follow from it.
+  const double t = (thr - p[c - 1]) / std::max(1e-6f, p[c] - p[c - 1]);
+  pr.len0 = b + 0.5 - (c - 1 + std::clamp(t, 0.0, 1.0));
+  pr.in_off = s0 - (b + 0.5);
   pr.c = c;
+  pr.thr = thr;
   pr.out = out / ctx.n_out;
   pr.mean_in = mean;
-  pr.mean_x = grid.mean_x;
-  pr.mean_x2 = grid.mean_x2;
-  pr.p1 = p1, pr.p2 = p2, pr.yy = yy;
   pr.ok = true;
+  shapeMoments(p, ctx, pr);
 }
 
-// b1, b2 by least squares over every usable profile, each profile's own level
-// eliminated by centring. Profiles whose inside samples stray from the shared
-// shape (a dot edge, a highlight) are dropped and the fit repeated.
-// Per profile the model is y - mean = s X1 + q X2 with s = b1 g and
-// q = (b2 g^2 - b1 (1 - g^2) / R) / 2, i.e. linear in (b1, b2) with
-// regressors f1 = g X1 - h X2 (h = (1 - g^2) / 2R) and f2 = g^2 X2 / 2.
-Shading fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx, const InsideGrid& grid,
-                   double radius) {
-  Shading sh;
-  sh.radius = radius;
+// The shape (b1, b2, b3) by least squares over the usable profiles of a
+// stretch of the outline around each profile (its sector and neighbouring
+// ones, widened until enough profiles take part), each profile's own level
+// eliminated by centring. One-sided light shades the limb very differently
+// around the outline (flat ambient on the far side, a steep rise on the lit
+// side), so the shape may be local; but a local shape is noisier, so a
+// stretch keeps the whole outline's shape unless its own fits its profiles
+// significantly better (by more than the noise can explain). Profiles whose
+// inside samples stray from their shape (a dot edge, a highlight) are dropped
+// and the fit repeated.
+// Returns whether any stretch took the square-root shape.
+bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
+  struct Sums {
+    ShapeMat m = ShapeMat::Zero();
+    ShapeVec r = ShapeVec::Zero();
+    double yy = 0;
+    int n = 0;
+    void add(const Sums& o) { m += o.m, r += o.r, yy += o.yy, n += o.n; }
+  };
+  constexpr int kMinProfiles = 16;
+  bool any_root = false;
+  // Two shapes of two terms each: (delta, delta^2), the smooth falloff of an
+  // evenly lit or side-lit limb, and (delta, sqrt(delta)), a limb facing the
+  // lamp's axis. The square root is taken only when it fits significantly
+  // better: where the truth is smooth it would only add noise.
+  const auto solveWith = [&](const Sums& z, int drop, ShapeVec& b, double& rss) {
+    const int k = drop == 2 ? 1 : 2;  // the second term kept besides delta
+    const double m00 = z.m(0, 0), m0k = z.m(0, k), mkk = z.m(k, k);
+    const double det = m00 * mkk - m0k * m0k;
+    if (!(det > 1e-12 * m00 * mkk) || !std::isfinite(det)) return false;
+    b.setZero();
+    b(0) = (mkk * z.r(0) - m0k * z.r(k)) / det;
+    b(k) = (m00 * z.r(k) - m0k * z.r(0)) / det;
+    rss = std::max(0.0, z.yy - b(0) * z.r(0) - b(k) * z.r(k));
+    return std::isfinite(b(0)) && std::isfinite(b(k));
+  };
+
+  const auto solve = [&](const Sums& z, ShapeVec& b) {
+    ShapeVec smooth, root;
+    double rss_smooth = 0, rss_root = 0;
+    const bool ok_smooth = solveWith(z, 2, smooth, rss_smooth);
+    const bool ok_root = solveWith(z, 1, root, rss_root);
+    if (!ok_smooth && !ok_root) return false;
+    const int dof = z.n * (ctx.n_in - 1) - 2;
+    const double var = dof > 0 ? rss_root / dof : 0;
+    b = ok_root && (!ok_smooth || rss_smooth - rss_root > ctx.root_shape_chi2 * var) ? root
+                                                                                     : smooth;
+    return true;
+  };
   for (int round = 0; round < 2; ++round) {
-    double m11 = 0, m12 = 0, m22 = 0, r1 = 0, r2 = 0;
+    std::array<Sums, kSectors> sector{};
+    Sums all;
     for (const Profile& pr : profiles) {
       if (!pr.ok) continue;
-      const double g = pr.g, h = 0.5 * (1 - g * g) / radius, k = 0.5 * g * g;
-      m11 += g * g * grid.a11 - 2 * g * h * grid.a12 + h * h * grid.a22;
-      m12 += k * (g * grid.a12 - h * grid.a22);
-      m22 += k * k * grid.a22;
-      r1 += g * pr.p1 - h * pr.p2;
-      r2 += k * pr.p2;
+      Sums& z = sector[pr.bin];
+      z.m += pr.gram, z.r += pr.cross, z.yy += pr.yy, ++z.n;
     }
-    const double det = m11 * m22 - m12 * m12;
-    if (det > 1e-12 * (m11 * m22 + 1e-300)) {
-      sh.b1 = (m22 * r1 - m12 * r2) / det;
-      sh.b2 = (m11 * r2 - m12 * r1) / det;
-    } else {
-      sh.b1 = sh.b2 = 0;
+    for (const Sums& z : sector) all.add(z);
+    ShapeVec global = ShapeVec::Zero();
+    solve(all, global);
+    std::array<ShapeVec, kSectors> shape;
+    for (int bin = 0; bin < kSectors; ++bin) {
+      shape[bin] = global;
+      Sums z = sector[bin];
+      for (int w = 1; w < kSectors / 2 && (w <= 1 || z.n < kMinProfiles); ++w) {
+        z.add(sector[(bin + w) % kSectors]);
+        z.add(sector[(bin - w + kSectors) % kSectors]);
+      }
+      ShapeVec local;
+      if (z.n >= 4 && solve(z, local)) {
+        // Residual variance about the local shape, and how much better it is
+        // than the global one (a chi-square with kShape degrees of freedom
+        // when the shading is the same all round).
+        const int dof = z.n * (ctx.n_in - 1) - kShape;
+        const double rss = std::max(0.0, z.yy - local.dot(z.r));
+        const double var = dof > 0 ? rss / dof : 0;
+        const ShapeVec d = local - global;
+        if (d.dot(z.m * d) > ctx.local_shape_chi2 * var) shape[bin] = local;
+      }
     }
-    if (round == 1) break;
-    // Drop profiles that do not follow the shared shape; refit if any went.
     bool dropped = false;
+    any_root = false;
     for (Profile& pr : profiles) {
       if (!pr.ok) continue;
-      const double s = sh.slope(pr.g), q = sh.curv(pr.g);
-      const double d = pr.mean_in - s * pr.mean_x - q * pr.mean_x2;
-      const double rms = std::sqrt(grid.residual2(pr, s, q) / ctx.n_in);
-      if (rms > 3.0 * ctx.sigma + 0.03 * (d - pr.out)) {
+      pr.shape = shape[pr.bin];
+      any_root |= pr.shape(2) != 0;
+      if (round == 1) continue;
+      // Drop profiles that do not follow their shape; refit if any went.
+      const ShapeVec& b = pr.shape;
+      const double rss = std::max(0.0, pr.yy - 2 * b.dot(pr.cross) + b.dot(pr.gram * b));
+      const double rms = std::sqrt(rss / ctx.n_in);
+      if (rms > 3.0 * ctx.sigma + 0.03 * (pr.mean_in - pr.out)) {
         pr.ok = false;
         dropped = true;
       }
     }
     if (!dropped) break;
   }
-  return sh;
+  return any_root;
 }
 
 // The edge of one screened profile, in profile coordinates (sample i's centre
 // at i); NaN if unusable.
-double edgeOfProfile(const float* p, const Profile& pr, const Shading& sh, const EdgeContext& ctx,
-                     EdgeStats& st) {
+double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeStats* st) {
   const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
-  const double s = sh.slope(pr.g), q = sh.curv(pr.g);
-  // Brightness above background at the window's inner end b + 0.5.
-  const double d = pr.mean_in - s * pr.mean_x - q * pr.mean_x2 - pr.out;
-  if (!(d > ctx.threshold - pr.out)) return std::nan("");
-  // The window [a - 0.5, b + 0.5] holds the whole transition: the sum of
-  // (p - out) over it is the integral of D over the covered length L,
-  //   S = d L - s L^2 / 2 + q L^3 / 3   (x = -L .. 0).
+  const ShapeVec& sh = pr.shape;
+  const double g = pr.g, h = 0.5 * (1 - g * g) / ctx.radius, sg = std::sqrt(g);
+  // The window [a - 0.5, b + 0.5] holds the whole transition: the sum S of
+  // (p - out) over it is the integral of D - out over the covered length L
+  // (the edge at b + 0.5 - L). The level A above background follows from the
+  // inside samples' mean once their depths (L + j - 1/2 along the line) are
+  // known, so S = A(L) L + integral of the shape is solved for L by Newton.
   double sum = 0;
   for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
-  double len = sum / d;
-  for (int it = 0; it < 4; ++it) {
-    const double f = d * len - 0.5 * s * len * len + q * len * len * len / 3.0 - sum;
-    const double df = d - s * len + q * len * len;
+  double len = pr.len0, level = 0;
+  for (int it = 0, iterations = st ? 4 : 2; it < iterations; ++it) {
+    ShapeVec fbar = ShapeVec::Zero(), dfbar = ShapeVec::Zero();
+    for (int j = 1; j <= ctx.n_in; ++j) {
+      const double along = len + pr.in_off + j - 1, dd = depthAlong(along, g, h);
+      fbar += shapeBasis(dd, ctx.quadratic);
+      const double slope = g - 2 * h * along;
+      dfbar += ShapeVec(slope, ctx.quadratic ? 2 * dd * slope : 0.0, 0.5 * slope / std::sqrt(dd));
+    }
+    fbar /= ctx.n_in, dfbar /= ctx.n_in;
+    level = pr.mean_in - pr.out - sh.dot(fbar);  // at the limb, above background
+    const double l2 = len * len, l3 = l2 * len;
+    const ShapeVec integral(
+        0.5 * g * l2 - h * l3 / 3,
+        ctx.quadratic ? g * g * l3 / 3 - 0.5 * g * h * l2 * l2 + h * h * l2 * l3 / 5 : 0.0,
+        sg * (2.0 / 3.0 * len * std::sqrt(len) - h / (5 * g) * l2 * std::sqrt(len)));
+    const double f = level * len + sh.dot(integral) - sum;
+    const double df =
+        level - len * sh.dot(dfbar) + sh.dot(shapeBasis(depthAlong(len, g, h), ctx.quadratic));
     if (!(df > 0)) return std::nan("");
-    len -= f / df;
+    const double step = std::clamp(f / df, -1.0, 1.0);
+    len = std::max(0.05, len - step);
+    if (std::abs(step) < 1e-3) break;
   }
-  if (!(len > 0.0 && len < b - a + 1.0)) return std::nan("");
-  st.sum_out += pr.out;
-  st.sum_rim += pr.out + d - s * len + q * len * len;  // brightness at the limb
-  ++st.accepted;
+  if (!(len > 0.05 && len < b - a + 1.0)) return std::nan("");
+  // The model's level at the window's inner end must be a sphere's.
+  const double end = level + sh.dot(shapeBasis(depthAlong(len, g, h), ctx.quadratic));
+  if (!(end > pr.thr - pr.out)) return std::nan("");
+  if (st) {
+    st->sum_out += pr.out;
+    st->sum_rim += pr.out + level;  // brightness at the limb
+    ++st->accepted;
+  }
   return b + 0.5 - len;
 }
 
@@ -578,14 +742,45 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   profiles.reserve(static_cast<std::size_t>(6 * c.r) + 8);
   samples.reserve(profiles.capacity() * 40);
   sampleProfiles<T>(img, c, ctx, profiles, samples, len, margin, st);
-  const InsideGrid grid(ctx.n_in);
   for (std::size_t k = 0; k < profiles.size(); ++k)
-    screenProfile(samples.data() + k * len, len, margin, ctx, grid, profiles[k], st);
-  const Shading sh = fitShading(profiles, ctx, grid, c.r);
+    screenProfile(samples.data() + k * len, len, margin, ctx, profiles[k], st);
+  const bool root = fitShading(profiles, ctx);
+  // The shape was read at depths from the level crossing, which a limb
+  // much darker than the sphere just inside puts too deep: measure the edge,
+  // re-read the depths from it, and fit the shape again. The correction is
+  // averaged over a stretch of the outline: one profile's own (noisy) edge
+  // would correlate the depths with its samples' noise and bias the shape.
+  // (Polynomial shapes do not depend on where the depths start.)
+  if (root) {
+    std::array<double, kSectors> shift{};
+    std::array<int, kSectors> count{};
+    for (std::size_t k = 0; k < profiles.size(); ++k) {
+      const Profile& pr = profiles[k];
+      if (!pr.ok) continue;
+      const double x = edgeOfProfile(samples.data() + k * len, pr, ctx, nullptr);
+      if (std::isnan(x)) continue;
+      shift[pr.bin] += pr.c + ctx.hw + 0.5 - x - pr.len0;
+      ++count[pr.bin];
+    }
+    for (std::size_t k = 0; k < profiles.size(); ++k) {
+      Profile& pr = profiles[k];
+      if (!pr.ok) continue;
+      double sum = 0;
+      int n = 0;
+      for (int w = -1; w <= 1; ++w) {
+        const int bin = (pr.bin + w + kSectors) % kSectors;
+        sum += shift[bin], n += count[bin];
+      }
+      if (n == 0) continue;
+      pr.len0 += sum / n;
+      shapeMoments(samples.data() + k * len, ctx, pr);
+    }
+    fitShading(profiles, ctx);
+  }
   for (std::size_t k = 0; k < profiles.size(); ++k) {
     const Profile& pr = profiles[k];
     if (!pr.ok) continue;
-    const double x = edgeOfProfile(samples.data() + k * len, pr, sh, ctx, st);
+    const double x = edgeOfProfile(samples.data() + k * len, pr, ctx, &st);
     if (std::isnan(x)) continue;
     // The pixel row averages the limb over its height; on a curved limb that
     // mean lies inside the circle by x''/24 = 1/(24 R g^3): put it back.
@@ -613,6 +808,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   out.background = lv.bg;
   out.noise_sigma = lv.sigma;
   out.threshold = lv.threshold;
+  out.low_threshold = lv.low;
   out.saturated = lv.saturated_fraction > 0.2 || lv.bg > 0.5 * max_value;
   if (lv.bg > 0.5 * max_value) {
     out.notes.push_back(
@@ -625,7 +821,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
     return out;
   }
 
-  const std::vector<Blob> blobs = findBlobs(grid, lv.threshold);
+  const std::vector<Blob> blobs = findBlobs(grid, lv.low, lv.threshold);
   const double min_cells = 0.15 * 3.14159 * min_r * min_r / (step * step);
 
   EdgeContext ctx;
@@ -635,6 +831,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   // at contact, glare): the profile is not used.
   ctx.dark_limit = lv.bg + std::max(5.0 * lv.sigma + 1.0, 0.1 * (lv.threshold - lv.bg));
   ctx.dark_limit = std::min(ctx.dark_limit, lv.threshold);
+  ctx.min_contrast = 0.01 * (lv.bright - lv.bg);
   ctx.max_value = max_value;
   ctx.hw = std::max(1, static_cast<int>(std::ceil(set.edge_half_width_px)));
 
@@ -644,6 +841,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   };
   std::vector<Candidate> cands;
   for (const Blob& blob : blobs) {
+    if (!blob.seeded) continue;  // a faint patch of noise or glare, nothing bright in it
     if (blob.area < std::max(3.0, min_cells)) {
       if (blob.area * step * step >= 4) ++out.blobs_ignored;
       continue;
@@ -677,6 +875,8 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
                             : std::max(1, static_cast<int>(std::lround(c.r / 30.0)));
     // The limb brightness is read over up to 8 px inside, less on small spheres.
     local.n_in = std::clamp(static_cast<int>(c.r / 7.0), 3, 8);
+    local.radius = c.r;
+    local.quadratic = true;
     std::vector<CirclePoint> pts;
     EdgeStats st;
     edgePoints<T>(img, c, local, pts, st);
@@ -882,8 +1082,42 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
     out.notes.push_back("not a one-channel 8- or 16-bit image");
     return out;
   }
-  if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_);
-  return detectTyped<std::uint16_t>(image, max_value, settings_);
+  using Polarity = SphereDetectorSettings::Polarity;
+  bool dark = settings_.polarity == Polarity::Dark;
+  if (settings_.polarity == Polarity::Auto && max_value > 0) {
+    // A sparse sample: most of it above half of full scale, and little of it
+    // clipped (a white, overexposed frame stays a bright one and is reported so).
+    int above = 0, clipped = 0, n = 0;
+    const int sy = std::max(1, image.rows / 48), sx = std::max(1, image.cols / 64);
+    for (int y = sy / 2; y < image.rows; y += sy)
+      for (int x = sx / 2; x < image.cols; x += sx) {
+        const int v =
+            image.depth() == CV_8U ? image.at<std::uint8_t>(y, x) : image.at<std::uint16_t>(y, x);
+        above += 2 * v > max_value;
+        clipped += v >= max_value;
+        ++n;
+      }
+    dark = 2 * above > n && 5 * clipped < n;
+  }
+  if (!dark) {
+    if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_);
+    return detectTyped<std::uint16_t>(image, max_value, settings_);
+  }
+  // Saturating: levels above full scale give 0.
+  cv::Mat negative;
+  cv::subtract(cv::Scalar(max_value), image, negative);
+  FrameSpheres out = image.depth() == CV_8U
+                         ? detectTyped<std::uint8_t>(negative, max_value, settings_)
+                         : detectTyped<std::uint16_t>(negative, max_value, settings_);
+  out.dark_spheres = true;
+  out.background = max_value - out.background;
+  out.threshold = max_value - out.threshold;
+  out.low_threshold = max_value - out.low_threshold;
+  for (SphereMeasurement& m : out.spheres) {
+    m.background = max_value - m.background;
+    m.rim_level = max_value - m.rim_level;
+  }
+  return out;
 }
 
 }  // namespace collide::vision

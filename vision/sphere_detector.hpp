@@ -3,18 +3,41 @@
 // a small fraction of a pixel (SPEC step 1).
 //
 // Method. (1) Levels: the background and noise from a sparse sample of the
-// frame (median, MAD), a threshold between background and sphere. (2) Coarse:
-// threshold a subsampled grid, label connected blobs, fit a circle to each
-// blob's outline (a blob of two touching spheres is split in two). (3) Fine:
-// along image rows (left and right limbs) and columns (top and bottom), one
-// edge point per line, found by the area (zeroth-moment) method: the sum of the
-// profile across the edge, minus the background, is the covered length times
-// the sphere's brightness at the limb, which is extrapolated from the inside of
-// the profile, so a darker rim (front lighting) does not bias the radius and
-// any symmetric blur (optics, motion) cancels. Profiles that meet a dot, the
-// other sphere, or the frame border are rejected. (4) An algebraic circle fit
+// frame (median, MAD). (2) Coarse: threshold a subsampled grid at a low level
+// (background + 4 sigma: where a pixel leaves the background, so a limb in
+// shadow, barely above the backdrop, is part of its sphere), keep connected
+// blobs that also hold a sample above a high level (between background and
+// the brightest pixels: hysteresis, so noise alone makes no blob), fit a
+// circle to each blob's outline (a blob of two touching spheres is split in
+// two). (3) Fine: along image rows (left and right limbs) and columns (top and
+// bottom), one edge point per line, each against the profile's OWN levels:
+// its background is the mean of its outermost samples (which must be flat
+// and dark: no other sphere, no glare), the limb's level is read just inside
+// where the profile first leaves that background, and the crossing is 30 % of
+// the way between. The edge is then found by the area (zeroth-moment) method:
+// the sum of the profile across the edge, minus the background, is the
+// integral of the sphere's brightness over the covered length; that
+// brightness near the limb is modelled per profile as a level plus a shape in
+// the depth below the limb, either (depth, depth^2) (evenly or side lit) or
+// (depth, sqrt(depth)) (Lambert's law where the limb faces the lamp's axis),
+// chosen by fit. The shape is shared by the profiles of a stretch of the
+// outline (one-sided light shades it differently all round) or by the whole
+// outline when a stretch's own shape is not significantly better, and is
+// refitted once from the measured edges. So neither a darker rim nor a dark
+// or bright limb biases the edge, and any symmetric blur (optics, motion)
+// cancels. Profiles that meet a dot, the other sphere, a highlight clipped
+// at full scale or the frame border are rejected. (4) An algebraic circle fit
 // then a geometric (Gauss-Newton) one with iterative outlier rejection; the
 // covariance gives each sphere's uncertainty.
+//
+// Backlit frames (dark silhouettes on a bright field, settings().polarity)
+// are measured as their negative; their levels (background, rim) are
+// reported in the frame's own grey levels.
+//
+// Limits (issue 12): on shaded 60 px spheres the radius comes out ~0.04-0.07
+// px small (a sqrt-shaped limb is extrapolated only approximately); on 18 px
+// shaded spheres centres are off by ~0.3 px RMS; a limb darker than the
+// backdrop is not handled.
 //
 // Image coordinates: u right, v down, origin at the top-left pixel's centre.
 #include <opencv2/core.hpp>
@@ -49,6 +72,12 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
                             double min_reject_px = 0.05, bool ordered = false);
 
 struct SphereDetectorSettings {
+  /// Bright spheres on a dark background (front light), dark silhouettes on a
+  /// bright field (backlight), or Auto: dark when most of the frame is
+  /// brighter than half of full scale (and not clipped there). Dark frames are
+  /// measured as their negative (full scale - grey level), by the same method.
+  enum class Polarity { Auto, Bright, Dark };
+  Polarity polarity = Polarity::Auto;
   /// Smaller blobs are ignored (noise, specks); 0: 1/40 of the image's smaller side.
   double min_radius_px = 0.0;
   double max_radius_px = 0.0;  ///< 0: half the image's smaller side
@@ -78,10 +107,12 @@ struct FrameSpheres {
   std::vector<SphereMeasurement> spheres;  ///< sorted by u
   double background = 0;                   ///< grey levels (frame median)
   double noise_sigma = 0;                  ///< grey levels, from the background MAD
-  double threshold = 0;                    ///< sphere / background threshold used
-  bool saturated = false;                  ///< a large part of the frame at full scale
-  int blobs_ignored = 0;                   ///< blobs too small, too large or not round
-  std::vector<std::string> notes;          ///< why something was not found
+  double threshold = 0;            ///< blob seed threshold (between background and brightest)
+  double low_threshold = 0;        ///< where a pixel leaves the background (blob extents)
+  bool saturated = false;          ///< a large part of the frame at full scale
+  bool dark_spheres = false;       ///< measured as dark silhouettes (backlit)
+  int blobs_ignored = 0;           ///< blobs too small, too large or not round
+  std::vector<std::string> notes;  ///< why something was not found
 };
 
 class SphereDetector {
