@@ -12,6 +12,7 @@
 // centre at (0,0).
 #include <Eigen/Dense>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/types.hpp"
 
 namespace collide::vision {
@@ -62,6 +63,8 @@ struct Optics {
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0;
 
   bool distorted() const { return perspective && (k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0); }
+  /// The perspective fields as the project's camera model.
+  PinholeCamera pinhole() const;
   /// Where a world point appears (distortion included); perspective points
   /// behind the camera give NaN.
   Eigen::Vector2d project(const Vec3& world_m) const;

@@ -71,35 +71,28 @@ double sinc(double x) {
 
 // ---- optics -----------------------------------------------------------------
 
+// The perspective part is analysis/camera_model.hpp's camera (one model for
+// drawing and for measuring).
+PinholeCamera Optics::pinhole() const {
+  PinholeCamera c;
+  c.focal_px = focal_px;
+  c.principal_u_px = principal_u_px, c.principal_v_px = principal_v_px;
+  c.centre_m = centre_m;
+  c.k1 = k1, c.k2 = k2, c.p1 = p1, c.p2 = p2;
+  return c;
+}
+
 Eigen::Vector2d Optics::distort(const Eigen::Vector2d& xy) const {
-  const double x = xy.x(), y = xy.y();
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
-  return {x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
-          y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y};
+  return pinhole().distort(xy);
 }
 
 Eigen::Vector2d Optics::undistort(const Eigen::Vector2d& xy_distorted) const {
-  // As cv::undistortPoints: x = (x' - tangential(x)) / radial(x), iterated.
-  Eigen::Vector2d xy = xy_distorted;
-  for (int i = 0; i < 20; ++i) {
-    const double x = xy.x(), y = xy.y();
-    const double r2 = x * x + y * y;
-    const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
-    const double dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
-    const double dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
-    xy = {(xy_distorted.x() - dx) / radial, (xy_distorted.y() - dy) / radial};
-  }
-  return xy;
+  return pinhole().undistort(xy_distorted);
 }
 
 Eigen::Vector2d Optics::project(const Vec3& w) const {
   if (!perspective) return {origin_u_px + w.x() / pixel_size_m, origin_v_px - w.y() / pixel_size_m};
-  const double depth = centre_m.z() - w.z();
-  if (!(depth > 0)) return {std::nan(""), std::nan("")};
-  const Eigen::Vector2d ideal((w.x() - centre_m.x()) / depth, -(w.y() - centre_m.y()) / depth);
-  const Eigen::Vector2d d = distort(ideal);
-  return {focal_px * d.x() + principal_u_px, focal_px * d.y() + principal_v_px};
+  return pinhole().project(w);
 }
 
 // ---- per-renderer tables ------------------------------------------------------
