@@ -33,4 +33,38 @@ double contactTime(const PlaneTrack& a, const PlaneTrack& b, double dist_m, doub
 /// inverse variances, var_a / (var_a + var_b); 0.5 when either is unknown.
 double beforeInstantWeight(double sigma_before_s, double sigma_after_s);
 
+/// What the two instants may differ by without anything being wrong.
+struct InstantAgreementModel {
+  /// Standard deviation of (t_before - t_after) from the fits' random errors
+  /// and the centres' systematic drifts (residual inflation included), s.
+  double fit_sigma_s = 0;
+  /// Standard uncertainty of the contact distance, m: the detector's
+  /// systematic radius error (through the pixel size or the contact distance
+  /// in pixels), the diameters' tolerance. It moves the pre-impact instant by
+  /// -dd / |v_n| and the post-impact one by +dd / |v_n'|: fully correlated.
+  double contact_distance_sigma_m = 0;
+  double vn_before_m_s = 0;  ///< |v_n| before (m/s, > 0)
+  double vn_after_m_s = 0;   ///< |v_n'| after (m/s, > 0)
+  /// Longest plausible contact duration, s: the pre-impact fits reach the
+  /// contact distance when the spheres first touch, the post-impact fits when
+  /// they separate, so t_after - t_before lies in [0, contact_duration_s]
+  /// for an honest shot (0 for the instantaneous impacts of the simulator).
+  double contact_duration_s = 0;
+  double k_sigma = 4;  ///< how many combined sigmas make a disagreement
+};
+
+struct InstantAgreement {
+  double difference_s = 0;  ///< t_after - t_before
+  double sigma_s = 0;       ///< combined standard uncertainty of the difference
+  /// Distance of the difference from the allowed band [0, contact_duration],
+  /// in combined sigmas (0 inside the band).
+  double excess_sigmas = 0;
+  bool disagree = false;  ///< excess_sigmas > k_sigma
+};
+
+/// Compares the two collision instants under `model`. A non-finite
+/// fit_sigma_s is taken as 0 (the other terms then decide).
+InstantAgreement compareInstants(double t_before_s, double t_after_s,
+                                 const InstantAgreementModel& model);
+
 }  // namespace collide

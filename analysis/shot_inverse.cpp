@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace collide {
 
@@ -68,6 +69,31 @@ ShotInverse invertShot(const ContactState& st, const ShotInverseSettings& in) {
   }
   o.ok = true;
   return o;
+}
+
+std::vector<std::string> unphysicalFindings(const ValueSigma& e, const ValueSigma& beta,
+                                            const ValueSigma& dke, double k) {
+  const auto sig = [](const ValueSigma& v) { return std::isfinite(v.sigma) ? v.sigma : 0.0; };
+  const auto say = [](const char* spec, double a, double b) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, spec, a, b);
+    return std::string(buf);
+  };
+  std::vector<std::string> out;
+  if (std::isfinite(e.value)) {
+    if (e.value > 1 + k * sig(e))
+      out.push_back(say("e = %.4f +- %.4f exceeds 1: the spheres part faster than they met",
+                        e.value, sig(e)));
+    if (e.value < -k * sig(e))
+      out.push_back(say("e = %.4f +- %.4f is negative: the spheres still approach after the impact",
+                        e.value, sig(e)));
+  }
+  if (std::isfinite(beta.value) && std::abs(beta.value) > 1 + k * sig(beta))
+    out.push_back(say("beta = %.4f +- %.4f lies outside [-1, 1]", beta.value, sig(beta)));
+  if (std::isfinite(dke.value) && dke.value > k * sig(dke))
+    out.push_back(say("the spheres gained %.3g +- %.2g J of kinetic energy in the impact",
+                      dke.value, sig(dke)));
+  return out;
 }
 
 }  // namespace collide

@@ -6,6 +6,8 @@
 // (analysis/walton.hpp's measureCollision). Pure physics, SI units.
 #include <Eigen/Dense>
 #include <array>
+#include <string>
+#include <vector>
 
 #include "analysis/types.hpp"
 #include "analysis/walton.hpp"
@@ -52,5 +54,19 @@ struct ShotInverse {
 /// n_z (a frictionless impulse leaves n_z undetermined); n_z is clamped to
 /// +-0.2. Then Walton's inverse on the completed states.
 ShotInverse invertShot(const ContactState& state, const ShotInverseSettings& settings);
+
+/// A measured value and its standard uncertainty (any unit).
+struct ValueSigma {
+  double value = 0, sigma = 0;
+};
+
+/// What physics forbids a collision's measured properties, beyond k_sigma of
+/// their own uncertainty: e > 1 or e < 0, beta outside [-1, 1], total kinetic
+/// energy gained (change > 0, J). A non-finite sigma counts as 0 (the value
+/// alone decides); a non-finite value is never called unphysical (beta of a
+/// head-on impact is NaN). Returns one sentence per violation (empty: none).
+std::vector<std::string> unphysicalFindings(const ValueSigma& e, const ValueSigma& beta,
+                                            const ValueSigma& kinetic_energy_change_J,
+                                            double k_sigma = 3.0);
 
 }  // namespace collide

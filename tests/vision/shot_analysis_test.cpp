@@ -295,5 +295,77 @@ TEST(AnalyzeBurst, ProgressAndPerFrameRecord) {
   EXPECT_NEAR(r->trajectory[0][0]->acceleration_m_s2().value.y(), -9.80665, 1e-9);
 }
 
+// ------------------------------------------------- flags, both ways (issue 12)
+
+// Moves the clock of every frame from the impact on (id >= 0) by shift_ns, or
+// runs it `rate` times as fast: a glitch the truth knows exactly.
+void retimeAfterImpact(Burst& b, std::int64_t shift_ns, double rate = 1.0) {
+  std::int64_t t0 = 0;
+  for (const Frame& f : b.frames)
+    if (f.id == 0) t0 = f.timestamp_ns;
+  for (Frame& f : b.frames)
+    if (f.id >= 0) f.timestamp_ns = t0 + shift_ns + std::llround((f.timestamp_ns - t0) / rate);
+}
+
+TEST(AnalyzeBurstFlags, CollisionInstantDisagreeOnlyWhenTheInstantsDisagree) {
+  const SimulatedShot shot = simulateShot(quickSpec(21));
+  auto r = analyzeBurst(shot.burst, shot.settings);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(hasFlag(*r, "collision_instant_disagree"));
+  // The post-impact frames 60 us late: the two instants 60 us apart, as a
+  // contact that lasts 60 us makes them. Not a disagreement.
+  Burst b = shot.burst;
+  retimeAfterImpact(b, 60000);
+  r = analyzeBurst(b, shot.settings);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_NEAR(r->collision.t_collision_after_s - r->collision.t_collision_before_s, 60e-6, 20e-6);
+  EXPECT_FALSE(hasFlag(*r, "collision_instant_disagree"));
+  // 800 us late, or 400 us early: beyond any contact's duration and the
+  // instants' uncertainties.
+  for (const std::int64_t shift_ns : {800000, -400000}) {
+    b = shot.burst;
+    retimeAfterImpact(b, shift_ns);
+    r = analyzeBurst(b, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_NEAR(r->collision.t_collision_after_s - r->collision.t_collision_before_s,
+                shift_ns * 1e-9, 20e-6);
+    EXPECT_TRUE(hasFlag(*r, "collision_instant_disagree")) << shift_ns;
+  }
+}
+
+TEST(AnalyzeBurstFlags, UnphysicalOnlyWhenPhysicsIsBroken) {
+  // An honest shot: no flag.
+  const SimulatedShot shot = simulateShot(quickSpec(22));
+  auto r = analyzeBurst(shot.burst, shot.settings);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(hasFlag(*r, "unphysical"));
+  EXPECT_LT(r->collision.kinetic_energy_change_J.value, 0);
+  // The post-impact clock running 20 % slow: the spheres seem to part 25 %
+  // faster, e about 1.2 and kinetic energy gained.
+  Burst b = shot.burst;
+  retimeAfterImpact(b, 0, 1.25);
+  r = analyzeBurst(b, shot.settings);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_GT(r->collision.e.value, 1.1);
+  EXPECT_GT(r->collision.kinetic_energy_change_J.value, 0);
+  EXPECT_TRUE(hasFlag(*r, "unphysical"));
+  // At the bounds but not beyond: a perfectly elastic, frictionless impact
+  // (e = 1, beta = -1, no energy lost) is physics, and measured within its
+  // noise of the bounds.
+  for (std::uint64_t seed : {23, 24, 25}) {
+    ShotSpec spec = quickSpec(seed);
+    spec.material = Material{1.0, 0.0, 0.44};
+    const SimulatedShot elastic = simulateShot(spec);
+    r = analyzeBurst(elastic.burst, elastic.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_NEAR(r->collision.e.value, 1, 0.005);
+    EXPECT_FALSE(hasFlag(*r, "unphysical"))
+        << "e " << r->collision.e.value << " +- " << r->collision.e.sigma << ", beta "
+        << r->collision.beta.value << " +- " << r->collision.beta.sigma << ", dKE "
+        << r->collision.kinetic_energy_change_J.value << " +- "
+        << r->collision.kinetic_energy_change_J.sigma;
+  }
+}
+
 }  // namespace
 }  // namespace collide::vision
