@@ -367,5 +367,86 @@ TEST(AnalyzeBurstFlags, UnphysicalOnlyWhenPhysicsIsBroken) {
   }
 }
 
+// Every flag of a clean shot is off; each of these turns on with its cause.
+TEST(AnalyzeBurstFlags, EachFlagFiresWithItsCauseAndOnlyThen) {
+  const SimulatedShot clean = simulateShot(quickSpec(31));
+  auto r = analyzeBurst(clean.burst, clean.settings);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->quality_flags.empty()) << r->quality_flags.front();
+
+  // Few frames on one side (4 < 5), then 8 (not few).
+  for (const int side : {0, 1}) {
+    ShotSpec spec = quickSpec(32);
+    (side == 0 ? spec.frames_before : spec.frames_after) = 4;
+    SimulatedShot shot = simulateShot(spec);
+    r = analyzeBurst(shot.burst, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(hasFlag(*r, "few_frames_before"), side == 0);
+    EXPECT_EQ(hasFlag(*r, "few_frames_after"), side == 1);
+    (side == 0 ? spec.frames_before : spec.frames_after) = 8;
+    shot = simulateShot(spec);
+    r = analyzeBurst(shot.burst, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_FALSE(hasFlag(*r, "few_frames_before"));
+    EXPECT_FALSE(hasFlag(*r, "few_frames_after"));
+  }
+
+  // A frame lost in transfer, or frames dropped by the camera.
+  {
+    Burst b = clean.burst;
+    b.frames[7].status = FrameStatus::Incomplete;
+    r = analyzeBurst(b, clean.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_TRUE(hasFlag(*r, "frames_lost"));
+    b = clean.burst;
+    b.stats.dropped = 2;
+    r = analyzeBurst(b, clean.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_TRUE(hasFlag(*r, "frames_lost"));
+  }
+
+  // Spheres without dots: no spin on either side.
+  {
+    ShotSpec spec = quickSpec(33);
+    spec.dots = false;
+    const SimulatedShot shot = simulateShot(spec);
+    r = analyzeBurst(shot.burst, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_TRUE(hasFlag(*r, "no_spin_before"));
+    EXPECT_TRUE(hasFlag(*r, "no_spin_after"));
+  }
+
+  // Every other frame displaced by one pixel (a shaking camera): the centres
+  // scatter by +-0.5 px about any smooth track.
+  {
+    Burst b = clean.burst;
+    for (std::size_t k = 0; k < b.frames.size(); k += 2) {
+      cv::Mat moved;
+      const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 1, 0, 1, 0);
+      cv::warpAffine(b.frames[k].image, moved, shift, b.frames[k].image.size(), cv::INTER_NEAREST,
+                     cv::BORDER_REPLICATE);
+      b.frames[k].image = moved;
+    }
+    r = analyzeBurst(b, clean.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_TRUE(hasFlag(*r, "large_residuals"));
+  }
+
+  // Head-on without spin or vertical motion: v_s is zero, so beta cannot be
+  // told (SPEC eq. 5.1); e can.
+  {
+    ShotSpec spec = quickSpec(34);
+    spec.contact_angle_rad = 0;
+    spec.spin_max_rad_s = 0;
+    spec.vy_spread_m_s = 0;
+    const SimulatedShot shot = simulateShot(spec);
+    r = analyzeBurst(shot.burst, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_LT(shot.truth.before.v_s_m_s, 1e-9);
+    EXPECT_TRUE(hasFlag(*r, "beta_untrustworthy_geometry"));
+    EXPECT_FALSE(hasFlag(*r, "e_untrustworthy_geometry"));
+  }
+}
+
 }  // namespace
 }  // namespace collide::vision

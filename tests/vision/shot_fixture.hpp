@@ -36,6 +36,9 @@ struct ShotSpec {
   double contact_z_sigma = 0.0;
   /// Standard deviation of each sphere's z velocity, as a fraction of its speed.
   double out_of_plane_fraction = 0.0;
+  /// Spread of each sphere's vertical launch velocity (uniform, m/s).
+  double vy_spread_m_s = 0.15;
+  bool dots = true;  ///< false: plain spheres (no spin can be measured)
   Material material{0.97, 0.176, 0.44};
   std::uint64_t seed = 1;
 };
@@ -74,9 +77,9 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
                  Vec3(0, 0, nz);
   const Vec3 c1 = -0.5 * d * n, c2 = 0.5 * d * n;
   std::normal_distribution<double> nd;
-  const Vec3 v1(spec.speed1_m_s, 0.15 * (uni(rng) - 0.5),
+  const Vec3 v1(spec.speed1_m_s, spec.vy_spread_m_s * (uni(rng) - 0.5),
                 spec.out_of_plane_fraction * spec.speed1_m_s * nd(rng));
-  const Vec3 v2(-spec.speed2_m_s, 0.15 * (uni(rng) - 0.5),
+  const Vec3 v2(-spec.speed2_m_s, spec.vy_spread_m_s * (uni(rng) - 0.5),
                 spec.out_of_plane_fraction * spec.speed2_m_s * nd(rng));
   FlightSetup setup;
   setup.material = spec.material;
@@ -91,7 +94,8 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
     s.spin_rad_s = randomUnitVec(rng) * spec.spin_max_rad_s * uni(rng);
     setup.orientation_at_launch[i] = Quat(Eigen::AngleAxisd(6.28 * uni(rng), randomUnitVec(rng)));
     setup.launch_time_s[i] = 0;
-    shot.dots[i] = DotPattern::random(rng());
+    const std::uint64_t dot_seed = rng();
+    if (spec.dots) shot.dots[i] = DotPattern::random(dot_seed);
   }
   auto flight = Flight::create(setup);
   if (!flight) throw std::runtime_error(flight.error().message);
