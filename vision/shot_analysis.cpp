@@ -1,3 +1,11 @@
+// analyzeBurst drives the stages:
+//   frames, clock, detect, track    vision/shot_tracking.hpp
+//   trajectory fits, both instants  vision/shot_fits.hpp
+//   dots and spins                  vision/shot_spins.hpp
+//   contact instant                 analysis/contact.hpp
+//   Walton's inverse (with n_z)     analysis/shot_inverse.hpp
+//   Monte-Carlo uncertainty         analysis/shot_uncertainty.hpp
+// and then sets the quality flags (below).
 #include "vision/shot_analysis.hpp"
 
 #include <algorithm>
@@ -173,54 +181,51 @@ struct FlagInputs {
   int saturated = 0, third_blobs = 0;
 };
 
-void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {
-  const std::vector<FrameData>& data = q.frames->data;
+// The two instants disagree beyond what the measurement and the model allow:
+// the fits' errors and the centres' systematic drifts (the Monte Carlo's
+// spread of the difference, residual inflation included), the contact
+// distance's uncertainty (the detector's radius error), and a contact of
+// finite duration (the post-impact instant later by up to it).
+void flagInstants(ShotAnalysis& out, const FlagInputs& q) {
   const CollisionFits& fits = *q.fits;
-  const double px = q.scale.px, frame_dt = q.frames->frame_dt;
-  for (int s = 0; s < 2; ++s) {
-    if (out.sphere[s].frames_before < 5) addFlag(out, "few_frames_before");
-    if (out.sphere[s].frames_after < 5) addFlag(out, "few_frames_after");
-  }
-  // The two instants disagree beyond what the measurement and the model
-  // allow: the fits' errors and the centres' systematic drifts (the Monte
-  // Carlo's spread of the difference, residual inflation included), the
-  // contact distance's uncertainty (the detector's radius error), and a
-  // contact of finite duration (the post-impact instant later by up to it).
-  {
-    const double vb = fits.sigma_before * fits.sigma_before,
-                 va = fits.sigma_after * fits.sigma_after;
-    const double sd_ba = q.u->dt_ba.sigma();
-    InstantAgreementModel am;
-    am.fit_sigma_s = std::isfinite(sd_ba) ? sd_ba : std::sqrt(vb + va);
-    am.contact_distance_sigma_m = 2 * std::max(0.0, q.settings->radius_systematic_px) * px;
-    const WaltonMeasurement& m = q.u->nominal.inverse.m;
-    am.vn_before_m_s = std::abs(m.before.v_n_m_s);
-    am.vn_after_m_s = std::abs(m.after.v_n_m_s);
-    am.contact_duration_s = q.settings->contact_duration_s;
-    const InstantAgreement ag = compareInstants(fits.t_before, fits.t_after, am);
-    if (ag.disagree) {
-      addFlag(out, "collision_instant_disagree");
-      out.notes.push_back(
-          "the post-impact fits put the contact " + fmt("%+.1f", ag.difference_s * 1e6) +
-          " us after the pre-impact ones, outside 0 to " +
-          fmt("%.0f", am.contact_duration_s * 1e6) + " us (the contact's duration) by " +
-          fmt("%.1f", ag.excess_sigmas) + " sigma of " + fmt("%.1f", ag.sigma_s * 1e6) + " us");
-    }
-  }
-  // Values physics forbids, beyond their uncertainty.
-  {
-    const CollisionProperties& c = out.collision;
-    const auto found =
-        unphysicalFindings({c.e.value, c.e.sigma}, {c.beta.value, c.beta.sigma},
-                           {c.kinetic_energy_change_J.value, c.kinetic_energy_change_J.sigma});
-    if (!found.empty()) {
-      addFlag(out, "unphysical");
-      for (const std::string& s : found) out.notes.push_back(s);
-    }
-  }
+  const double vb = fits.sigma_before * fits.sigma_before, va = fits.sigma_after * fits.sigma_after;
+  const double sd_ba = q.u->dt_ba.sigma();
+  InstantAgreementModel am;
+  am.fit_sigma_s = std::isfinite(sd_ba) ? sd_ba : std::sqrt(vb + va);
+  am.contact_distance_sigma_m = 2 * std::max(0.0, q.settings->radius_systematic_px) * q.scale.px;
+  const WaltonMeasurement& m = q.u->nominal.inverse.m;
+  am.vn_before_m_s = std::abs(m.before.v_n_m_s);
+  am.vn_after_m_s = std::abs(m.after.v_n_m_s);
+  am.contact_duration_s = q.settings->contact_duration_s;
+  const InstantAgreement ag = compareInstants(fits.t_before, fits.t_after, am);
+  if (!ag.disagree) return;
+  addFlag(out, "collision_instant_disagree");
+  out.notes.push_back(
+      "the post-impact fits put the contact " + fmt("%+.1f", ag.difference_s * 1e6) +
+      " us after the pre-impact ones, outside 0 to " + fmt("%.0f", am.contact_duration_s * 1e6) +
+      " us (the contact's duration) by " + fmt("%.1f", ag.excess_sigmas) + " sigma of " +
+      fmt("%.1f", ag.sigma_s * 1e6) + " us");
+}
+
+// Values physics forbids, beyond their uncertainty.
+void flagUnphysical(ShotAnalysis& out) {
+  const CollisionProperties& c = out.collision;
+  const auto found =
+      unphysicalFindings({c.e.value, c.e.sigma}, {c.beta.value, c.beta.sigma},
+                         {c.kinetic_energy_change_J.value, c.kinetic_energy_change_J.sigma});
+  if (found.empty()) return;
+  addFlag(out, "unphysical");
+  for (const std::string& s : found) out.notes.push_back(s);
+}
+
+// Track residuals against the detector's own uncertainty, and SPEC eq. 5.1
+// with the centre scatter actually seen: can |v_n| and v_s be told here?
+void flagTracks(ShotAnalysis& out, const FlagInputs& q) {
+  const CollisionFits& fits = *q.fits;
+  const double px = q.scale.px;
   double resid_px = 0;
   std::vector<double> det_sigma;
-  for (const FrameData& fd : data)
+  for (const FrameData& fd : q.frames->data)
     for (int s = 0; s < 2; ++s)
       if (const SphereMeasurement* m = trackAt(fd, s))
         det_sigma.push_back(std::max(m->circle.sigma_u, m->circle.sigma_v));
@@ -234,18 +239,20 @@ void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {
       }
   const double typical_sigma = median(det_sigma);
   if (resid_px > std::max(0.1, 10 * typical_sigma)) addFlag(out, "large_residuals");
-  // SPEC eq. 5.1 with the centre scatter actually seen: can |v_n| and v_s be
-  // told at this geometry?
   ImagingGeometry g;
   g.position_sigma_px = std::max(resid_px, 0.01);
   g.pixels_per_diameter = 2 * 0.5 * (q.r_med[0] + q.r_med[1]);
   g.diameter_m = q.contact;
-  g.frame_interval_s = frame_dt;
+  g.frame_interval_s = q.frames->frame_dt;
   g.frames_per_side = std::min({out.sphere[0].frames_before, out.sphere[0].frames_after,
                                 out.sphere[1].frames_before, out.sphere[1].frames_after});
   const CollisionProperties& c = out.collision;
   if (relativeVelocityError(g, c.vn_m_s.value) > 0.05) addFlag(out, "e_untrustworthy_geometry");
   if (relativeVelocityError(g, c.vs_m_s.value) > 0.05) addFlag(out, "beta_untrustworthy_geometry");
+}
+
+// What the burst itself says: saturated frames, blobs set aside, frames lost.
+void flagBurst(ShotAnalysis& out, const FlagInputs& q) {
   if (q.saturated > 0) {
     addFlag(out, "saturated_frames");
     out.notes.push_back(std::to_string(q.saturated) +
@@ -265,17 +272,32 @@ void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {
                         " frame(s) failed or incomplete, " + std::to_string(burst.stats.dropped) +
                         " dropped: the fits used the rest");
   }
-  // Gravity as a check of the scale and the clock: a free fit's acceleration
-  // along gravity should be g.
-  if (const auto fall = fallAlongGravity(data, fits, q.scale, q.gdir)) {
-    const double a = (*fall)[0], sa = (*fall)[1];
-    if (std::abs(a - kG) > std::max(0.1 * kG, 5 * sa) && sa < 0.05 * kG) {
-      addFlag(out, "gravity_scale_mismatch");
-      out.notes.push_back("the spheres fall at " + fmt("%.2f", a) +
-                          " m/s^2 along gravity instead of 9.81: the pixel size, a diameter or "
-                          "the frame rate is probably wrong");
-    }
+}
+
+// Gravity as a check of the scale and the clock: a free fit's acceleration
+// along gravity should be g.
+void flagGravity(ShotAnalysis& out, const FlagInputs& q) {
+  const auto fall = fallAlongGravity(q.frames->data, *q.fits, q.scale, q.gdir);
+  if (!fall) return;
+  const double a = (*fall)[0], sa = (*fall)[1];
+  if (std::abs(a - kG) > std::max(0.1 * kG, 5 * sa) && sa < 0.05 * kG) {
+    addFlag(out, "gravity_scale_mismatch");
+    out.notes.push_back("the spheres fall at " + fmt("%.2f", a) +
+                        " m/s^2 along gravity instead of 9.81: the pixel size, a diameter or "
+                        "the frame rate is probably wrong");
   }
+}
+
+void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {
+  for (int s = 0; s < 2; ++s) {
+    if (out.sphere[s].frames_before < 5) addFlag(out, "few_frames_before");
+    if (out.sphere[s].frames_after < 5) addFlag(out, "few_frames_after");
+  }
+  flagInstants(out, q);
+  flagUnphysical(out);
+  flagTracks(out, q);
+  flagBurst(out, q);
+  flagGravity(out, q);
 }
 
 }  // namespace
