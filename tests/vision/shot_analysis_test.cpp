@@ -446,6 +446,28 @@ TEST(AnalyzeBurstFlags, EachFlagFiresWithItsCauseAndOnlyThen) {
     EXPECT_TRUE(hasFlag(*r, "beta_untrustworthy_geometry"));
     EXPECT_FALSE(hasFlag(*r, "e_untrustworthy_geometry"));
   }
+
+  // Near-grazing at the thesis' imaging (37 px spheres, 10 frames a side):
+  // the line of centres 1.7 degrees off vertical, no vertical relative
+  // motion, 1 m/s apart horizontally, so |v_n| = 0.03 m/s, below what eq. 5.1
+  // lets 37 px and 10 frames tell to 5 %; v_s (1 m/s) is fine.
+  {
+    ShotSpec spec = quickSpec(36);
+    spec.width = 240, spec.height = 192;
+    spec.pixel_size_m = 6.865e-4;
+    spec.noise_grey = 1.5;
+    spec.frames_before = spec.frames_after = 10;
+    spec.speed1_m_s = spec.speed2_m_s = 0.5;
+    spec.contact_angle_rad = 0.5 * 3.14159265358979 - 0.03;
+    spec.spin_max_rad_s = 0;
+    spec.vy_spread_m_s = 0;
+    const SimulatedShot shot = simulateShot(spec);
+    r = analyzeBurst(shot.burst, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_NEAR(shot.truth.before.v_n_m_s, -0.03, 0.002);
+    EXPECT_TRUE(hasFlag(*r, "e_untrustworthy_geometry"));
+    EXPECT_FALSE(hasFlag(*r, "beta_untrustworthy_geometry"));
+  }
 }
 
 }  // namespace
