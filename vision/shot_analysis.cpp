@@ -5,6 +5,7 @@
 //   contact instant                 analysis/contact.hpp
 //   Walton's inverse (with n_z)     analysis/shot_inverse.hpp
 //   Monte-Carlo uncertainty         analysis/shot_uncertainty.hpp
+//   v_z from the apparent size      analysis/depth_from_size.hpp
 // and then sets the quality flags (below).
 #include "vision/shot_analysis.hpp"
 
@@ -13,6 +14,7 @@
 #include <numbers>
 #include <string>
 
+#include "analysis/depth_from_size.hpp"
 #include "analysis/error_model.hpp"
 #include "analysis/shot_uncertainty.hpp"
 #include "vision/shot_fits.hpp"
@@ -165,6 +167,38 @@ void fillFrames(ShotAnalysis& out, const Burst& burst, const std::vector<FrameDa
         fd.dots[s].push_back({d.u_px, d.v_px, d.on_sphere});
     }
   }
+}
+
+// Velocity towards the camera from each track's apparent radius, when the
+// camera's distance is known: outlines cut by the border or merged with the
+// other sphere's are left out (their radii are not the sphere's).
+void measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
+                        const CollisionFits& fits, const AnalysisSettings& set, double px) {
+  if (!(set.camera_distance_m > 0)) return;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      std::vector<double> t, r, sr;
+      for (const int k : fits.fit[s][side]->frames) {
+        const SphereMeasurement& m = *trackAt(data[k], s);
+        if (m.cut_by_border || m.touching) continue;
+        t.push_back(data[k].t);
+        r.push_back(m.circle.radius);
+        sr.push_back(std::max(m.circle.sigma_radius, 1e-3));
+      }
+      if (t.size() < 3) continue;
+      const auto vec = [](const std::vector<double>& v) {
+        return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
+      };
+      const double r_plane = 0.5 * set.diameter_m[s] / px;
+      auto dm =
+          fitDepthMotion(vec(t), vec(r), vec(sr), r_plane, set.camera_distance_m, fits.t_split);
+      if (!dm) {
+        out.notes.push_back("sphere " + std::to_string(s + 1) +
+                            ": no velocity from the apparent size: " + dm.error().message);
+        continue;
+      }
+      out.sphere[s].vz_from_size_m_s[side] = Measured{dm->vz_m_s, dm->vz_sigma_m_s};
+    }
 }
 
 // What the flags are computed from, besides the result itself.
@@ -352,6 +386,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         "the contact instant); check the tracks");
   fillKinematics(out, u, *fits, spins, model.vz_fraction);
   fillFrames(out, burst, data, spins);
+  measureDepthMotion(out, data, *fits, set, *px);
 
   // ---- quality flags
   FlagInputs q;

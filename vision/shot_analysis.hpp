@@ -63,6 +63,11 @@ struct AnalysisSettings {
   /// contact distance by 2 x this many pixels: the pre-impact instant earlier,
   /// the post-impact one later (or the reverse).
   double radius_systematic_px = 0.1;
+  /// Distance from the camera's projection centre to the object plane (where
+  /// pixel_size_m holds), m. When > 0 the apparent radius's change along each
+  /// track gives the sphere's velocity towards the camera
+  /// (SphereKinematics::vz_from_size_m_s); 0: unknown, not measured.
+  double camera_distance_m = 0.0;
   /// Optional progress callback (frames processed, total); may be empty.
   std::function<void(int, int)> progress;
 };
@@ -100,6 +105,11 @@ struct SphereKinematics {
   Estimate3 velocity_before_m_s, velocity_after_m_s;  ///< at the collision instant
   Estimate3 spin_before_rad_s, spin_after_rad_s;
   int frames_before = 0, frames_after = 0;  ///< frames used by the fits
+  /// Velocity towards the camera from the apparent radius under perspective
+  /// (analysis/depth_from_size.hpp), [0 before, 1 after], m/s; set when
+  /// AnalysisSettings::camera_distance_m > 0 and a side has 3 or more frames
+  /// whose outline is neither cut by the border nor merged.
+  std::array<std::optional<Measured>, 2> vz_from_size_m_s;
 };
 
 struct CollisionProperties {

@@ -39,6 +39,10 @@ struct ShotSpec {
   /// Spread of each sphere's vertical launch velocity (uniform, m/s).
   double vy_spread_m_s = 0.15;
   bool dots = true;  ///< false: plain spheres (no spin can be measured)
+  /// > 0: the camera's distance from the object plane (m), and each sphere's
+  /// drawn radius grows as it comes nearer (r = r0 Z0 / (Z0 - z); the centres
+  /// stay where an orthographic camera puts them). 0: radius constant.
+  double camera_distance_m = 0;
   Material material{0.97, 0.176, 0.44};
   std::uint64_t seed = 1;
 };
@@ -126,6 +130,8 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
       SphereView v;
       v.centre_px = {ou + st[i].position_m.x() / px, ov - st[i].position_m.y() / px};
       v.radius_px = 0.5 * d / px;
+      if (spec.camera_distance_m > 0)
+        v.radius_px *= spec.camera_distance_m / (spec.camera_distance_m - st[i].position_m.z());
       v.orientation = st[i].orientation;
       v.velocity_px_s = {st[i].velocity_m_s.x() / px, -st[i].velocity_m_s.y() / px};
       v.spin_rad_s = st[i].spin_rad_s;
@@ -164,6 +170,7 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   as.fps = spec.fps;
   as.line_of_centres_z_sigma = std::max(spec.contact_z_sigma, 1e-4);
   as.out_of_plane_speed_fraction = spec.out_of_plane_fraction;
+  as.camera_distance_m = spec.camera_distance_m;
   return shot;
 }
 
