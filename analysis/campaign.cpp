@@ -13,6 +13,7 @@ namespace collide {
 
 using campaign_detail::birgeScale;
 using campaign_detail::num;
+using campaign_detail::robustScale;
 
 double CampaignShot::cotIncidenceSigma() const {
   // x = -v_n/v_s: dx/dv_n = -1/v_s, dx/dv_s = v_n/v_s^2.
@@ -184,13 +185,15 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
   // s dx and a rolling point's by nothing. Near the switch a point's regime is
   // itself uncertain, so the x term is weighted by the probability that its
   // true x lies below x0, which keeps the weights continuous in (s, c).
+  // u: the robust loss's weights (all 1 for least squares), multiplying them.
+  std::vector<double> u(n, 1.0);
   auto effectiveWeights = [&](const KinkedLine& f, std::vector<double>& weights) {
     const double x0 = f.plateau / f.slope;
     for (std::size_t r = 0; r < n; ++r) {
       const double p_sliding =
           sigma_x[r] > 0 ? standardNormalCdf((x0 - x[r]) / sigma_x[r]) : (x[r] < x0 ? 1.0 : 0.0);
       const double sx = f.slope * sigma_x[r];
-      weights[r] = 1.0 / (sigma_beta[r] * sigma_beta[r] + p_sliding * sx * sx);
+      weights[r] = u[r] / (sigma_beta[r] * sigma_beta[r] + p_sliding * sx * sx);
     }
   };
   // chi2 of a solution with the weights it implies itself.
@@ -210,25 +213,51 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
   // cycle's member with the smaller self-consistent chi2 is taken.
   constexpr int kSettleIterations = 40, kCycleIterations = 10;
   KinkedLine fit = fitKinkedLine(x, y, w);
-  KinkedLine best_in_cycle;
-  double best_cycle_chi2 = kInf;
-  bool settled = false;
-  for (int iter = 0; iter < kSettleIterations + kCycleIterations && fit.valid; ++iter) {
-    effectiveWeights(fit, w);
-    const KinkedLine next = fitKinkedLine(x, y, w);
-    settled = next.valid && std::abs(next.slope - fit.slope) <= 1e-10 * std::abs(fit.slope) &&
-              std::abs(next.plateau - fit.plateau) <= 1e-10 * (1 + std::abs(fit.plateau));
-    fit = next;
-    if (settled) break;
-    if (iter >= kSettleIterations && fit.valid) {
-      const double chi2 = selfConsistentChi2(fit);
-      if (chi2 < best_cycle_chi2) {
-        best_cycle_chi2 = chi2;
-        best_in_cycle = fit;
+  // With a robust loss, an outer loop reweights the shots by their normalised
+  // residuals (IRLS) and settles the effective variances again, until the
+  // robust weights stop changing.
+  const bool robust = options.robust.loss != RobustLoss::LeastSquares;
+  constexpr int kRobustIterations = 50;
+  for (int outer = 0; outer < (robust ? kRobustIterations : 1); ++outer) {
+    KinkedLine best_in_cycle;
+    double best_cycle_chi2 = kInf;
+    bool settled = false;
+    for (int iter = 0; iter < kSettleIterations + kCycleIterations && fit.valid; ++iter) {
+      effectiveWeights(fit, w);
+      const KinkedLine next = fitKinkedLine(x, y, w);
+      settled = next.valid && std::abs(next.slope - fit.slope) <= 1e-10 * std::abs(fit.slope) &&
+                std::abs(next.plateau - fit.plateau) <= 1e-10 * (1 + std::abs(fit.plateau));
+      fit = next;
+      if (settled) break;
+      if (iter >= kSettleIterations && fit.valid) {
+        const double chi2 = selfConsistentChi2(fit);
+        if (chi2 < best_cycle_chi2) {
+          best_cycle_chi2 = chi2;
+          best_in_cycle = fit;
+        }
       }
     }
+    if (!settled && best_in_cycle.valid) fit = best_in_cycle;
+    if (!robust || !fit.valid) break;
+    // Normalised residuals with the loss's weights taken out.
+    std::vector<double> z(n);
+    effectiveWeights(fit, w);
+    for (std::size_t r = 0; r < n; ++r) {
+      const double w_plain = u[r] > 0 ? w[r] / u[r] : 0.0;
+      z[r] = (y[r] - std::min(fit.plateau, fit.slope * x[r])) * std::sqrt(w_plain);
+    }
+    const double scale = robustScale(z);
+    double change = 0;
+    for (std::size_t r = 0; r < n; ++r) {
+      const double un = std::max(robustWeight(z[r] / scale, options.robust), 1e-6);
+      change = std::max(change, std::abs(un - u[r]));
+      u[r] = un;
+    }
+    if (change < 1e-6) break;
+    effectiveWeights(fit, w);
+    const KinkedLine refit = fitKinkedLine(x, y, w);
+    if (refit.valid) fit = refit;
   }
-  if (!settled && best_in_cycle.valid) fit = best_in_cycle;
   if (!fit.valid)
     return fail(
         "beta does not rise with x = -v_n/v_s anywhere in the campaign, so Walton's "
@@ -303,6 +332,8 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
   out.regime.assign(n, CollisionRegime::Rolling);
   for (std::size_t r = 0; r < fit.first_rolling; ++r)
     out.regime[order[r]] = CollisionRegime::Sliding;
+  out.robust_weight.assign(n, 1.0);
+  for (std::size_t r = 0; r < n; ++r) out.robust_weight[order[r]] = u[r];
   out.sliding_count = int(n_sliding);
   out.rolling_count = int(n_rolling);
   return out;
@@ -319,9 +350,40 @@ Result<FrictionFit> fitFriction(std::span<const CampaignShot> shots, FittedValue
   return fitFrictionIndexed(in, e, options);
 }
 
+double robustWeight(double z, const RobustOptions& o) {
+  const double a = std::abs(z);
+  switch (o.loss) {
+    case RobustLoss::LeastSquares: return 1.0;
+    case RobustLoss::Huber: {
+      const double c = o.tuning > 0 ? o.tuning : 1.345;
+      return a <= c ? 1.0 : c / a;
+    }
+    case RobustLoss::Cauchy: {
+      const double c = o.tuning > 0 ? o.tuning : 2.385;
+      return 1.0 / (1.0 + (a / c) * (a / c));
+    }
+  }
+  return 1.0;
+}
+
+std::string robustLossName(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::LeastSquares: return "least squares";
+    case RobustLoss::Huber: return "Huber";
+    case RobustLoss::Cauchy: return "Cauchy";
+  }
+  return "?";
+}
+
+FrictionOptions campaignOptions() {
+  FrictionOptions o;
+  o.robust.loss = RobustLoss::Huber;
+  return o;
+}
+
 Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
                                 const FrictionOptions& options) {
-  Result<RestitutionMean> mean = fitRestitutionMean(shots);
+  Result<RestitutionMean> mean = fitRestitutionMean(shots, options.robust);
   if (!mean) return mean.error();
 
   // Head-on shots inform e but have no beta; fit friction on the others and
@@ -337,6 +399,10 @@ Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
   std::vector<CollisionRegime> regime(shots.size(), CollisionRegime::Rolling);
   for (std::size_t k = 0; k < in.index.size(); ++k) regime[in.index[k]] = friction->regime[k];
   friction->regime = std::move(regime);
+  std::vector<double> weight(shots.size(), 1.0);
+  for (std::size_t k = 0; k < in.index.size(); ++k)
+    weight[in.index[k]] = friction->robust_weight[k];
+  friction->robust_weight = std::move(weight);
 
   return CampaignFit{*mean, std::move(*friction), fitRestitutionLaws(shots)};
 }
@@ -346,7 +412,7 @@ Result<FrictionBootstrap> bootstrapFriction(std::span<const CampaignShot> shots,
   if (resamples < 10)
     return fail("bootstrap needs at least 10 resamples, got " + std::to_string(resamples) +
                 ": use a few hundred");
-  Result<RestitutionMean> mean = fitRestitutionMean(shots);
+  Result<RestitutionMean> mean = fitRestitutionMean(shots, options.robust);
   if (!mean) return mean.error();
   if (auto full = fitFriction(shots, mean->e, options); !full) return full.error();
 
@@ -358,7 +424,7 @@ Result<FrictionBootstrap> bootstrapFriction(std::span<const CampaignShot> shots,
   int failed = 0;
   for (int b = 0; b < resamples; ++b) {
     for (auto& s : sample) s = shots[pick(rng)];
-    Result<RestitutionMean> m = fitRestitutionMean(sample);
+    Result<RestitutionMean> m = fitRestitutionMean(sample, options.robust);
     if (!m) {
       ++failed;
       continue;

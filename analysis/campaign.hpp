@@ -62,6 +62,29 @@ struct FittedValue {
 
 enum class CollisionRegime { Sliding, Rolling };
 
+/// The loss minimised over the shots' normalised residuals z (residual over
+/// its effective sigma). Least squares lets one wrong shot (a beta of -2.68
+/// with a small sigma) pull the whole fit; the robust losses are iteratively
+/// reweighted least squares with weights u(z / s), s = max(1, 1.4826
+/// median |z|) (a robust scale: a campaign scattering beyond its stated sigmas
+/// does not down-weight every shot):
+enum class RobustLoss {
+  LeastSquares,  ///< u = 1
+  Huber,         ///< u = min(1, c / |z|), c = 1.345 (95 % efficient for Gaussian errors)
+  Cauchy,        ///< u = 1 / (1 + (z / c)^2), c = 2.385
+};
+
+struct RobustOptions {
+  RobustLoss loss = RobustLoss::LeastSquares;
+  double tuning = 0;  ///< c; 0: the loss's default above
+};
+
+/// Robust weight u of a normalised residual (already divided by the scale).
+double robustWeight(double z, const RobustOptions& options);
+
+/// "least squares", "Huber", "Cauchy".
+std::string robustLossName(RobustLoss loss);
+
 struct FrictionOptions {
   /// K = 4 I / (m sigma^2); 2/5 for homogeneous spheres.
   double inertia_factor_K = 0.4;
@@ -69,6 +92,9 @@ struct FrictionOptions {
   /// many shots: with fewer, one "fitted" point can sit on its own line exactly
   /// and the partition, not the data, decides the result.
   int min_shots_per_regime = 3;
+  /// Loss of the fit (and of fitCampaign's mean e). fitFriction defaults to
+  /// least squares; fitCampaign to Huber (campaignOptions()).
+  RobustOptions robust;
 };
 
 /// beta(x) = min(beta_0, -1 + s x) with s = (1 + 1/K)(1 + e) mu, fitted to a
@@ -91,6 +117,9 @@ struct FrictionFit {
   std::vector<CollisionRegime> regime;  ///< per input shot, in input order
   int sliding_count = 0;
   int rolling_count = 0;
+  /// Per input shot, the robust loss's final weight u in [0, 1] (1: full
+  /// weight, always so for least squares); chi2 and the covariance use it.
+  std::vector<double> robust_weight;
 
   /// (e, mu, beta0) at their fitted values, for the curve functions below.
   Material material() const { return Material{e.value, mu.value, beta0.value}; }
@@ -119,10 +148,14 @@ struct RestitutionMean {
   int dof = 0;              ///< shots - 1
   double scale_factor = 1;  ///< max(1, sqrt(chi2/dof))
   int count = 0;
+  std::vector<double> robust_weight;  ///< per shot, as FrictionFit's
 };
 
 /// Needs >= 2 shots with finite e, e_sigma > 0 (v_s and beta are not read).
-Result<RestitutionMean> fitRestitutionMean(std::span<const CampaignShot> shots);
+/// With a robust loss the mean is reweighted until the weights settle; chi2,
+/// the Birge ratio and sigma then use the final weights.
+Result<RestitutionMean> fitRestitutionMean(std::span<const CampaignShot> shots,
+                                           const RobustOptions& robust = {});
 
 /// Laws for e against the normal impact speed v = |v_n| in m/s (parameters are
 /// for v in m/s):
@@ -194,8 +227,14 @@ struct CampaignFit {
   Result<RestitutionLaws> laws;
 };
 
+/// The campaign fits' defaults: FrictionOptions with the Huber loss.
+FrictionOptions campaignOptions();
+
+/// e's mean and the friction fit use options.robust (Huber by default); the
+/// laws of e(|v_n|) are least-squares fits. friction.robust_weight and
+/// restitution.robust_weight say which shots the loss set aside.
 Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
-                                const FrictionOptions& options = {});
+                                const FrictionOptions& options = campaignOptions());
 
 /// Bootstrap cross-check of the covariance uncertainties: resample the shots
 /// with replacement, refit e (mean) and the friction model, and take the

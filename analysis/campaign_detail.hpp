@@ -1,10 +1,12 @@
 #pragma once
 // Helpers shared by campaign.cpp and campaign_restitution.cpp; not part of the
 // public API.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "analysis/result.hpp"
 
@@ -52,6 +54,16 @@ inline std::optional<Error> requireApproaching(std::size_t shot, double v_n_m_s)
 inline double birgeScale(double chi2, int dof) {
   if (dof <= 0) return 1.0;
   return std::max(1.0, std::sqrt(chi2 / dof));
+}
+
+/// Robust scale of normalised residuals: max(1, 1.4826 median |z|) (the MAD
+/// about zero, consistent with a Gaussian sigma; never below the stated sigmas).
+inline double robustScale(const std::vector<double>& z) {
+  if (z.empty()) return 1.0;
+  std::vector<double> a(z.size());
+  for (std::size_t i = 0; i < z.size(); ++i) a[i] = std::abs(z[i]);
+  std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
+  return std::max(1.0, 1.4826 * a[a.size() / 2]);
 }
 
 }  // namespace collide::campaign_detail

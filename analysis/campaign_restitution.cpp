@@ -405,14 +405,40 @@ double RestitutionLawFit::restitutionAt(double normal_speed_m_s) const {
   return lawValue(law, p, normal_speed_m_s);
 }
 
-Result<RestitutionMean> fitRestitutionMean(std::span<const CampaignShot> shots) {
+Result<RestitutionMean> fitRestitutionMean(std::span<const CampaignShot> shots,
+                                           const RobustOptions& robust) {
   if (shots.size() < 2)
     return fail("mean restitution needs at least 2 shots, got " + std::to_string(shots.size()) +
                 ": add shots");
+  for (std::size_t i = 0; i < shots.size(); ++i)
+    if (auto err = validateRestitutionShot(i, shots[i])) return *err;
+  // Robust weights u (all 1 for least squares): reweighted by the normalised
+  // residuals about the current mean until they settle.
+  std::vector<double> u(shots.size(), 1.0);
+  if (robust.loss != RobustLoss::LeastSquares) {
+    for (int iter = 0; iter < 100; ++iter) {
+      double sw = 0, swe = 0;
+      for (std::size_t i = 0; i < shots.size(); ++i) {
+        const double w = u[i] / (shots[i].e_sigma * shots[i].e_sigma);
+        sw += w;
+        swe += w * shots[i].e;
+      }
+      const double mean = swe / sw;
+      std::vector<double> z(shots.size());
+      for (std::size_t i = 0; i < shots.size(); ++i) z[i] = (shots[i].e - mean) / shots[i].e_sigma;
+      const double scale = campaign_detail::robustScale(z);
+      double change = 0;
+      for (std::size_t i = 0; i < shots.size(); ++i) {
+        const double un = std::max(robustWeight(z[i] / scale, robust), 1e-6);
+        change = std::max(change, std::abs(un - u[i]));
+        u[i] = un;
+      }
+      if (change < 1e-9) break;
+    }
+  }
   double sw = 0, swe = 0;
   for (std::size_t i = 0; i < shots.size(); ++i) {
-    if (auto err = validateRestitutionShot(i, shots[i])) return *err;
-    const double w = 1.0 / (shots[i].e_sigma * shots[i].e_sigma);
+    const double w = u[i] / (shots[i].e_sigma * shots[i].e_sigma);
     sw += w;
     swe += w * shots[i].e;
   }
@@ -420,8 +446,9 @@ Result<RestitutionMean> fitRestitutionMean(std::span<const CampaignShot> shots) 
   out.count = int(shots.size());
   const double mean = swe / sw;
   double chi2 = 0, plain_sum = 0;
-  for (const CampaignShot& s : shots) {
-    chi2 += (s.e - mean) * (s.e - mean) / (s.e_sigma * s.e_sigma);
+  for (std::size_t i = 0; i < shots.size(); ++i) {
+    const CampaignShot& s = shots[i];
+    chi2 += u[i] * (s.e - mean) * (s.e - mean) / (s.e_sigma * s.e_sigma);
     plain_sum += s.e;
   }
   const double plain_mean = plain_sum / double(shots.size());
@@ -432,6 +459,7 @@ Result<RestitutionMean> fitRestitutionMean(std::span<const CampaignShot> shots) 
   out.scale_factor = birgeScale(chi2, out.dof);
   out.e = {mean, out.scale_factor / std::sqrt(sw)};
   out.scatter = std::sqrt(ss / double(shots.size() - 1));
+  out.robust_weight = u;
   return out;
 }
 

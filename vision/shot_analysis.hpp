@@ -51,6 +51,23 @@ struct AnalysisSettings {
   /// thesis found it below 1 %). Taken as 0 in the values, it widens the
   /// uncertainties of v_s, beta and f.
   double out_of_plane_speed_fraction = 0.005;
+  /// Longest plausible contact duration, s. The pre-impact fits reach the
+  /// contact distance when the spheres first touch, the post-impact fits when
+  /// they part, so the post-impact instant may lag the pre-impact one by up to
+  /// this (Hertz: about 0.2 ms for 2.54 cm Nylon 6/6 spheres at 2 m/s, longer
+  /// for softer Teflon; the thesis found its two instants 0.1 ms apart).
+  double contact_duration_s = 2e-4;
+  /// Standard uncertainty of the detector's systematic radius error, px. Both
+  /// spheres' outlines carry it (same detector, same lighting), and through
+  /// the pixel size (derived from, or calibrated with, the radii) it moves the
+  /// contact distance by 2 x this many pixels: the pre-impact instant earlier,
+  /// the post-impact one later (or the reverse).
+  double radius_systematic_px = 0.1;
+  /// Distance from the camera's projection centre to the object plane (where
+  /// pixel_size_m holds), m. When > 0 the apparent radius's change along each
+  /// track gives the sphere's velocity towards the camera
+  /// (SphereKinematics::vz_from_size_m_s); 0: unknown, not measured.
+  double camera_distance_m = 0.0;
   /// Optional progress callback (frames processed, total); may be empty.
   std::function<void(int, int)> progress;
 };
@@ -88,6 +105,11 @@ struct SphereKinematics {
   Estimate3 velocity_before_m_s, velocity_after_m_s;  ///< at the collision instant
   Estimate3 spin_before_rad_s, spin_after_rad_s;
   int frames_before = 0, frames_after = 0;  ///< frames used by the fits
+  /// Velocity towards the camera from the apparent radius under perspective
+  /// (analysis/depth_from_size.hpp), [0 before, 1 after], m/s; set when
+  /// AnalysisSettings::camera_distance_m > 0 and a side has 3 or more frames
+  /// whose outline is neither cut by the border nor merged.
+  std::array<std::optional<Measured>, 2> vz_from_size_m_s;
 };
 
 struct CollisionProperties {
@@ -96,6 +118,9 @@ struct CollisionProperties {
   Measured vs_m_s;         ///< tangential contact speed before, >= 0
   Measured vs_after_m_s;   ///< v_s' . t (signed along the pre-impact tangent)
   Measured t_collision_s;  ///< from the first analysed frame
+  /// Total kinetic energy after minus before (translation + rotation, the
+  /// masses of AnalysisSettings, I = m d^2 / 10), J; > 0 is unphysical.
+  Measured kinetic_energy_change_J;
   /// The two collision-instant estimates (pre- and post-impact fits), s.
   double t_collision_before_s = 0, t_collision_after_s = 0;
 };
@@ -110,8 +135,15 @@ struct ShotAnalysis {
   /// Machine-readable reasons to distrust the shot:
   ///  "few_frames_before", "few_frames_after": a sphere has fewer than 5 frames
   ///    on that side of the impact;
-  ///  "collision_instant_disagree": the pre- and post-impact instants differ by
-  ///    more than 4 sigma (of every error source) and 1 % of a frame;
+  ///  "collision_instant_disagree": t_after - t_before lies outside
+  ///    [0, contact_duration_s] by more than 4 sigma, sigma combining the fits'
+  ///    random errors (residual correlation inflation included) and systematic
+  ///    centre drifts (the Monte Carlo's spread of the difference) with the
+  ///    contact distance's uncertainty from radius_systematic_px, which moves
+  ///    the two instants apart by dd (1/|v_n| + 1/|v_n'|);
+  ///  "unphysical": a value physics forbids, beyond 3 of its sigmas: e > 1 or
+  ///    e < 0, beta outside [-1, 1], or kinetic energy gained (translational +
+  ///    rotational, after minus before > 0); the notes say which;
   ///  "large_residuals": a track's weighted residual RMS exceeds 0.1 px and 10
   ///    times the detector's typical centre uncertainty;
   ///  "e_untrustworthy_geometry", "beta_untrustworthy_geometry": SPEC eq. 5.1

@@ -5,9 +5,9 @@
 #include <fstream>
 #include <iostream>
 
-#include "app/store/atomic_file.hpp"
-#include "app/report/campaign_report.hpp"
 #include "app/cli/command.hpp"
+#include "app/report/campaign_report.hpp"
+#include "app/store/atomic_file.hpp"
 
 namespace {
 
@@ -20,6 +20,7 @@ struct Options {
   std::string dir;
   std::string out;
   bool include_flagged = false;
+  std::string loss = "huber";
   int resamples = 200;
   std::uint64_t seed = 1;
 };
@@ -48,7 +49,10 @@ int runFit(const Options& o) {
     }
   }
   std::cout << used << " of " << entries->size() << " shots used\n";
-  auto report = collide::app::fitCampaignFolder(*entries, o.resamples, o.seed);
+  const collide::RobustLoss loss = o.loss == "least-squares" ? collide::RobustLoss::LeastSquares
+                                   : o.loss == "cauchy"      ? collide::RobustLoss::Cauchy
+                                                             : collide::RobustLoss::Huber;
+  auto report = collide::app::fitCampaignFolder(*entries, o.resamples, o.seed, loss);
   if (!report) {
     std::cerr << "collide fit: " << o.dir << ": " << report.error().message << "\n";
     return kExitFailure;
@@ -71,6 +75,10 @@ int runFit(const Options& o) {
       return kExitFailure;
     }
   }
+  for (const auto& d : report->down_weighted)
+    std::printf("down-weighted by the %s loss: %s (weight %.2f in the beta fit, %.2f in e)\n",
+                collide::robustLossName(report->loss).c_str(), d.id.c_str(), d.beta_weight,
+                d.e_weight);
   const auto& fr = report->fit.friction;
   const auto& e = report->fit.restitution.e;
   std::printf("mu       %.4f ± %.4f\n", fr.mu.value, fr.mu.sigma);
@@ -103,6 +111,11 @@ void setupFit(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--out", o->out, "Folder for fit.json and the plots (default: DIR/fit)");
   sub.add_flag("--include-flagged", o->include_flagged,
                "Also fit shots whose quality flags say their numbers are not to be trusted");
+  sub.add_option("--loss", o->loss,
+                 "Loss of the fits: huber (default), cauchy or least-squares; the robust "
+                 "losses down-weight shots far off the model and list them")
+      ->check(CLI::IsMember({"huber", "cauchy", "least-squares"}))
+      ->capture_default_str();
   sub.add_option("--bootstrap", o->resamples,
                  "Bootstrap resamples for the sigma cross-check (0: none)")
       ->check(CLI::NonNegativeNumber)
@@ -110,8 +123,9 @@ void setupFit(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--seed", o->seed, "Seed of the bootstrap");
   sub.footer(
       "Plots: beta_vs_cot, tangent_form, f_vs_tan, e_vs_tan, e_vs_vn (each .png and .svg).\n"
-      "Shots flagged few_frames_*, collision_instant_disagree, large_residuals or\n"
-      "analysis_failed are left out unless --include-flagged; every left-out shot is listed.");
+      "Shots flagged few_frames_*, collision_instant_disagree, large_residuals, unphysical\n"
+      "or analysis_failed are left out unless --include-flagged; every left-out shot is\n"
+      "listed with its flags, and every shot the robust loss down-weights with its weights.");
   run = [o] { return runFit(*o); };
 }
 

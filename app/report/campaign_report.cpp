@@ -12,9 +12,9 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 const std::vector<std::string>& excludingFlags() {
-  static const std::vector<std::string> flags = {"analysis_failed", "few_frames_before",
+  static const std::vector<std::string> flags = {"analysis_failed",  "few_frames_before",
                                                  "few_frames_after", "collision_instant_disagree",
-                                                 "large_residuals"};
+                                                 "large_residuals",  "unphysical"};
   return flags;
 }
 
@@ -25,12 +25,15 @@ void useResults(CampaignEntry& entry, const std::string& results_json, bool incl
     return;
   }
   entry.results = *r;
-  std::string bad_flag;
   for (const auto& f : r->quality_flags)
     if (std::find(excludingFlags().begin(), excludingFlags().end(), f) != excludingFlags().end())
-      bad_flag = f;
-  if (!bad_flag.empty() && !include_flagged) {
-    entry.excluded_because = "quality flag " + bad_flag + " (--include-flagged keeps it)";
+      entry.excluding_flags.push_back(f);
+  if (!entry.excluding_flags.empty() && !include_flagged) {
+    std::string list;
+    for (const auto& f : entry.excluding_flags) list += (list.empty() ? "" : ", ") + f;
+    entry.excluded_because = std::string("quality flag") +
+                             (entry.excluding_flags.size() > 1 ? "s " : " ") + list +
+                             " (--include-flagged keeps it)";
   } else if (auto cs = toCampaignShot(*r); !cs) {
     entry.excluded_because = cs.error().message;
   } else {
@@ -78,17 +81,29 @@ std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries)
 }
 
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
-                                            int resamples, std::uint64_t seed) {
+                                            int resamples, std::uint64_t seed, RobustLoss loss) {
   const auto shots = usableShots(entries);
-  auto fit = fitCampaign(shots);
+  FrictionOptions options = campaignOptions();
+  options.robust.loss = loss;
+  auto fit = fitCampaign(shots, options);
   if (!fit) return fit.error();
-  CampaignFitReport report{*fit, std::nullopt, ""};
+  CampaignFitReport report{*fit, loss, {}, std::nullopt, ""};
+  std::size_t k = 0;  // index into the fitted shots
+  for (const auto& e : entries) {
+    if (!e.shot) continue;
+    const double wb = k < fit->friction.robust_weight.size() ? fit->friction.robust_weight[k] : 1;
+    const double we =
+        k < fit->restitution.robust_weight.size() ? fit->restitution.robust_weight[k] : 1;
+    if (wb < 0.5 || we < 0.5)
+      report.down_weighted.push_back({e.id.empty() ? e.file : e.id, wb, we});
+    ++k;
+  }
   if (resamples > 0) {
     // Head-on shots have no beta: the friction bootstrap takes the others.
     std::vector<CampaignShot> oblique;
     for (const auto& s : shots)
       if (s.v_s_m_s > 0) oblique.push_back(s);
-    auto boot = bootstrapFriction(oblique, resamples, seed);
+    auto boot = bootstrapFriction(oblique, resamples, seed, options);
     if (boot) {
       report.bootstrap = *boot;
     } else {
@@ -304,12 +319,23 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
                   {"vs_m_s", e.shot->v_s_m_s}};
       if (k < fr.regime.size())
         row["regime"] = fr.regime[k] == CollisionRegime::Sliding ? "sliding" : "rolling";
+      if (k < fr.robust_weight.size()) row["beta_weight"] = fr.robust_weight[k];
+      if (k < report.fit.restitution.robust_weight.size())
+        row["e_weight"] = report.fit.restitution.robust_weight[k];
+      if (!e.excluding_flags.empty()) row["kept_despite_flags"] = e.excluding_flags;
       ++k;
       used.push_back(row);
     } else {
-      left_out.push_back({{"id", name}, {"reason", e.excluded_because}});
+      json row = {{"id", name}, {"reason", e.excluded_because}};
+      if (!e.excluding_flags.empty()) row["flags"] = e.excluding_flags;
+      left_out.push_back(row);
     }
   }
+  j["loss"] = robustLossName(report.loss);
+  json down = json::array();
+  for (const auto& d : report.down_weighted)
+    down.push_back({{"id", d.id}, {"beta_weight", d.beta_weight}, {"e_weight", d.e_weight}});
+  j["shots_down_weighted"] = down;
   j["shots_used"] = used;
   j["shots_left_out"] = left_out;
   return j.dump(2);

@@ -21,10 +21,14 @@ struct CampaignEntry {
   std::optional<ShotResults> results;  ///< empty if not analysed
   std::optional<CampaignShot> shot;    ///< set when the fits can use it
   std::string excluded_because;        ///< why not used (empty when used)
+  /// The shot's quality flags that leave it out of the fits (excludingFlags()),
+  /// also when --include-flagged kept it.
+  std::vector<std::string> excluding_flags;
 };
 
 /// Quality flags that leave a shot out of the fits: its numbers are not to be
-/// trusted at all. Geometry flags (eq. 5.1) do not: those shots carry their
+/// trusted at all (analysis_failed, few_frames_*, collision_instant_disagree,
+/// large_residuals, unphysical). Geometry flags (eq. 5.1) do not: those shots carry their
 /// own large uncertainties, which the weighted fits take into account.
 const std::vector<std::string>& excludingFlags();
 
@@ -40,15 +44,25 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir,
 /// The shots the fits use, in entry order.
 std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries);
 
+/// A used shot the robust loss set aside (weight below 0.5 in a fit).
+struct DownWeightedShot {
+  std::string id;
+  double beta_weight = 1;  ///< robust weight in the friction fit (1 head-on)
+  double e_weight = 1;     ///< robust weight in e's mean
+};
+
 struct CampaignFitReport {
   CampaignFit fit;
-  std::optional<FrictionBootstrap> bootstrap;  ///< cross-check of the sigmas
-  std::string bootstrap_error;                 ///< why there is none
+  RobustLoss loss = RobustLoss::Huber;
+  std::vector<DownWeightedShot> down_weighted;  ///< in entry order
+  std::optional<FrictionBootstrap> bootstrap;   ///< cross-check of the sigmas
+  std::string bootstrap_error;                  ///< why there is none
 };
-/// Fits the usable shots (analysis/campaign.hpp fitCampaign) and bootstraps
-/// the friction fit (`resamples` >= 10, or 0 for none).
+/// Fits the usable shots (analysis/campaign.hpp fitCampaign, with `loss`)
+/// and bootstraps the friction fit (`resamples` >= 10, or 0 for none).
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
-                                            int resamples = 200, std::uint64_t seed = 1);
+                                            int resamples = 200, std::uint64_t seed = 1,
+                                            RobustLoss loss = RobustLoss::Huber);
 
 /// The five plots, named for their files: beta_vs_cot (beta against -v_n/v_s
 /// with the fitted Walton line), tangent_form (-v_s'/v_n against -v_s/v_n),

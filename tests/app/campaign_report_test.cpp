@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
+#include <set>
 
 #include "app/store/save.hpp"
 #include "shot_fixtures.hpp"
@@ -146,6 +148,79 @@ TEST_F(CampaignReportTest, PlotsHoldEveryUsedShotAndTheModel) {
   // Points only, without a fit.
   const auto bare = campaignPlots(*entries, nullptr);
   EXPECT_EQ(bare[0].plot.series.size(), 1u);
+}
+
+// Wrong shots the analysis did not flag (beta -2.68 and e 1.25 with small
+// sigmas, as seen in independent footage) and one it flagged unphysical: the
+// flagged one is left out and named with its flag, the others are
+// down-weighted by the robust loss and listed, and the material comes out
+// right; least squares is pulled away.
+TEST(CampaignReportRobust, FlaggedShotsLeftOutOutliersDownWeighted) {
+  testing::ScratchDir dir;
+  std::mt19937 rng(7);
+  for (int i = 0; i < 24; ++i) {
+    testing::ShotSpec spec;
+    spec.id = idFor(i);
+    spec.frames = 2;
+    auto shot = testing::makeShot(spec);
+    std::vector<std::string> flags;
+    if (i == 5) flags = {"unphysical", "large_residuals"};
+    shot.results_json = resultsAt(5.0 + 75.0 * i / 23.0, rng, flags);
+    if (i == 3 || i == 9 || i == 15 || i == 21) {
+      // Unflagged but wrong: beta and e far off, with small sigmas.
+      auto a = parseResultsJson(shot.results_json);
+      ASSERT_TRUE(a.ok());
+      vision::ShotAnalysis w;
+      w.pixel_size_m = 2e-4;
+      w.collision.vn_m_s = {a->collision.vn_m_s.value, 0.002};
+      w.collision.vs_m_s = {a->collision.vs_m_s.value, 0.002};
+      w.collision.e = {1.25, 0.002};
+      w.collision.beta = {i % 2 ? -2.68 : 0.98, 0.01};
+      w.collision.vs_after_m_s = a->collision.vs_after_m_s;
+      w.collision.f = a->collision.f;
+      w.collision.gamma_deg = a->collision.gamma_deg;
+      shot.results_json = resultsToJson(w);
+    }
+    ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+  }
+  auto entries = loadCampaign(dir.path());
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  int left_out = 0;
+  for (const auto& e : *entries) {
+    if (e.shot) continue;
+    ++left_out;
+    EXPECT_EQ(e.id, idFor(5));
+    EXPECT_NE(e.excluded_because.find("unphysical"), std::string::npos) << e.excluded_because;
+    EXPECT_NE(e.excluded_because.find("large_residuals"), std::string::npos);
+    EXPECT_EQ(e.excluding_flags, (std::vector<std::string>{"unphysical", "large_residuals"}));
+  }
+  EXPECT_EQ(left_out, 1);
+
+  auto robust = fitCampaignFolder(*entries, 0);
+  ASSERT_TRUE(robust.ok()) << robust.error().message;
+  const auto& fr = robust->fit.friction;
+  EXPECT_EQ(robust->loss, RobustLoss::Huber);
+  EXPECT_NEAR(fr.mu.value, kMu, 4 * fr.mu.sigma);
+  EXPECT_NEAR(fr.beta0.value, kBeta0, 4 * fr.beta0.sigma);
+  EXPECT_NEAR(robust->fit.restitution.e.value, kE, 4 * robust->fit.restitution.e.sigma);
+  std::set<std::string> down;
+  for (const auto& d : robust->down_weighted) down.insert(d.id);
+  EXPECT_EQ(down, (std::set<std::string>{idFor(3), idFor(9), idFor(15), idFor(21)}));
+
+  auto ls = fitCampaignFolder(*entries, 0, 1, RobustLoss::LeastSquares);
+  ASSERT_TRUE(ls.ok()) << ls.error().message;
+  EXPECT_TRUE(ls->down_weighted.empty());
+  // Off by far more than the robust fit (its Birge-inflated sigma owns up to
+  // part of it).
+  EXPECT_GT(std::abs(ls->fit.restitution.e.value - kE),
+            10 * std::abs(robust->fit.restitution.e.value - kE));
+  EXPECT_GT(std::abs(ls->fit.friction.mu.value - kMu), 5 * std::abs(fr.mu.value - kMu));
+
+  const auto j = nlohmann::json::parse(campaignReportJson(*entries, *robust));
+  EXPECT_EQ(j["loss"], "Huber");
+  EXPECT_EQ(j["shots_down_weighted"].size(), 4u);
+  ASSERT_EQ(j["shots_left_out"].size(), 1u);
+  EXPECT_EQ(j["shots_left_out"][0]["flags"][0], "unphysical");
 }
 
 TEST(CampaignReport, MissingFolderOrNoShotsIsAnError) {

@@ -36,6 +36,13 @@ struct ShotSpec {
   double contact_z_sigma = 0.0;
   /// Standard deviation of each sphere's z velocity, as a fraction of its speed.
   double out_of_plane_fraction = 0.0;
+  /// Spread of each sphere's vertical launch velocity (uniform, m/s).
+  double vy_spread_m_s = 0.15;
+  bool dots = true;  ///< false: plain spheres (no spin can be measured)
+  /// > 0: the camera's distance from the object plane (m), and each sphere's
+  /// drawn radius grows as it comes nearer (r = r0 Z0 / (Z0 - z); the centres
+  /// stay where an orthographic camera puts them). 0: radius constant.
+  double camera_distance_m = 0;
   Material material{0.97, 0.176, 0.44};
   std::uint64_t seed = 1;
 };
@@ -74,9 +81,9 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
                  Vec3(0, 0, nz);
   const Vec3 c1 = -0.5 * d * n, c2 = 0.5 * d * n;
   std::normal_distribution<double> nd;
-  const Vec3 v1(spec.speed1_m_s, 0.15 * (uni(rng) - 0.5),
+  const Vec3 v1(spec.speed1_m_s, spec.vy_spread_m_s * (uni(rng) - 0.5),
                 spec.out_of_plane_fraction * spec.speed1_m_s * nd(rng));
-  const Vec3 v2(-spec.speed2_m_s, 0.15 * (uni(rng) - 0.5),
+  const Vec3 v2(-spec.speed2_m_s, spec.vy_spread_m_s * (uni(rng) - 0.5),
                 spec.out_of_plane_fraction * spec.speed2_m_s * nd(rng));
   FlightSetup setup;
   setup.material = spec.material;
@@ -91,7 +98,8 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
     s.spin_rad_s = randomUnitVec(rng) * spec.spin_max_rad_s * uni(rng);
     setup.orientation_at_launch[i] = Quat(Eigen::AngleAxisd(6.28 * uni(rng), randomUnitVec(rng)));
     setup.launch_time_s[i] = 0;
-    shot.dots[i] = DotPattern::random(rng());
+    const std::uint64_t dot_seed = rng();
+    if (spec.dots) shot.dots[i] = DotPattern::random(dot_seed);
   }
   auto flight = Flight::create(setup);
   if (!flight) throw std::runtime_error(flight.error().message);
@@ -122,6 +130,8 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
       SphereView v;
       v.centre_px = {ou + st[i].position_m.x() / px, ov - st[i].position_m.y() / px};
       v.radius_px = 0.5 * d / px;
+      if (spec.camera_distance_m > 0)
+        v.radius_px *= spec.camera_distance_m / (spec.camera_distance_m - st[i].position_m.z());
       v.orientation = st[i].orientation;
       v.velocity_px_s = {st[i].velocity_m_s.x() / px, -st[i].velocity_m_s.y() / px};
       v.spin_rad_s = st[i].spin_rad_s;
@@ -160,6 +170,7 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   as.fps = spec.fps;
   as.line_of_centres_z_sigma = std::max(spec.contact_z_sigma, 1e-4);
   as.out_of_plane_speed_fraction = spec.out_of_plane_fraction;
+  as.camera_distance_m = spec.camera_distance_m;
   return shot;
 }
 

@@ -1,0 +1,44 @@
+#include "analysis/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace collide {
+
+double contactTime(const PlaneTrack& a, const PlaneTrack& b, double dist_m, double t0_s) {
+  double t = t0_s;
+  for (int it = 0; it < 6; ++it) {
+    const Eigen::Vector2d dr = a.pos(t) - b.pos(t), dv = a.vel(t) - b.vel(t);
+    const double f = dr.squaredNorm() - dist_m * dist_m, df = 2 * dr.dot(dv);
+    if (df == 0) break;
+    t -= f / df;
+  }
+  return t;
+}
+
+double beforeInstantWeight(double sigma_before_s, double sigma_after_s) {
+  const double vb = sigma_before_s * sigma_before_s, va = sigma_after_s * sigma_after_s;
+  return (std::isfinite(vb) && std::isfinite(va) && vb + va > 0) ? va / (va + vb) : 0.5;
+}
+
+InstantAgreement compareInstants(double t_before_s, double t_after_s,
+                                 const InstantAgreementModel& m) {
+  InstantAgreement r;
+  r.difference_s = t_after_s - t_before_s;
+  const double fit = std::isfinite(m.fit_sigma_s) ? m.fit_sigma_s : 0.0;
+  double dist = 0;
+  if (m.contact_distance_sigma_m > 0 && m.vn_before_m_s > 0 && m.vn_after_m_s > 0)
+    dist = m.contact_distance_sigma_m * (1 / m.vn_before_m_s + 1 / m.vn_after_m_s);
+  r.sigma_s = std::sqrt(fit * fit + dist * dist);
+  const double lo = 0, hi = std::max(0.0, m.contact_duration_s);
+  const double outside = r.difference_s < lo   ? lo - r.difference_s
+                         : r.difference_s > hi ? r.difference_s - hi
+                                               : 0.0;
+  if (outside > 0)
+    r.excess_sigmas = r.sigma_s > 0 ? outside / r.sigma_s : std::numeric_limits<double>::infinity();
+  r.disagree = r.excess_sigmas > m.k_sigma;
+  return r;
+}
+
+}  // namespace collide

@@ -1,0 +1,48 @@
+#include "analysis/depth_from_size.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "analysis/least_squares.hpp"
+
+namespace collide {
+
+double depthFromRadius(double r_px, double r_plane_px, double camera_distance_m) {
+  return camera_distance_m * (1.0 - r_plane_px / r_px);
+}
+
+Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::VectorXd& r,
+                                   const Eigen::VectorXd& sr, double r0, double z0, double t_ref) {
+  const Eigen::Index n = t.size();
+  if (r.size() != n || sr.size() != n)
+    return fail("depth from size: " + std::to_string(n) + " times but " + std::to_string(r.size()) +
+                " radii and " + std::to_string(sr.size()) + " sigmas");
+  if (n < 3) return fail("depth from size needs at least 3 frames, got " + std::to_string(n));
+  if (!(r0 > 0) || !std::isfinite(r0) || !(z0 > 0) || !std::isfinite(z0))
+    return fail(
+        "depth from size needs the radius in the object plane (px) and the camera's distance "
+        "(m), both > 0");
+  Eigen::MatrixXd a(n, 2);
+  Eigen::VectorXd dz(n), sz(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!(r[i] > 0) || !std::isfinite(r[i]) || !(sr[i] > 0) || !std::isfinite(sr[i]))
+      return fail("depth from size: frame " + std::to_string(i) +
+                  " has no usable radius (radius and its sigma must be finite and > 0)");
+    a(i, 0) = 1.0;
+    a(i, 1) = t[i] - t_ref;
+    dz[i] = depthFromRadius(r[i], r0, z0);
+    sz[i] = z0 * r0 * sr[i] / (r[i] * r[i]);
+  }
+  auto fit = weightedLeastSquares(a, dz, Weights::fromSigmas(sz), "depth from size");
+  if (!fit) return fit.error();
+  DepthMotion m;
+  m.dz0_m = fit->coefficients[0];
+  m.dz0_sigma_m = fit->sigma(0);
+  m.vz_m_s = fit->coefficients[1];
+  m.vz_sigma_m_s = fit->sigma(1);
+  m.chi2 = fit->chi2;
+  m.dof = fit->dof;
+  return m;
+}
+
+}  // namespace collide

@@ -1,0 +1,114 @@
+#include "analysis/shot_uncertainty.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace collide {
+namespace {
+
+Vec3 drawVec(const Vec3& mean, const Eigen::Matrix3d& cov, std::mt19937_64& rng, bool nominal) {
+  if (nominal || !cov.allFinite()) return mean;
+  std::normal_distribution<double> nd;
+  const Eigen::LLT<Eigen::Matrix3d> llt(cov);
+  if (llt.info() != Eigen::Success) return mean;
+  return mean + llt.matrixL() * Vec3(nd(rng), nd(rng), nd(rng));
+}
+
+}  // namespace
+
+PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, double drift_m_s, double offset_m,
+                     std::mt19937_64& rng, bool nominal) {
+  std::normal_distribution<double> nd;
+  PlaneTrack d;
+  d.t_ref = f.tRef_s();
+  const int np = f.accelerationFixed() ? 2 : 3;
+  for (int k = 0; k < 2; ++k) {
+    d.c[k] = f.coefficients(k);
+    if (nominal) continue;
+    const Eigen::MatrixXd cov = f.covariance(k).topLeftCorner(np, np) * inflation;
+    if (!cov.allFinite()) continue;
+    const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+    if (llt.info() != Eigen::Success) continue;
+    Eigen::VectorXd z(np);
+    for (int i = 0; i < np; ++i) z[i] = nd(rng);
+    d.c[k].head(np) += llt.matrixL() * z;
+    d.c[k][1] += drift_m_s * nd(rng);
+    d.c[k][0] += offset_m * nd(rng);
+  }
+  return d;
+}
+
+ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
+  ShotDraw o;
+  std::array<std::array<PlaneTrack, 2>, 2> d;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side)
+      d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], in.drift[s][side],
+                             in.offset[s], rng, nominal);
+  const double tb = nominal ? in.t_before : contactTime(d[0][0], d[1][0], in.contact, in.t_before);
+  const double ta = nominal ? in.t_after : contactTime(d[0][1], d[1][1], in.contact, in.t_after);
+  o.t_c = in.w_before * tb + (1 - in.w_before) * ta;
+  o.dt_ba = tb - ta;
+  ContactState st;
+  for (int s = 0; s < 2; ++s) {
+    st.position_m[s] = d[s][0].pos(o.t_c);
+    o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
+    if (!nominal)
+      o.v_before[s].z() =
+          in.vz_fraction * o.v_before[s].norm() * std::normal_distribution<double>()(rng);
+    o.v_after[s] = Vec3(d[s][1].vel(o.t_c).x(), d[s][1].vel(o.t_c).y(), 0);
+    o.w_before[s] = drawVec(in.spin[s][0], in.spin_cov[s][0], rng, nominal);
+    o.w_after[s] = drawVec(in.spin[s][1], in.spin_cov[s][1], rng, nominal);
+  }
+  st.v_before = o.v_before;
+  st.v_after = o.v_after;
+  st.w_before = o.w_before;
+  st.w_after = o.w_after;
+  ShotInverseSettings inv;
+  inv.diameter_m = in.diameter;
+  inv.mass_kg = in.mass;
+  for (int s = 0; s < 2; ++s) inv.spin_change_cov[s] = in.spin_cov[s][0] + in.spin_cov[s][1];
+  inv.nz_sigma = in.nz_sigma;
+  const double sz = std::max(in.nz_sigma, 1e-6);
+  inv.nz_prior = nominal ? 0.0 : sz * std::normal_distribution<double>()(rng);
+  o.inverse = invertShot(st, inv);
+  o.v_after = o.inverse.v_after;
+  o.ok = o.inverse.ok;
+  return o;
+}
+
+void Spread::add(double x) {
+  if (!std::isfinite(x)) return;
+  s += x, s2 += x * x, ++n;
+}
+
+double Spread::sigma() const {
+  if (n < 2) return std::numeric_limits<double>::quiet_NaN();
+  const double m = s / n;
+  return std::sqrt(std::max(0.0, (s2 - n * m * m) / (n - 1)));
+}
+
+ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t seed) {
+  ShotUncertainty u;
+  std::mt19937_64 rng(seed);
+  u.nominal = evaluateShot(model, rng, true);
+  if (!u.nominal.ok) return u;
+  for (int i = 0; i < draws; ++i) {
+    const ShotDraw o = evaluateShot(model, rng, false);
+    if (!o.ok) continue;
+    const WaltonMeasurement& m = o.inverse.m;
+    u.e.add(m.e), u.beta.add(m.beta), u.beta_from_impulse.add(m.beta_from_impulse), u.f.add(m.f);
+    u.gamma_deg.add(m.before.gamma_rad * 180 / std::numbers::pi);
+    u.vn.add(m.before.v_n_m_s), u.vs.add(m.before.v_s_m_s), u.vs_after.add(o.inverse.vs_after);
+    u.t_c.add(o.t_c), u.dt_ba.add(o.dt_ba);
+    u.kinetic_energy_change.add(o.inverse.kinetic_energy_change_J);
+    for (int s = 0; s < 2; ++s)
+      for (int k = 0; k < 3; ++k)
+        u.v_before[s][k].add(o.v_before[s][k]), u.v_after[s][k].add(o.v_after[s][k]);
+  }
+  return u;
+}
+
+}  // namespace collide

@@ -1,0 +1,74 @@
+#pragma once
+// A shot's properties and their uncertainties (docs/SPEC.md steps 3-6): every
+// fitted input (trajectory coefficients, spins, the systematic centre errors,
+// the unseen out-of-plane parts) is drawn from its distribution, the
+// collision instant found again, the kinematics evaluated there and Walton's
+// inverse applied; the spread of the results over the draws is their
+// uncertainty. Pure maths, SI units.
+#include <Eigen/Dense>
+#include <array>
+#include <random>
+
+#include "analysis/contact.hpp"
+#include "analysis/shot_inverse.hpp"
+#include "analysis/trajectory.hpp"
+
+namespace collide {
+
+/// Everything measured about one shot, as the Monte Carlo draws it.
+struct ShotModel {
+  std::array<std::array<const TrajectoryFit*, 2>, 2> fit{};  ///< [sphere][0 before, 1 after]
+  std::array<std::array<double, 2>, 2>
+      inflation{};  ///< of each fit's covariance (residual correlation)
+  std::array<std::array<double, 2>, 2> drift{};  ///< systematic velocity sigma, m/s
+  std::array<double, 2> offset{};                ///< systematic position sigma, m
+  std::array<std::array<Vec3, 2>, 2> spin;       ///< [sphere][side], rad/s
+  std::array<std::array<Eigen::Matrix3d, 2>, 2> spin_cov;
+  std::array<double, 2> diameter{}, mass{};
+  double contact = 0;                ///< contact distance, m
+  double t_before = 0, t_after = 0;  ///< the nominal instants (pre-, post-impact fits)
+  double w_before = 0.5;             ///< weight of the pre-impact instant in t_c
+  double nz_sigma = 0.01;            ///< prior sigma of the line of centres' z part
+  double vz_fraction = 0.005;        ///< prior sigma of v_z before impact, fraction of the speed
+};
+
+/// One draw (or the nominal evaluation) of a shot.
+struct ShotDraw {
+  double t_c = 0;    ///< combined collision instant
+  double dt_ba = 0;  ///< pre-impact minus post-impact collision instant
+  std::array<Vec3, 2> v_before, v_after, w_before, w_after;
+  ShotInverse inverse;  ///< n_z, Walton's measurement, v_s', energy change
+  bool ok = false;
+};
+
+/// A trajectory fit's coefficients, drawn from their covariance (times
+/// `inflation`) plus a systematic velocity drift and position offset per
+/// axis; the fit's own coefficients when `nominal`.
+PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, double drift_m_s, double offset_m,
+                     std::mt19937_64& rng, bool nominal);
+
+/// The shot from one draw of every input (or the nominal values): collision
+/// instant, velocities and spins there, Walton's inverse.
+ShotDraw evaluateShot(const ShotModel& model, std::mt19937_64& rng, bool nominal);
+
+/// Running standard deviation of the finite values added.
+struct Spread {
+  double s = 0, s2 = 0;
+  int n = 0;
+  void add(double x);
+  double sigma() const;  ///< NaN below two values
+};
+
+/// The nominal shot and the spread of its quantities over `draws` draws.
+struct ShotUncertainty {
+  ShotDraw nominal;  ///< nominal.ok false: not a collision
+  Spread e, beta, beta_from_impulse, f, gamma_deg, vn, vs, vs_after, t_c, dt_ba;
+  Spread kinetic_energy_change;
+  std::array<std::array<Spread, 3>, 2> v_before, v_after;  ///< [sphere][axis]
+};
+
+/// Nominal evaluation, then `draws` random ones from a generator seeded with
+/// `seed` (fixed: the same shot gives the same sigmas).
+ShotUncertainty propagateShot(const ShotModel& model, int draws = 300, std::uint64_t seed = 12345);
+
+}  // namespace collide

@@ -1,0 +1,100 @@
+// The collision-instant stage (analysis/contact.hpp) against analytic cases.
+#include "analysis/contact.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace collide;
+
+namespace {
+
+// x(t) = x0 + v (t - t_ref) + a (t - t_ref)^2 on one axis, constant y.
+PlaneTrack line(double x0, double v, double y0, double accel_y = 0, double t_ref = 0) {
+  PlaneTrack p;
+  p.t_ref = t_ref;
+  p.c[0] = Eigen::Vector3d(x0, v, 0);
+  p.c[1] = Eigen::Vector3d(y0, 0, accel_y / 2);
+  return p;
+}
+
+TEST(ContactTime, HeadOnApproachMeetsAtTheAnalyticInstant) {
+  // Spheres 2 m apart closing at 2 + 1.5 m/s, both falling alike (gravity
+  // cancels in the separation): |dr| = 2 - 3.5 t = d at t = (2 - d) / 3.5.
+  const double d = 0.0254;
+  const PlaneTrack a = line(-1, 2, 0.1, -9.81), b = line(1, -1.5, 0.1, -9.81);
+  EXPECT_NEAR(contactTime(a, b, d, 0.55), (2 - d) / 3.5, 1e-12);
+  // From either side of the root.
+  EXPECT_NEAR(contactTime(a, b, d, 0.566), (2 - d) / 3.5, 1e-12);
+}
+
+TEST(ContactTime, ObliqueApproach) {
+  // Sphere 2 offset by h in y: |dr|^2 = (2 - 3 t)^2 + h^2 = d^2.
+  const double d = 0.0254, h = 0.015;
+  const PlaneTrack a = line(-1, 1.5, 0), b = line(1, -1.5, h);
+  const double t = (2 - std::sqrt(d * d - h * h)) / 3;
+  EXPECT_NEAR(contactTime(a, b, d, 0.66), t, 1e-12);
+}
+
+TEST(BeforeInstantWeight, InverseVariances) {
+  EXPECT_DOUBLE_EQ(beforeInstantWeight(1e-6, 2e-6), 0.8);  // 4 / (4 + 1)
+  EXPECT_DOUBLE_EQ(beforeInstantWeight(3e-6, 3e-6), 0.5);
+  EXPECT_DOUBLE_EQ(beforeInstantWeight(std::numeric_limits<double>::quiet_NaN(), 1e-6), 0.5);
+  EXPECT_DOUBLE_EQ(beforeInstantWeight(0, 0), 0.5);
+}
+
+InstantAgreementModel model() {
+  InstantAgreementModel m;
+  m.fit_sigma_s = 4e-6;
+  m.contact_distance_sigma_m = 1e-5;  // 3e-6 s at |v_n| = 10 m/s and |v_n'| = 5 m/s
+  m.vn_before_m_s = 10;
+  m.vn_after_m_s = 5;
+  m.contact_duration_s = 100e-6;
+  return m;  // combined sigma: 5 us
+}
+
+TEST(CompareInstants, CombinedSigmaAddsTheContactDistanceTerm) {
+  const InstantAgreement a = compareInstants(0, 0, model());
+  EXPECT_NEAR(a.sigma_s, 5e-6, 1e-18);
+  EXPECT_FALSE(a.disagree);
+  EXPECT_EQ(a.excess_sigmas, 0);
+}
+
+TEST(CompareInstants, InsideTheContactDurationIsAgreement) {
+  // The post-impact instant 80 us late: a contact of 80 us, allowed.
+  const InstantAgreement a = compareInstants(1e-3, 1.08e-3, model());
+  EXPECT_NEAR(a.difference_s, 80e-6, 1e-15);
+  EXPECT_FALSE(a.disagree);
+  EXPECT_EQ(a.excess_sigmas, 0);
+  // 15 us beyond the longest contact: 3 sigma, within 4.
+  EXPECT_FALSE(compareInstants(0, 115e-6, model()).disagree);
+}
+
+TEST(CompareInstants, BeyondTheBandByMoreThanFourSigmaDisagrees) {
+  // 25 us past the band's upper edge: 5 sigma.
+  InstantAgreement a = compareInstants(0, 125e-6, model());
+  EXPECT_NEAR(a.excess_sigmas, 5, 1e-9);
+  EXPECT_TRUE(a.disagree);
+  // The post-impact instant earlier than the pre-impact one: below the band.
+  a = compareInstants(30e-6, 0, model());
+  EXPECT_NEAR(a.excess_sigmas, 6, 1e-9);
+  EXPECT_TRUE(a.disagree);
+  // 15 us early: 3 sigma, no.
+  EXPECT_FALSE(compareInstants(15e-6, 0, model()).disagree);
+}
+
+TEST(CompareInstants, AnUncertainContactDistanceExcusesMore) {
+  InstantAgreementModel m = model();
+  m.fit_sigma_s = 0;
+  m.contact_duration_s = 0;
+  m.contact_distance_sigma_m = 1e-4;                     // 1e-4 (1/10 + 1/5) = 30 us
+  EXPECT_FALSE(compareInstants(0, 100e-6, m).disagree);  // 3.3 sigma
+  EXPECT_TRUE(compareInstants(0, 130e-6, m).disagree);   // 4.3 sigma
+  // Without that uncertainty the same 100 us is far outside.
+  m.contact_distance_sigma_m = 0;
+  m.fit_sigma_s = 5e-6;
+  EXPECT_TRUE(compareInstants(0, 100e-6, m).disagree);
+}
+
+}  // namespace

@@ -1,0 +1,133 @@
+// analyzeBurst's image stages on their own (vision/shot_tracking.hpp,
+// shot_fits.hpp, shot_spins.hpp), against simulated shots with known truth
+// (shot_fixture.hpp).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "shot_fixture.hpp"
+#include "vision/shot_fits.hpp"
+#include "vision/shot_spins.hpp"
+#include "vision/shot_tracking.hpp"
+
+namespace collide::vision {
+namespace {
+
+using testing::ShotSpec;
+using testing::SimulatedShot;
+using testing::simulateShot;
+
+ShotSpec quick(std::uint64_t seed) {
+  ShotSpec spec;
+  spec.seed = seed;
+  spec.exposure_us = 0;
+  spec.frames_before = 20;
+  spec.frames_after = 20;
+  return spec;
+}
+
+TEST(PrepareFrames, ClockFromTimestampsOrFromIdsAndRate) {
+  SimulatedShot shot = simulateShot(quick(41));
+  auto bf = prepareFrames(shot.burst, 0);
+  ASSERT_TRUE(bf.ok()) << bf.error().message;
+  ASSERT_EQ(bf->data.size(), shot.burst.frames.size());
+  EXPECT_NEAR(bf->frame_dt, 1e-3, 1e-9);
+  for (std::size_t k = 0; k < bf->data.size(); ++k) EXPECT_NEAR(bf->data[k].t, 1e-3 * k, 1e-9);
+  // A bad frame is skipped; no timestamps: ids over the frame rate.
+  shot.burst.frames[3].status = FrameStatus::Incomplete;
+  for (Frame& f : shot.burst.frames) f.timestamp_ns = 0;
+  bf = prepareFrames(shot.burst, 500);
+  ASSERT_TRUE(bf.ok()) << bf.error().message;
+  ASSERT_EQ(bf->data.size(), shot.burst.frames.size() - 1);
+  EXPECT_EQ(bf->data[3].index, 4u);
+  EXPECT_NEAR(bf->data[3].t, 4 * 2e-3, 1e-12);
+  EXPECT_NEAR(bf->frame_dt, 2e-3, 1e-12);
+}
+
+struct Staged {
+  SimulatedShot shot;
+  BurstFrames frames;
+  std::array<double, 2> r_med;
+  PixelScale scale;
+};
+
+Staged detectAndTrack(std::uint64_t seed) {
+  Staged s{simulateShot(quick(seed)), {}, {}, {}};
+  auto bf = prepareFrames(s.shot.burst, 0);
+  EXPECT_TRUE(bf.ok());
+  s.frames = *bf;
+  const auto& set = s.shot.settings;
+  detectSpheres(s.shot.burst, s.frames.data, set.diameter_m, set.pixel_size_m, s.frames.max_value,
+                {});
+  auto blobs = selectSphereBlobs(s.frames.data, set.diameter_m, set.pixel_size_m);
+  EXPECT_TRUE(blobs.ok());
+  EXPECT_TRUE(trackSpheres(s.frames.data, *blobs, set.diameter_m).ok());
+  s.r_med = trackRadii(s.frames.data);
+  s.scale = {set.pixel_size_m, set.origin_u_px, set.origin_v_px};
+  return s;
+}
+
+TEST(TrackSpheres, EachTrackFollowsItsSphere) {
+  const Staged s = detectAndTrack(42);
+  const double px = s.scale.px, r_true = 0.5 * s.shot.settings.diameter_m[0] / px;
+  int seen = 0;
+  for (std::size_t k = 0; k < s.frames.data.size(); ++k)
+    for (int i = 0; i < 2; ++i) {
+      const SphereMeasurement* m = trackAt(s.frames.data[k], i);
+      if (!m) continue;
+      ++seen;
+      const Vec3& p = s.shot.states[k][i].position_m;
+      EXPECT_NEAR(m->circle.u, s.scale.ou + p.x() / px, 0.2) << k << " " << i;
+      EXPECT_NEAR(m->circle.v, s.scale.ov - p.y() / px, 0.2) << k << " " << i;
+    }
+  // Spheres merged at contact may be missed in a frame or two, no more.
+  EXPECT_GE(seen, 2 * int(s.frames.data.size()) - 4);
+  for (const double r : s.r_med) EXPECT_NEAR(r, r_true, 0.1);
+}
+
+TEST(FitCollision, BothInstantsFindTheTrueContact) {
+  for (const std::uint64_t seed : {43, 44, 45}) {
+    const Staged s = detectAndTrack(seed);
+    const double contact = s.shot.settings.diameter_m[0];
+    auto fits =
+        fitCollision(s.frames.data, s.scale, contact, kGravity_m_s2, true, 0.0, s.frames.frame_dt);
+    ASSERT_TRUE(fits.ok()) << fits.error().message;
+    EXPECT_NEAR(fits->t_before, s.shot.t_collision_s, 5 * fits->sigma_before + 1e-6);
+    EXPECT_NEAR(fits->t_after, s.shot.t_collision_s, 5 * fits->sigma_after + 1e-6);
+    for (int i = 0; i < 2; ++i)
+      for (int side = 0; side < 2; ++side) {
+        const SideFit& f = *fits->fit[i][side];
+        EXPECT_GE(f.frames.size(), 17u);
+        EXPECT_GE(f.inflation, 1.0);
+        const Vec3& v_true = (side == 0 ? s.shot.before : s.shot.after)[i].velocity_m_s;
+        const Estimate3 v = f.fit.velocityAt_m_s(s.shot.t_collision_s);
+        for (int a = 0; a < 2; ++a)
+          EXPECT_NEAR(v.value[a], v_true[a], 5 * std::sqrt(f.inflation) * v.sigma[a] + 2e-4);
+      }
+    // A free fit falls at g.
+    const auto fall = fallAlongGravity(s.frames.data, *fits, s.scale, Eigen::Vector2d(0, 1));
+    ASSERT_TRUE(fall.has_value());
+    EXPECT_NEAR((*fall)[0], 9.80665, 5 * (*fall)[1] + 0.05);
+  }
+}
+
+TEST(MeasureSpins, SpinsOfBothSidesMatchTheTruth) {
+  const Staged s = detectAndTrack(46);
+  auto fits = fitCollision(s.frames.data, s.scale, s.shot.settings.diameter_m[0], kGravity_m_s2,
+                           true, 0.0, s.frames.frame_dt);
+  ASSERT_TRUE(fits.ok()) << fits.error().message;
+  const ShotSpins spins =
+      measureSpins(s.shot.burst, s.frames.data, *fits, s.r_med, s.frames.max_value);
+  ASSERT_EQ(spins.dots.size(), s.frames.data.size());
+  for (int i = 0; i < 2; ++i)
+    for (int side = 0; side < 2; ++side) {
+      const SideSpin& sp = spins.side[i][side];
+      ASSERT_FALSE(sp.unknown_reason.has_value()) << *sp.unknown_reason;
+      const Vec3& w = (side == 0 ? s.shot.before : s.shot.after)[i].spin_rad_s;
+      for (int a = 0; a < 3; ++a)
+        EXPECT_NEAR(sp.spin[a], w[a], 5 * sp.sigma[a] + 0.05) << i << " " << side << " " << a;
+    }
+}
+
+}  // namespace
+}  // namespace collide::vision

@@ -1,0 +1,164 @@
+#include "vision/shot_fits.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace collide::vision {
+
+double residualInflation(const TrajectoryFit& fit) {
+  double num = 0, den = 0;
+  for (int k = 0; k < 2; ++k) {
+    const LinearFit& af = fit.axisFit(k);
+    const Eigen::VectorXd z = af.residuals.cwiseProduct(af.weights.cwiseSqrt());
+    for (Eigen::Index i = 0; i < z.size(); ++i) {
+      den += z[i] * z[i];
+      if (i > 0) num += z[i] * z[i - 1];
+    }
+  }
+  if (!(den > 0)) return 1;
+  const double rho = std::clamp(num / den, 0.0, 0.8);
+  return (1 + rho) / (1 - rho);
+}
+
+Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,
+                        const PixelScale& sc, const Vec3& gravity, bool fix_gravity, double t_ref) {
+  for (int round = 0; round < 2; ++round) {
+    const int n = static_cast<int>(frames.size());
+    Eigen::VectorXd t(n), w(n);
+    Eigen::MatrixXd pos(n, 2);
+    for (int i = 0; i < n; ++i) {
+      const FrameData& f = data[frames[i]];
+      const SphereMeasurement& m = *trackAt(f, sphere);
+      t[i] = f.t;
+      pos(i, 0) = (m.circle.u - sc.ou) * sc.px;
+      pos(i, 1) = -(m.circle.v - sc.ov) * sc.px;
+      const double sig = std::max({m.circle.sigma_u, m.circle.sigma_v, 1e-4});
+      w[i] = 1.0 / (sig * sig);
+    }
+    TrajectoryOptions opt;
+    if (fix_gravity) opt.fixed_acceleration_m_s2 = gravity;
+    auto fit = fitTrajectory(t, pos, Weights::relative(w), t_ref, opt);
+    if (!fit) return fit.error();
+    if (round == 1 || n <= 4) return SideFit{*fit, frames, residualInflation(*fit)};
+    // Normalised residuals; drop gross outliers (a mis-measured frame).
+    std::vector<double> z(n);
+    for (int i = 0; i < n; ++i) {
+      double r2 = 0;
+      for (int k = 0; k < 2; ++k) {
+        const double r = fit->axisFit(k).residuals[i];
+        r2 += r * r;
+      }
+      z[i] = std::sqrt(r2 * w[i]);
+    }
+    const double med = median(z);
+    std::vector<int> keep;
+    for (int i = 0; i < n; ++i)
+      if (z[i] <= std::max(5.0 * med / 1.1774, 1e-12)) keep.push_back(frames[i]);
+    if (keep.size() == frames.size() || keep.size() < 4)
+      return SideFit{*fit, frames, residualInflation(*fit)};
+    frames = keep;
+  }
+  return fail("unreachable");
+}
+
+Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& sc,
+                                   double contact, const Vec3& gravity, bool fix_gravity,
+                                   double exposure_s, double frame_dt) {
+  // The closest approach splits the tracks.
+  int k_min = -1;
+  double d_min = 1e300;
+  for (int k = 0; k < static_cast<int>(data.size()); ++k) {
+    const SphereMeasurement *a = trackAt(data[k], 0), *b = trackAt(data[k], 1);
+    if (!a || !b) continue;
+    const double d = std::hypot(a->circle.u - b->circle.u, a->circle.v - b->circle.v);
+    if (d < d_min) d_min = d, k_min = k;
+  }
+  const auto sideFrames = [&](int sphere, int side, int k_split, bool include_split) {
+    std::vector<int> v;
+    for (int k = 0; k < static_cast<int>(data.size()); ++k) {
+      if (!trackAt(data[k], sphere)) continue;
+      const bool before = k < k_split || (include_split && side == 0 && k == k_split);
+      const bool after = k > k_split || (include_split && side == 1 && k == k_split);
+      if ((side == 0 && before) || (side == 1 && after)) v.push_back(k);
+    }
+    return v;
+  };
+  CollisionFits out;
+  out.t_split = data[k_min].t;
+  int include = -1;  // side that gets the closest frame (-1: neither)
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int s = 0; s < 2; ++s)
+      for (int side = 0; side < 2; ++side) {
+        const std::vector<int> fr = sideFrames(s, side, k_min, include == side);
+        if (fr.size() < 3)
+          return fail("sphere " + std::to_string(s + 1) + " is seen in " +
+                      std::to_string(fr.size()) + " frame(s) " + (side == 0 ? "before" : "after") +
+                      " the collision; a track needs at least 3 (is the collision in the burst?)");
+        auto f = fitSide(data, fr, s, sc, gravity, fix_gravity, out.t_split);
+        if (!f)
+          return fail("sphere " + std::to_string(s + 1) + ", " + (side == 0 ? "before" : "after") +
+                      " the collision: " + f.error().message);
+        out.fit[s][side] = std::move(f).value();
+      }
+    auto cb =
+        collisionInstant(out.fit[0][0]->fit, out.fit[1][0]->fit, contact, CollisionSide::kBefore);
+    auto ca =
+        collisionInstant(out.fit[0][1]->fit, out.fit[1][1]->fit, contact, CollisionSide::kAfter);
+    if (!cb || !ca)
+      return fail("no collision found: " + (cb ? ca.error().message : cb.error().message) +
+                  " (closest approach " + fmt("%.1f", d_min) + " px between centres, contact at " +
+                  fmt("%.1f", contact / sc.px) + " px)");
+    out.t_before = cb->t_s, out.sigma_before = cb->sigma_s;
+    out.t_after = ca->t_s, out.sigma_after = ca->sigma_s;
+    if (pass == 1) break;
+    // The closest frame joins the side it was exposed on, unless its exposure
+    // straddles the impact (then it shows a mix of both motions).
+    const double tc = 0.5 * (out.t_before + out.t_after);
+    const double half_exp = 0.5 * exposure_s;
+    if (out.t_split + half_exp < tc - 0.02 * frame_dt)
+      include = 0;
+    else if (out.t_split - half_exp > tc + 0.02 * frame_dt)
+      include = 1;
+    else
+      break;
+  }
+  if (!(out.t_before > data.front().t - 5 * frame_dt) ||
+      !(out.t_after < data.back().t + 5 * frame_dt))
+    return fail("the collision instant lies outside the burst: no collision recorded");
+  return out;
+}
+
+std::optional<std::array<double, 2>> fallAlongGravity(const std::vector<FrameData>& data,
+                                                      const CollisionFits& fits,
+                                                      const PixelScale& sc,
+                                                      const Eigen::Vector2d& gdir) {
+  double sum = 0, wsum = 0;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      const SideFit& sf = *fits.fit[s][side];
+      if (sf.frames.size() < 6) continue;
+      TrajectoryOptions free;
+      Eigen::VectorXd t(sf.frames.size());
+      Eigen::MatrixXd p(sf.frames.size(), 2);
+      for (std::size_t i = 0; i < sf.frames.size(); ++i) {
+        const SphereMeasurement& m = *trackAt(data[sf.frames[i]], s);
+        t[i] = data[sf.frames[i]].t;
+        p(i, 0) = (m.circle.u - sc.ou) * sc.px;
+        p(i, 1) = -(m.circle.v - sc.ov) * sc.px;
+      }
+      auto ff = fitTrajectory(t, p, Weights::equal(), fits.t_split, free);
+      if (!ff) continue;
+      const Estimate3 a = ff->acceleration_m_s2();
+      // Along gravity: world (x, y) = image (u, -v).
+      const double along = a.value.x() * gdir.x() - a.value.y() * gdir.y();
+      const double sa = std::hypot(a.sigma.x(), a.sigma.y());
+      if (!(sa > 0) || !std::isfinite(sa)) continue;
+      sum += along / (sa * sa);
+      wsum += 1 / (sa * sa);
+    }
+  if (!(wsum > 0)) return std::nullopt;
+  return std::array<double, 2>{sum / wsum, 1 / std::sqrt(wsum)};
+}
+
+}  // namespace collide::vision

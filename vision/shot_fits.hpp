@@ -1,0 +1,67 @@
+#pragma once
+// Trajectory-fit stage of analyzeBurst (docs/SPEC.md steps 2-3): each
+// sphere's centres fitted before and after the impact, the frames split at
+// the closest approach, and the two collision instants from the fits.
+#include <array>
+#include <optional>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "analysis/trajectory.hpp"
+#include "vision/shot_tracking.hpp"
+
+namespace collide::vision {
+
+/// Image pixels to world metres: x = (u - origin_u) s, y = -(v - origin_v) s.
+struct PixelScale {
+  double px = 0;  ///< metres per pixel
+  double ou = 0, ov = 0;
+};
+
+struct SideFit {
+  TrajectoryFit fit;
+  std::vector<int> frames;  ///< indices into the FrameData vector
+  /// Variance inflation for residuals correlated from frame to frame:
+  /// (1 + rho) / (1 - rho), rho their lag-1 autocorrelation (Bartlett): the
+  /// fit's covariance assumes independent frames, and neighbouring frames
+  /// share slowly changing detection errors (dots near the limb, blur).
+  double inflation = 1;
+};
+
+/// Lag-1 autocorrelation inflation of a fit's normalised residuals, pooled
+/// over the axes: (1 + rho) / (1 - rho), rho clamped to [0, 0.8].
+double residualInflation(const TrajectoryFit& fit);
+
+/// Fits one sphere's centres over `frames` (metres, world axes), dropping
+/// frames that lie far off the fit (more than 5 robust sigmas) once.
+Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,
+                        const PixelScale& scale, const Vec3& gravity, bool fix_gravity,
+                        double t_ref);
+
+/// Both spheres fitted on both sides of the impact, and the collision
+/// instants the two pairs of fits give.
+struct CollisionFits {
+  std::array<std::array<std::optional<SideFit>, 2>, 2> fit;  ///< [sphere][0 before, 1 after]
+  double t_split = 0;                                        ///< closest approach's frame time
+  double t_before = 0, t_after = 0;                          ///< collision instants, s
+  double sigma_before = 0, sigma_after = 0;                  ///< their fit uncertainties, s
+};
+
+/// Splits the tracks at the closest approach, fits each side, finds the
+/// contact instants; the closest frame then joins the side it was exposed on
+/// unless its exposure straddles the impact, and the fits are redone.
+/// Errors: too few frames on a side, a failed fit, no contact found, an
+/// instant outside the burst.
+Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& scale,
+                                   double contact_m, const Vec3& gravity, bool fix_gravity,
+                                   double exposure_s, double frame_dt);
+
+/// The acceleration along gravity (image direction gdir, unit) from free
+/// fits (acceleration fitted) of every side with at least 6 frames, weighted
+/// by their uncertainties: {value, sigma} m/s^2, or nullopt when none.
+std::optional<std::array<double, 2>> fallAlongGravity(const std::vector<FrameData>& data,
+                                                      const CollisionFits& fits,
+                                                      const PixelScale& scale,
+                                                      const Eigen::Vector2d& gdir);
+
+}  // namespace collide::vision

@@ -1,0 +1,42 @@
+#pragma once
+// Dots-and-spins stage of analyzeBurst (docs/SPEC.md step 4): the dots on
+// each sphere in every fitted frame, lifted with the track's radius, and the
+// spin of each sphere on each side of the impact.
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/types.hpp"
+#include "vision/dot_detector.hpp"
+#include "vision/frame.hpp"
+#include "vision/shot_fits.hpp"
+
+namespace collide::vision {
+
+// The spin fits' scatter-based uncertainties fall short by about this factor
+// (slowly changing dot-centroid errors); calibrated on simulated shots.
+inline constexpr double kSpinSigmaScale = 1.25;
+// Standard deviation given to each component of a spin that could not be
+// measured (no dot followed), rad/s.
+inline constexpr double kUnknownSpinSigma = 50.0;
+
+struct SideSpin {
+  Vec3 spin = Vec3::Zero();                           ///< rad/s; zero when unknown
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Identity();  ///< scaled by kSpinSigmaScale^2
+  Vec3 sigma = Vec3::Zero();                  ///< reported per-axis sigma (NaN when unknown)
+  std::optional<std::string> unknown_reason;  ///< set when no spin could be fitted
+};
+
+struct ShotSpins {
+  std::array<std::array<SideSpin, 2>, 2> side;  ///< [sphere][0 before, 1 after]
+  std::vector<std::array<DotFrame, 2>> dots;    ///< per FrameData, per sphere
+};
+
+/// Finds the dots of each sphere in the frames its side fits used and fits
+/// the spins. An unknown spin is zero with kUnknownSpinSigma per axis.
+ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
+                       const CollisionFits& fits, const std::array<double, 2>& r_med_px,
+                       int max_value);
+
+}  // namespace collide::vision

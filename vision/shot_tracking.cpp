@@ -1,0 +1,286 @@
+#include "vision/shot_tracking.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace collide::vision {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Position of `track` predicted at time t from its last two (or one) points.
+bool predict(const std::vector<FrameData>& frames, const std::vector<int>& order, int upto,
+             int track, double t, Eigen::Vector2d& out) {
+  int seen = 0;
+  Eigen::Vector2d p[2];
+  double tt[2] = {0, 0};
+  for (int i = upto; i >= 0 && seen < 2; --i) {
+    const FrameData& f = frames[order[i]];
+    if (const SphereMeasurement* m = trackAt(f, track)) {
+      p[seen] = {m->circle.u, m->circle.v};
+      tt[seen] = f.t;
+      ++seen;
+    }
+  }
+  if (seen == 0) return false;
+  if (seen == 1 || tt[0] == tt[1]) {
+    out = p[0];
+    return true;
+  }
+  out = p[0] + (p[0] - p[1]) * ((t - tt[0]) / (tt[0] - tt[1]));
+  return true;
+}
+
+// Assigns each frame's candidates to the two tracks, walking away from the
+// seed frame in the given direction.
+void track(std::vector<FrameData>& frames, int seed, int dir, double gate) {
+  std::vector<int> order;  // frames in walking order, seed first
+  for (int i = seed; i >= 0 && i < static_cast<int>(frames.size()); i += dir) order.push_back(i);
+  for (std::size_t o = 1; o < order.size(); ++o) {
+    FrameData& f = frames[order[o]];
+    Eigen::Vector2d pred[2];
+    bool have[2];
+    for (int k = 0; k < 2; ++k)
+      have[k] = predict(frames, order, static_cast<int>(o) - 1, k, f.t, pred[k]);
+    // Best assignment of up to one candidate per track (cost: distance to the
+    // prediction; leaving a track empty costs the gate).
+    double best = 2 * gate + 1;
+    std::array<int, 2> pick{-1, -1};
+    const int n = static_cast<int>(f.candidates.size());
+    for (int a = -1; a < n; ++a)
+      for (int b = -1; b < n; ++b) {
+        if (a >= 0 && a == b) continue;
+        double cost = 0;
+        bool ok = true;
+        for (int k = 0; k < 2; ++k) {
+          const int c = k == 0 ? a : b;
+          if (c < 0) {
+            cost += gate;
+            continue;
+          }
+          if (!have[k]) {
+            ok = false;
+            break;
+          }
+          const CircleFit& cf = f.found.spheres[f.candidates[c]].circle;
+          const double d = (Eigen::Vector2d(cf.u, cf.v) - pred[k]).norm();
+          if (d > gate) {
+            ok = false;
+            break;
+          }
+          cost += d;
+        }
+        if (ok && cost < best) best = cost, pick = {a, b};
+      }
+    for (int k = 0; k < 2; ++k) f.assigned[k] = pick[k] >= 0 ? f.candidates[pick[k]] : -1;
+  }
+}
+
+}  // namespace
+
+std::string fmt(const char* spec, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, spec, v);
+  return buf;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+Result<BurstFrames> prepareFrames(const Burst& burst, double fps_setting) {
+  BurstFrames bf;
+  std::vector<std::size_t>& good = bf.good;
+  for (std::size_t i = 0; i < burst.frames.size(); ++i)
+    if (burst.frames[i].good()) good.push_back(i);
+  if (good.empty())
+    return fail("no usable frame in the burst (" + std::to_string(burst.frames.size()) +
+                " frames, none complete): nothing to analyse; record the shot again");
+  const cv::Mat& first = burst.frames[good.front()].image;
+  bf.max_value = maxValue(burst.format);
+  for (const std::size_t i : good) {
+    const cv::Mat& img = burst.frames[i].image;
+    if (img.size() != first.size() || img.type() != first.type())
+      return fail("frames of different sizes or pixel types: frame " +
+                  std::to_string(burst.frames[good.front()].id) + " is " +
+                  std::to_string(first.cols) + "x" + std::to_string(first.rows) + ", frame " +
+                  std::to_string(burst.frames[i].id) + " is " + std::to_string(img.cols) + "x" +
+                  std::to_string(img.rows) + "; analyse frames of one recording only");
+    if (img.channels() != 1 || (img.depth() != CV_8U && img.depth() != CV_16U))
+      return fail("frame " + std::to_string(burst.frames[i].id) +
+                  " is not a one-channel 8- or 16-bit image");
+  }
+  if (first.depth() != (burst.format == PixelFormat::Mono8 ? CV_8U : CV_16U))
+    return fail(std::string("the burst says ") + toString(burst.format) + " but its frames hold " +
+                (first.depth() == CV_8U ? "8" : "16") + "-bit pixels");
+  const double fps = fps_setting > 0 ? fps_setting : burst.fps;
+  bool stamps_ok = true;
+  for (std::size_t k = 1; k < good.size(); ++k)
+    if (burst.frames[good[k]].timestamp_ns <= burst.frames[good[k - 1]].timestamp_ns)
+      stamps_ok = false;
+  if (good.size() > 1 && !stamps_ok && !(fps > 0))
+    return fail(
+        "the frames carry no increasing timestamps and no frame rate is known: give "
+        "the frame rate (--fps)");
+  std::vector<FrameData>& data = bf.data;
+  data.resize(good.size());
+  for (std::size_t k = 0; k < good.size(); ++k) {
+    const Frame& f = burst.frames[good[k]];
+    data[k].index = good[k];
+    data[k].t = stamps_ok ? (f.timestamp_ns - burst.frames[good.front()].timestamp_ns) * 1e-9
+                          : (f.id - burst.frames[good.front()].id) / fps;
+  }
+  bf.frame_dt =
+      good.size() > 1
+          ? (data.back().t - data.front().t) /
+                std::max<double>(1, burst.frames[good.back()].id - burst.frames[good.front()].id)
+          : (fps > 0 ? 1 / fps : 1e-3);
+  return bf;
+}
+
+int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
+                  const std::array<double, 2>& diam, double pixel_size_m, int max_value,
+                  const std::function<void(int, int)>& progress) {
+  SphereDetectorSettings ds;
+  if (pixel_size_m > 0) {
+    // Generous bounds: a wrong diameter must still be measured, to be reported.
+    ds.min_radius_px = 0.15 * std::min(diam[0], diam[1]) / pixel_size_m;
+    ds.max_radius_px = 1.5 * std::max(diam[0], diam[1]) / pixel_size_m;
+  }
+  const SphereDetector detector(ds);
+  int saturated = 0;
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    data[k].found = detector.detect(burst.frames[data[k].index].image, max_value);
+    saturated += data[k].found.saturated;
+    if (progress) progress(static_cast<int>(k + 1), static_cast<int>(data.size()));
+  }
+  return saturated;
+}
+
+Result<SphereBlobs> selectSphereBlobs(std::vector<FrameData>& data,
+                                      const std::array<double, 2>& diam, double pixel_size_m) {
+  SphereBlobs out;
+  std::vector<double> radii;
+  for (const FrameData& f : data)
+    for (const SphereMeasurement& m : f.found.spheres)
+      if (!m.cut_by_border) radii.push_back(m.circle.radius);
+  if (radii.empty())
+    return fail("no sphere found in any of the " + std::to_string(data.size()) + " frames (" +
+                (data.front().found.notes.empty() ? std::string("no bright round blob")
+                                                  : data.front().found.notes[0]) +
+                "); check the exposure and that the spheres are in view");
+  const double ratio = diam[1] / diam[0];
+  std::array<double, 2>& r_expect = out.r_expect_px;
+  if (std::abs(ratio - 1) < 0.02) {
+    r_expect[0] = r_expect[1] = median(radii);
+  } else {
+    // Two sizes: split the radii at the geometric mean of their extremes.
+    std::sort(radii.begin(), radii.end());
+    const double cut = std::sqrt(radii.front() * radii.back());
+    std::vector<double> lo, hi;
+    for (const double r : radii) (r < cut ? lo : hi).push_back(r);
+    const double rl = lo.empty() ? kNaN : median(lo), rh = hi.empty() ? kNaN : median(hi);
+    r_expect = ratio > 1 ? std::array<double, 2>{rl, rh} : std::array<double, 2>{rh, rl};
+    if (!std::isfinite(rl) || !std::isfinite(rh))
+      return fail("the diameters given differ (" + fmt("%.4g", diam[0] * 1e3) + " and " +
+                  fmt("%.4g", diam[1] * 1e3) + " mm) but all spheres found measure about " +
+                  fmt("%.1f", 2 * median(radii)) + " px across: check --diameter2-mm");
+  }
+  if (pixel_size_m > 0)
+    for (int s = 0; s < 2; ++s) {
+      const double d_img = 2 * r_expect[s] * pixel_size_m;
+      if (std::abs(d_img / diam[s] - 1) > 0.05)
+        return fail("sphere " + std::to_string(s + 1) + " measures " +
+                    fmt("%.2f", 2 * r_expect[s]) + " px across, which at a pixel size of " +
+                    fmt("%.5g", pixel_size_m * 1e3) + " mm is " + fmt("%.2f", d_img * 1e3) +
+                    " mm, but its diameter is given as " + fmt("%.2f", diam[s] * 1e3) +
+                    " mm: check the diameter (--diameter-mm) or the pixel size");
+    }
+  for (FrameData& f : data) {
+    for (int i = 0; i < static_cast<int>(f.found.spheres.size()); ++i) {
+      const double r = f.found.spheres[i].circle.radius;
+      const bool fits =
+          std::abs(r / r_expect[0] - 1) < 0.15 || std::abs(r / r_expect[1] - 1) < 0.15;
+      if (fits) {
+        f.candidates.push_back(i);
+      } else if (f.found.spheres[i].cut_by_border) {
+        // A sliver at the frame's edge (a sphere entering or leaving) measures
+        // a poor radius: left out, nothing to report.
+        f.found.notes.push_back("a blob cut by the frame's edge measures " + fmt("%.1f", r) +
+                                " px in radius: left out");
+      } else {
+        ++out.third_blobs;
+        f.found.notes.push_back("a round blob of radius " + fmt("%.1f", r) +
+                                " px is not a sphere of this shot (expected " +
+                                fmt("%.1f", r_expect[0]) + " px): ignored");
+      }
+    }
+  }
+  return out;
+}
+
+Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
+                    const std::array<double, 2>& diam) {
+  int seed = -1;
+  for (int k = 0; k < static_cast<int>(data.size()) && seed < 0; ++k) {
+    const FrameData& f = data[k];
+    if (f.candidates.size() != 2) continue;
+    const SphereMeasurement &a = f.found.spheres[f.candidates[0]],
+                            &b = f.found.spheres[f.candidates[1]];
+    if (a.touching || b.touching) continue;
+    seed = k;
+  }
+  if (seed < 0) {
+    int one = 0;
+    for (const FrameData& f : data) one += !f.candidates.empty();
+    return fail("never two separate spheres in one frame (" + std::to_string(one) + " of " +
+                std::to_string(data.size()) +
+                " frames show one sphere): a collision needs both spheres in view before impact");
+  }
+  {
+    FrameData& f = data[seed];
+    // Candidates are sorted by u: the left one is sphere 1.
+    f.assigned = {f.candidates[0], f.candidates[1]};
+    const double gate = 0.5 * std::min(blobs.r_expect_px[0], blobs.r_expect_px[1]);
+    track(data, seed, +1, gate);
+    track(data, seed, -1, gate);
+  }
+  if (std::abs(diam[1] / diam[0] - 1) >= 0.02) {
+    // Two sizes: sphere 1 (left) must be the one whose diameter came first.
+    const SphereMeasurement &a = *trackAt(data[seed], 0), &b = *trackAt(data[seed], 1);
+    if ((a.circle.radius < b.circle.radius) != (diam[0] < diam[1]))
+      return fail("the left sphere measures " + fmt("%.1f", 2 * a.circle.radius) +
+                  " px across and the right one " + fmt("%.1f", 2 * b.circle.radius) +
+                  " px, but the diameters given say the opposite: give the left sphere's "
+                  "diameter first");
+  }
+  for (FrameData& f : data) {
+    int used = (f.assigned[0] >= 0) + (f.assigned[1] >= 0);
+    if (static_cast<int>(f.candidates.size()) > used) {
+      blobs.third_blobs += static_cast<int>(f.candidates.size()) - used;
+      f.found.notes.push_back("a sphere-sized blob off both tracks: ignored");
+    }
+  }
+  return Ok{};
+}
+
+std::array<double, 2> trackRadii(const std::vector<FrameData>& data) {
+  std::array<double, 2> r_med;
+  for (int s = 0; s < 2; ++s) {
+    std::vector<double> r;
+    for (const FrameData& f : data)
+      if (const SphereMeasurement* m = trackAt(f, s); m && !m->cut_by_border)
+        r.push_back(m->circle.radius);
+    if (r.empty())
+      for (const FrameData& f : data)
+        if (const SphereMeasurement* m = trackAt(f, s)) r.push_back(m->circle.radius);
+    r_med[s] = median(r);
+  }
+  return r_med;
+}
+
+}  // namespace collide::vision
