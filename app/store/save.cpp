@@ -77,6 +77,10 @@ Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
 Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json) {
   auto path = shotPath(dir, id);
   if (!path) return path.error();
+  // One store at a time per folder, across processes: the file and its row
+  // then always agree, whatever order two tasks on one shot run in.
+  auto folder_lock = FileLock::acquire(storeLockPath(dir));
+  if (!folder_lock) return folder_lock.error();
   if (auto stored = storeResults(*path, results_json); !stored) return stored;
   auto catalog = Catalog::open(dir);
   if (!catalog) return catalogError(dir, *path, catalog.error());

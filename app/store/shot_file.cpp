@@ -704,6 +704,8 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
 // analysis (~0.3 s for a 92 MB burst), which is small next to the analysis.
 Status storeResults(const std::string& path, const std::string& results_json) {
   std::lock_guard lock(hdf5Mutex());
+  // Temporary copies left by an earlier store that was killed midway.
+  removeAbandonedTemps(path);
   h5::silenceErrorPrinting();
   if (!results_json.empty()) {
     auto summary = summarizeResults(results_json);

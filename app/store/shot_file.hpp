@@ -73,7 +73,10 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options = 
 /// is copied to a temporary name, the copy updated, then renamed over the
 /// original (see the comment in shot_file.cpp for why not in place).
 /// Errors: the file is not a readable shot file, the results are not JSON,
-/// disk full while copying.
+/// disk full while copying. A store killed midway leaves the file as it was
+/// (and at worst its temporary copy, which the next store into `path` removes:
+/// removeAbandonedTemps). Two stores into one file at once both complete, the
+/// last rename winning; saveResults also serialises them with the catalog row.
 Status storeResults(const std::string& path, const std::string& results_json);
 
 /// "ok" / "failed" (hw::toString's inverse); nullopt for anything else.
