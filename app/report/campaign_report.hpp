@@ -32,6 +32,10 @@ const std::vector<std::string>& excludingFlags();
 /// without shot files. Unreadable files become entries with the reason.
 Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir,
                                                 bool include_flagged = false);
+/// The same for the shot files `files` (several folders, a manifest), in the
+/// given order; a missing or unreadable file becomes an entry with the reason.
+std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& files,
+                                             bool include_flagged = false);
 /// The shots the fits use, in entry order.
 std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries);
 
@@ -43,7 +47,7 @@ struct CampaignFitReport {
 /// Fits the usable shots (analysis/campaign.hpp fitCampaign) and bootstraps
 /// the friction fit (`resamples` >= 10, or 0 for none).
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
-                                         int resamples = 200, std::uint64_t seed = 1);
+                                            int resamples = 200, std::uint64_t seed = 1);
 
 /// The five plots, named for their files: beta_vs_cot (beta against -v_n/v_s
 /// with the fitted Walton line), tangent_form (-v_s'/v_n against -v_s/v_n),
