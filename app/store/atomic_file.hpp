@@ -45,6 +45,10 @@ class AtomicFile {
   /// destructor.
   Status commit();
 
+  /// fsync's the temporary file ahead of commit() (which then has little
+  /// left to flush), e.g. to keep that out of a lock held around commit().
+  Status flush() { return syncTemp(); }
+
   /// What commitIfAbsent() did.
   enum class Outcome { Committed, NameTaken };
 
