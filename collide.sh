@@ -37,6 +37,9 @@ PACKAGES=(
   # The kernel-driver tests (ctest -L vm, tests/vm): Debian's own kernel and
   # the headers to build tests/vm/gpio-sim-collide against, booted under qemu.
   qemu-system-x86 busybox-static cpio kmod linux-image-amd64 linux-headers-amd64
+  # The cluster test (ctest -L cluster, tests/app/slurm_cluster_test.cpp): a
+  # single-node Slurm with its own munge key, started by the test as root.
+  slurm-wlm munge
 )
 
 say() { printf '\033[1m==> %s\033[0m\n' "$*"; }

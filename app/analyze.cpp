@@ -1,5 +1,7 @@
 #include "app/analyze.hpp"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <filesystem>
@@ -86,7 +88,12 @@ Result<AnalyzeFolderReport> analyzeFolder(const std::string& dir,
   if (ec) return fail(dir + ": cannot list the folder: " + ec.message());
   if (files.empty()) return fail(dir + ": no shot files (*.h5) in this folder");
   std::sort(files.begin(), files.end());
+  return analyzeFiles(files, options, progress, std::move(cancel));
+}
 
+AnalyzeFolderReport analyzeFiles(const std::vector<std::string>& files,
+                                 const AnalyzeFolderOptions& options,
+                                 const AnalyzeProgress& progress, std::stop_token cancel) {
   AnalyzeFolderReport report;
   report.outcomes.resize(files.size());
   std::atomic<std::size_t> next{0};
@@ -101,9 +108,15 @@ Result<AnalyzeFolderReport> analyzeFolder(const std::string& dir,
       if (progress) progress(done, static_cast<int>(files.size()), report.outcomes[i]);
     }
   };
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t jobs =
-      std::min<std::size_t>(files.size(), options.jobs > 0 ? options.jobs : cores);
+  // The cores this process may run on: a Slurm task (or taskset) gets fewer
+  // than the machine has.
+  unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (sched_getaffinity(0, sizeof allowed, &allowed) == 0 && CPU_COUNT(&allowed) > 0)
+    cores = static_cast<unsigned>(CPU_COUNT(&allowed));
+  const std::size_t jobs = std::max<std::size_t>(
+      1, std::min<std::size_t>(files.size(), options.jobs > 0 ? options.jobs : cores));
   std::vector<std::jthread> threads;
   for (std::size_t t = 1; t < jobs; ++t) threads.emplace_back(worker);
   worker();

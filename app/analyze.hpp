@@ -53,4 +53,14 @@ Result<AnalyzeFolderReport> analyzeFolder(const std::string& dir,
                                           const AnalyzeProgress& progress = {},
                                           std::stop_token cancel = {});
 
+/// The shot files `files` (from several folders, e.g. a manifest's chunk), in
+/// parallel, outcomes in the given order. Each result is stored into its file
+/// and, for a file named <id>.h5, into its folder's catalog: safe beside other
+/// processes analysing the same folders (saveResults holds the folder's store
+/// lock), and idempotent (the same shot analysed twice stores the same
+/// results). A file that cannot be read is an outcome (failed), not an error.
+AnalyzeFolderReport analyzeFiles(const std::vector<std::string>& files,
+                                 const AnalyzeFolderOptions& options = {},
+                                 const AnalyzeProgress& progress = {}, std::stop_token cancel = {});
+
 }  // namespace collide::app

@@ -2,16 +2,21 @@
 // files and the catalog), or footage recorded elsewhere (--frames, JSON out).
 #include "app/analyze.hpp"
 
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "app/cli/command.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
+#include "app/manifest.hpp"
 #include "app/report/results_json.hpp"
 #include "app/store/atomic_file.hpp"
 #include "vision/footage.hpp"
@@ -38,6 +43,9 @@ struct Options {
   std::string json_out;
   std::string gravity_dir = "down";
   std::string range;  // "FIRST:LAST" frame ids of a camera file
+  std::string manifest;
+  std::optional<long> index;
+  std::optional<long> chunk;
 };
 
 // "A:B", "A:" or ":B" (frame ids, may be negative); false if malformed.
@@ -249,12 +257,102 @@ int analyzeShots(const Options& o) {
   return failed ? kExitFailure : kExitOk;
 }
 
+// `collide analyze --manifest LIST [--index I] [--chunk K]`: one task of a
+// job array (docs/cluster.md).
+int analyzeManifest(const Options& o) {
+  const std::string& list = o.manifest;
+  std::optional<long> index = o.index;
+  std::string index_from = "--index";
+  if (!index) {
+    if (const char* env = std::getenv("SLURM_ARRAY_TASK_ID"); env && *env) {
+      char* end = nullptr;
+      errno = 0;
+      const long v = std::strtol(env, &end, 10);
+      if (errno != 0 || *end != '\0' || end == env) {
+        std::cerr << "collide analyze: SLURM_ARRAY_TASK_ID='" << env
+                  << "' is not a task index: give --index I\n";
+        return kExitBadInput;
+      }
+      index = v;
+      index_from = "SLURM_ARRAY_TASK_ID";
+    }
+  }
+  if (o.chunk && !index) {
+    std::cerr << "collide analyze: --chunk " << *o.chunk
+              << " needs a task index: --index I, or run as a Slurm array task "
+                 "(SLURM_ARRAY_TASK_ID)\n";
+    return kExitBadInput;
+  }
+  auto entries = collide::app::readManifest(list);
+  if (!entries) {
+    std::cerr << "collide analyze: " << entries.error().message << "\n";
+    return kExitBadInput;
+  }
+  const long total = static_cast<long>(entries->size());
+  std::vector<collide::app::ManifestEntry> chunk = *entries;
+  long first = 0;
+  if (index) {
+    const long k = o.chunk.value_or(1);
+    auto c = collide::app::manifestChunk(*entries, list, *index, k);
+    if (!c) {
+      std::cerr << "collide analyze: " << c.error().message
+                << (index_from == "--index" ? "" : " (the index came from SLURM_ARRAY_TASK_ID)")
+                << "\n";
+      return kExitBadInput;
+    }
+    chunk = std::move(*c);
+    first = *index * k;
+  }
+  std::vector<std::string> files;
+  for (const auto& e : chunk) files.push_back(e.path);
+
+  collide::cli::StopOnInterrupt stop;
+  std::unique_ptr<collide::cli::ProgressBar> bar;
+  const auto start = std::chrono::steady_clock::now();
+  auto report = collide::app::analyzeFiles(
+      files, {o.jobs, o.skip_analysed},
+      [&](int done, int n, const collide::app::AnalyzeOutcome& last) {
+        if (!isatty(fileno(stderr))) return;
+        if (!bar) bar = std::make_unique<collide::cli::ProgressBar>("analyze", n);
+        bar->update(done, last.id.empty() ? fs::path(last.file).filename().string() : last.id);
+      },
+      stop.token());
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  bar.reset();
+  // Outcomes come back in chunk order; those a stop request never reached are missing.
+  std::size_t next = 0;
+  for (const auto& out : report.outcomes) {
+    while (next < chunk.size() && chunk[next].path != out.file) ++next;
+    const std::string where =
+        next < chunk.size() ? list + ":" + std::to_string(chunk[next].line) + ": " : "";
+    std::cout << where << describe(out) << "\n";
+  }
+  const long last = first + static_cast<long>(chunk.size()) - 1;
+  char rate[64];
+  std::snprintf(rate, sizeof rate, "%.1f s, %.3f shots/s", seconds,
+                seconds > 0 ? static_cast<double>(report.analysed) / seconds : 0.0);
+  std::cout << list << (index ? " task " + std::to_string(*index) : std::string()) << " (shots "
+            << first << "-" << last << " of " << total << "): " << report.analysed << " analysed, "
+            << report.failed << " could not be analysed, " << report.skipped << " skipped, " << rate
+            << (report.cancelled ? "; stopped on request before the end of the chunk" : "") << "\n";
+  return report.failed > 0 || report.cancelled ? kExitFailure : kExitOk;
+}
+
 void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
   auto o = std::make_shared<Options>();
   sub.add_option("paths", o->paths, "Shot files (.h5) or campaign folders");
   sub.add_option("-j,--jobs", o->jobs, "Shots analysed in parallel (default: one per core)")
       ->check(CLI::NonNegativeNumber);
   sub.add_flag("--skip-analysed", o->skip_analysed, "Leave shots that already have results");
+  sub.add_option("--manifest", o->manifest,
+                 "A text file of shot-file paths, one a line (collide manifest DIR... --out "
+                 "LIST): analyse its chunk --index of --chunk shots, or all of it");
+  sub.add_option("--index", o->index,
+                 "With --manifest: this task's index, from 0 (default: $SLURM_ARRAY_TASK_ID; "
+                 "without either, the whole manifest)");
+  sub.add_option("--chunk", o->chunk,
+                 "With --manifest: shots per task; task I takes lines [I*K, (I+1)*K) (default 1)");
   sub.add_option("--frames", o->frames,
                  "Footage recorded elsewhere: a folder of grey PNG/TIFF frames (name order), "
                  "a video file (AVI/MP4), or a camera file (.mraw/.cihx/.cih, .cine); a folder "
@@ -272,8 +370,21 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
   sub.footer(
       "Shot files: the results are stored in each file and its catalog row; a shot that\n"
       "cannot be analysed keeps its frames and gets results saying why. Ctrl-C stops after\n"
-      "the shots in progress. Exit status: 0 all analysed, 1 some could not be, 2 bad input.");
+      "the shots in progress. Exit status: 0 all analysed, 1 some could not be, 2 bad input.\n"
+      "Safe to run twice, and beside other tasks on the same folders (docs/cluster.md).");
   run = [o] {
+    if (!o->manifest.empty()) {
+      if (!o->paths.empty() || !o->frames.empty()) {
+        std::cerr << "collide analyze: give either --manifest or shot files/folders/--frames, "
+                     "not both\n";
+        return kExitBadInput;
+      }
+      return analyzeManifest(*o);
+    }
+    if (o->index || o->chunk) {
+      std::cerr << "collide analyze: --index and --chunk go with --manifest LIST\n";
+      return kExitBadInput;
+    }
     if (!o->frames.empty()) {
       if (!o->paths.empty()) {
         std::cerr << "collide analyze: give either shot files/folders or --frames, not both\n";

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/cli/command.hpp"
+#include "app/manifest.hpp"
 #include "app/report/campaign_report.hpp"
 #include "app/store/atomic_file.hpp"
 
@@ -18,6 +19,8 @@ using collide::cli::kExitOk;
 
 struct Options {
   std::string dir;
+  std::vector<std::string> dirs;  // several folders: a campaign spread out (docs/cluster.md)
+  std::string manifest;
   std::string out;
   bool include_flagged = false;
   std::string loss = "huber";
@@ -29,12 +32,44 @@ collide::Status writeText(const std::string& path, const std::string& text) {
   return collide::app::writeTextFile(path, text + "\n");
 }
 
-int runFit(const Options& o) {
+// The shots of several folders or of a manifest (the reduce step after a
+// cluster's analysis); one folder as before.
+collide::Result<std::vector<collide::app::CampaignEntry>> loadEntries(const Options& o) {
+  if (o.manifest.empty() && o.dirs.size() == 1)
+    return collide::app::loadCampaign(o.dir, o.include_flagged);
+  std::vector<std::string> files;
+  if (!o.manifest.empty()) {
+    auto m = collide::app::readManifest(o.manifest);
+    if (!m) return m.error();
+    for (const auto& e : *m) files.push_back(e.path);
+  }
+  if (!o.dirs.empty()) {
+    auto listed = collide::app::listShotFiles(o.dirs);
+    if (!listed) return listed.error();
+    files.insert(files.end(), listed->begin(), listed->end());
+  }
+  return collide::app::loadCampaignFiles(files, o.include_flagged);
+}
+
+int runFit(const Options& given) {
+  Options o = given;
+  if (o.dirs.empty() && o.manifest.empty()) {
+    std::cerr << "collide fit: name a campaign folder (or several), or --manifest LIST\n";
+    return kExitBadInput;
+  }
+  if (o.dirs.size() + (o.manifest.empty() ? 0 : 1) > 1 && o.out.empty()) {
+    std::cerr << "collide fit: a campaign from several folders or a manifest needs --out DIR "
+                 "(where fit.json and the plots go)\n";
+    return kExitBadInput;
+  }
+  o.dir = o.dirs.size() == 1 && o.manifest.empty() ? o.dirs[0]
+          : o.manifest.empty()                     ? "the folders' campaign"
+                                                   : o.manifest;
   if (o.resamples > 0 && o.resamples < 10) {
     std::cerr << "collide fit: --bootstrap needs at least 10 resamples (or 0 for none)\n";
     return kExitBadInput;
   }
-  auto entries = collide::app::loadCampaign(o.dir, o.include_flagged);
+  auto entries = loadEntries(o);
   if (!entries) {
     std::cerr << "collide fit: " << entries.error().message << "\n";
     return kExitBadInput;
@@ -107,8 +142,13 @@ int runFit(const Options& o) {
 
 void setupFit(CLI::App& sub, std::function<int()>& run) {
   auto o = std::make_shared<Options>();
-  sub.add_option("dir", o->dir, "Campaign folder of analysed shot files")->required();
-  sub.add_option("--out", o->out, "Folder for fit.json and the plots (default: DIR/fit)");
+  sub.add_option("dir", o->dirs,
+                 "Campaign folder of analysed shot files (several: one campaign spread over them)");
+  sub.add_option("--manifest", o->manifest,
+                 "Fit the shot files a manifest lists (one path a line; see collide manifest)");
+  sub.add_option("--out", o->out,
+                 "Folder for fit.json and the plots (default: DIR/fit; required with several "
+                 "folders or --manifest)");
   sub.add_flag("--include-flagged", o->include_flagged,
                "Also fit shots whose quality flags say their numbers are not to be trusted");
   sub.add_option("--loss", o->loss,

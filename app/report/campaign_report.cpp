@@ -49,7 +49,11 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool inc
     if (e.is_regular_file() && e.path().extension() == ".h5") files.push_back(e.path().string());
   if (files.empty()) return fail(dir + ": no shot files (*.h5) in this folder");
   std::sort(files.begin(), files.end());
+  return loadCampaignFiles(files, include_flagged);
+}
 
+std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& files,
+                                             bool include_flagged) {
   std::vector<CampaignEntry> entries;
   for (const auto& file : files) {
     CampaignEntry entry;
@@ -64,7 +68,8 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool inc
     if (shot->status == hw::ShotStatus::Failed) {
       entry.excluded_because = "failed shot: " + shot->failure_reason;
     } else if (shot->results_json.empty()) {
-      entry.excluded_because = "not analysed (run `collide analyze " + dir + "`)";
+      entry.excluded_because =
+          "not analysed (run `collide analyze " + fs::path(file).parent_path().string() + "`)";
     } else {
       useResults(entry, shot->results_json, include_flagged);
     }

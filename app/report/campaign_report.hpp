@@ -41,6 +41,10 @@ void useResults(CampaignEntry& entry, const std::string& results_json, bool incl
 /// without shot files. Unreadable files become entries with the reason.
 Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir,
                                                 bool include_flagged = false);
+/// The same for the shot files `files` (several folders, a manifest), in the
+/// given order; a missing or unreadable file becomes an entry with the reason.
+std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& files,
+                                             bool include_flagged = false);
 /// The shots the fits use, in entry order.
 std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries);
 

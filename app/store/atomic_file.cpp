@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdio>  // renameat2, RENAME_NOREPLACE
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <random>
 #include <vector>
@@ -22,6 +23,17 @@ namespace {
 std::string folderOf(const std::string& path) {
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   return parent.empty() ? "." : parent.string();
+}
+
+/// An exclusive open-file-description lock on all of `fd`'s file (F_OFD_SETLK
+/// or F_OFD_SETLKW): released when the descriptor is closed, also by the
+/// kernel when the process dies. OFD locks rather than flock: HDF5 flock's the
+/// files it opens, and the two kinds do not interfere. 0 or -1 (errno).
+int lockWhole(int fd, int command) {
+  struct flock lock {};
+  lock.l_type = F_WRLCK;
+  lock.l_whence = SEEK_SET;
+  return ::fcntl(fd, command, &lock);
 }
 
 /// fsync a file or folder by name. Linux flushes the inode's dirty pages
@@ -111,8 +123,9 @@ Result<AtomicFile> AtomicFile::create(const std::string& final_path) {
     for (int i = 0; i < 6; ++i) temp.push_back(kAlphabet[rng() % (sizeof kAlphabet - 1)]);
     const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd >= 0) {
-      ::close(fd);
-      return AtomicFile(final_path, temp);
+      // Held until the AtomicFile dies: the mark of a write in progress.
+      lockWhole(fd, F_OFD_SETLK);
+      return AtomicFile(final_path, temp, fd);
     }
     if (errno != EEXIST) return ioError(errno, "creating", final_path);
   }
@@ -140,12 +153,60 @@ Result<AtomicFile> AtomicFile::createCopyOf(const std::string& source,
 }
 
 AtomicFile::AtomicFile(AtomicFile&& other) noexcept
-    : final_path_(std::move(other.final_path_)), temp_path_(std::move(other.temp_path_)) {
+    : final_path_(std::move(other.final_path_)),
+      temp_path_(std::move(other.temp_path_)),
+      lock_fd_(other.lock_fd_) {
   other.temp_path_.clear();
+  other.lock_fd_ = -1;
 }
 
 AtomicFile::~AtomicFile() {
   if (!temp_path_.empty()) ::unlink(temp_path_.c_str());
+  if (lock_fd_ >= 0) ::close(lock_fd_);
+}
+
+int removeAbandonedTemps(const std::string& final_path) {
+  namespace fs = std::filesystem;
+  const fs::path final_fs(final_path);
+  const std::string prefix = "." + final_fs.filename().string() + ".tmp-";
+  std::error_code ec;
+  const fs::path folder = final_fs.parent_path().empty() ? fs::path(".") : final_fs.parent_path();
+  int removed = 0;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() != prefix.size() + 6 || name.compare(0, prefix.size(), prefix) != 0) continue;
+    const int fd = ::open(entry.path().c_str(), O_RDWR | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0) continue;
+    struct stat st {};
+    const bool ours_to_remove = lockWhole(fd, F_OFD_SETLK) == 0 && ::fstat(fd, &st) == 0 &&
+                                S_ISREG(st.st_mode) &&
+                                (st.st_size > 0 || ::time(nullptr) - st.st_mtime > 60);
+    // Removed while locked: a writer that opens it meanwhile finds it gone.
+    if (ours_to_remove && ::unlink(entry.path().c_str()) == 0) ++removed;
+    ::close(fd);
+  }
+  return removed;
+}
+
+Result<FileLock> FileLock::acquire(const std::string& lock_path) {
+  // O_RDWR: on NFS flock is emulated with POSIX locks, which need a writable descriptor.
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+  if (fd < 0) return ioError(errno, "opening the lock file", lock_path);
+  while (lockWhole(fd, F_OFD_SETLKW) != 0) {
+    if (errno == EINTR) continue;
+    const int err = errno;
+    ::close(fd);
+    return ioError(err, "locking", lock_path);
+  }
+  return FileLock(fd);
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+std::string storeLockPath(const std::string& folder) {
+  return (std::filesystem::path(folder.empty() ? "." : folder) / ".collide-store.lock").string();
 }
 
 Status AtomicFile::syncTemp() {

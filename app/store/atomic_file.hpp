@@ -16,7 +16,10 @@ Error ioError(int errno_value, const std::string& action, const std::string& pat
 
 /// A temporary file next to `finalPath()` that becomes `finalPath()` on
 /// commit(). Until then it is hidden (".name.tmp-XXXXXX") and the destructor
-/// removes it. Move-only; one thread at a time.
+/// removes it. While it lives it holds an exclusive lock (an OFD lock) on the temporary
+/// file, so removeAbandonedTemps() can tell a write in progress (locked) from
+/// one whose process was killed (the kernel dropped its lock). Move-only; one
+/// thread at a time.
 class AtomicFile {
  public:
   /// Creates the (empty) temporary file. Errors: the folder is missing or not
@@ -42,6 +45,10 @@ class AtomicFile {
   /// destructor.
   Status commit();
 
+  /// fsync's the temporary file ahead of commit() (which then has little
+  /// left to flush), e.g. to keep that out of a lock held around commit().
+  Status flush() { return syncTemp(); }
+
   /// What commitIfAbsent() did.
   enum class Outcome { Committed, NameTaken };
 
@@ -59,12 +66,45 @@ class AtomicFile {
   /// fsync's the folder of the final path after a rename.
   Status syncFolder();
 
-  AtomicFile(std::string final_path, std::string temp_path)
-      : final_path_(std::move(final_path)), temp_path_(std::move(temp_path)) {}
+  AtomicFile(std::string final_path, std::string temp_path, int lock_fd)
+      : final_path_(std::move(final_path)), temp_path_(std::move(temp_path)), lock_fd_(lock_fd) {}
 
   std::string final_path_;
   std::string temp_path_;  ///< empty once committed or moved from
+  int lock_fd_ = -1;       ///< holds the flock on the temporary file; -1 once moved from
 };
+
+/// Removes the temporary files of writes to `final_path` that will never
+/// finish (".name.tmp-XXXXXX" whose writer was killed: a SIGKILL, a node
+/// that went down, a Slurm time limit): those no live AtomicFile holds
+/// locked. An empty one is removed only once a minute old (its writer may be
+/// between creating and locking it). Returns how many were removed.
+int removeAbandonedTemps(const std::string& final_path);
+
+/// An exclusive advisory lock (an open-file-description lock) on a lock file,
+/// held until destruction. Works between processes, between threads (each
+/// lock opens the file) and, on NFS, between machines.
+class FileLock {
+ public:
+  /// Blocks until the lock on `lock_path` (created if missing) is held.
+  /// Errors: the file cannot be created or opened (folder read-only).
+  static Result<FileLock> acquire(const std::string& lock_path);
+  FileLock(FileLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+  FileLock& operator=(FileLock&&) = delete;
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  ~FileLock();
+
+ private:
+  explicit FileLock(int fd) : fd_(fd) {}
+  int fd_ = -1;
+};
+
+/// The lock file that serialises storing results into the shots of `folder`
+/// (file and catalog row, saveResults), between threads, processes and
+/// machines sharing the folder: "<folder>/.collide-store.lock". Created by the
+/// first store; it stays in the folder (an empty file).
+std::string storeLockPath(const std::string& folder);
 
 /// Writes `text` to `path` as a user asked for an output file (--json, fit
 /// output, a profile): a new or regular file is replaced atomically (complete

@@ -1,6 +1,7 @@
 #include "app/store/save.hpp"
 
 #include <filesystem>
+#include <functional>
 
 #include "app/store/atomic_file.hpp"
 #include "app/store/catalog.hpp"
@@ -77,12 +78,19 @@ Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
 Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json) {
   auto path = shotPath(dir, id);
   if (!path) return path.error();
-  if (auto stored = storeResults(*path, results_json); !stored) return stored;
-  auto catalog = Catalog::open(dir);
-  if (!catalog) return catalogError(dir, *path, catalog.error());
-  if (auto s = catalog->updateResults(id, results_json); !s)
-    return catalogError(dir, *path, s.error());
-  return Ok{};
+  // One rename and row update at a time per folder, across processes: the
+  // file and its row then always agree, whatever order two tasks storing one
+  // shot run in. The copy each store writes is made outside the lock.
+  return storeResults(*path, results_json, [&](const std::function<Status()>& rename) -> Status {
+    auto folder_lock = FileLock::acquire(storeLockPath(dir));
+    if (!folder_lock) return folder_lock.error();
+    if (auto renamed = rename(); !renamed) return renamed;
+    auto catalog = Catalog::open(dir);
+    if (!catalog) return catalogError(dir, *path, catalog.error());
+    if (auto s = catalog->updateResults(id, results_json); !s)
+      return catalogError(dir, *path, s.error());
+    return Ok{};
+  });
 }
 
 }  // namespace collide::app

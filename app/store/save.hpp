@@ -27,6 +27,9 @@ Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
 
 /// Stores the analysis results of shot `id` (in `dir`/<id>.h5, see
 /// storeResults), then updates its catalog row. Same error rules as saveShot.
+/// Both under the folder's store lock (storeLockPath, a file the first store
+/// creates in `dir`): processes storing into one folder at once (cluster
+/// tasks) take turns, so a file and its row always hold the same results.
 Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json);
 
 }  // namespace collide::app

@@ -725,7 +725,14 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
 // recorded data safe at every instant, at the cost of one sequential copy per
 // analysis (~0.3 s for a 92 MB burst), which is small next to the analysis.
 Status storeResults(const std::string& path, const std::string& results_json) {
+  return storeResults(path, results_json, {});
+}
+
+Status storeResults(const std::string& path, const std::string& results_json,
+                    const CommitHook& at_commit) {
   std::lock_guard lock(hdf5Mutex());
+  // Temporary copies left by an earlier store that was killed midway.
+  removeAbandonedTemps(path);
   h5::silenceErrorPrinting();
   if (!results_json.empty()) {
     auto summary = summarizeResults(results_json);
@@ -752,7 +759,10 @@ Status storeResults(const std::string& path, const std::string& results_json) {
     closeFile(w, file);
     if (!w.ok()) return w.error();
   }
-  return temp->commit();
+  if (!at_commit) return temp->commit();
+  // The slow part (the copy on disk) is done outside the caller's lock.
+  if (auto s = temp->flush(); !s) return s;
+  return at_commit([&] { return temp->commit(); });
 }
 
 }  // namespace collide::app

@@ -8,6 +8,7 @@
 // fsync, rename): a crash or a full disk never leaves a half file behind.
 // All functions may be called from any thread (HDF5 is built thread-safe and
 // serialises its calls); two writers must not target the same path at once.
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -73,8 +74,20 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options = 
 /// is copied to a temporary name, the copy updated, then renamed over the
 /// original (see the comment in shot_file.cpp for why not in place).
 /// Errors: the file is not a readable shot file, the results are not JSON,
-/// disk full while copying.
+/// disk full while copying. A store killed midway leaves the file as it was
+/// (and at worst its temporary copy, which the next store into `path` removes:
+/// removeAbandonedTemps). Two stores into one file at once both complete, the
+/// last rename winning; saveResults also serialises them with the catalog row.
 Status storeResults(const std::string& path, const std::string& results_json);
+
+/// Called by storeResults with the rename that makes the results visible:
+/// it must call `rename` (e.g. under a lock) and return its status.
+using CommitHook = std::function<Status(const std::function<Status()>& rename)>;
+/// storeResults, the updated copy made and flushed first, then `at_commit`
+/// around the rename (saveResults holds the folder's store lock there, and
+/// updates the catalog row before releasing it).
+Status storeResults(const std::string& path, const std::string& results_json,
+                    const CommitHook& at_commit);
 
 /// "ok" / "failed" (hw::toString's inverse); nullopt for anything else.
 std::optional<hw::ShotStatus> parseShotStatus(std::string_view text);
