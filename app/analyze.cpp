@@ -11,6 +11,8 @@
 #include "app/report/results_json.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
+#include "hw/camera_sim.hpp"
+#include "hw/rig_profile.hpp"
 
 namespace collide::app {
 namespace fs = std::filesystem;
@@ -23,6 +25,11 @@ vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
   s.origin_u_px = shot.scene.origin_u_px;
   s.origin_v_px = shot.scene.origin_v_px;
   s.fps = shot.burst.fps > 0 ? shot.burst.fps : shot.camera.fps;
+  // The lens the shot was filmed through, when its profile says (a simulated
+  // camera's perspective imaging): centres through it, not one pixel size.
+  if (auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (recorded profile)")) {
+    if (auto lens = hw::simulatedLens(*profile); lens && *lens) s.camera = **lens;
+  }
   return s;
 }
 

@@ -417,6 +417,18 @@ void CameraSim::run() {
   }
 }
 
+Result<std::optional<PinholeCamera>> simulatedLens(const RigProfile& profile) {
+  if (profile.camera.backend != "sim") return std::optional<PinholeCamera>();
+  SettingsReader r = profile.camera.backendSettings();
+  COLLIDE_ASSIGN_OR_RETURN(const CameraSimSettings settings, CameraSimSettings::read(r));
+  if (!settings.imaging || !settings.imaging->perspective) return std::optional<PinholeCamera>();
+  const GeometryProfile& g = profile.geometry;
+  const vision::Optics o =
+      settings.imaging->optics(profile.camera_config.width, profile.camera_config.height,
+                               {g.origin_u_px, g.origin_v_px}, g.pixel_size_m);
+  return std::optional<PinholeCamera>(o.pinhole());
+}
+
 namespace {
 
 Result<std::unique_ptr<Camera>> makeSim(BackendContext& ctx) {

@@ -68,6 +68,13 @@ struct CameraSimSettings {
   static Result<CameraSimSettings> read(SettingsReader& r);
 };
 
+/// The lens a profile's simulated camera films through, as the analysis'
+/// camera model: its [camera.imaging] perspective lens placed as the camera
+/// places it (region size, geometry.origin_px). None: no simulated camera, or
+/// an orthographic one (pixels are geometry.pixel_size_m apart everywhere).
+/// Errors: the camera's settings do not parse.
+Result<std::optional<PinholeCamera>> simulatedLens(const RigProfile& profile);
+
 class CameraSim final : public Camera {
  public:
   CameraSim(std::shared_ptr<SimWorld> world, CameraSimSettings settings,

@@ -174,7 +174,9 @@ void fillFrames(ShotAnalysis& out, const Burst& burst, const std::vector<FrameDa
 // other sphere's are left out (their radii are not the sphere's).
 void measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
                         const CollisionFits& fits, const AnalysisSettings& set, double px) {
-  if (!(set.camera_distance_m > 0)) return;
+  const double distance = set.camera_distance_m > 0 ? set.camera_distance_m
+                                                    : (set.camera ? set.camera->centre_m.z() : 0);
+  if (!(distance > 0)) return;
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       std::vector<double> t, r, sr;
@@ -190,8 +192,7 @@ void measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
         return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
       };
       const double r_plane = 0.5 * set.diameter_m[s] / px;
-      auto dm =
-          fitDepthMotion(vec(t), vec(r), vec(sr), r_plane, set.camera_distance_m, fits.t_split);
+      auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), r_plane, distance, fits.t_split);
       if (!dm) {
         out.notes.push_back("sphere " + std::to_string(s + 1) +
                             ": no velocity from the apparent size: " + dm.error().message);
@@ -355,7 +356,11 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   if (!px) return px.error();
   ShotAnalysis out;
   out.pixel_size_m = *px;
-  const PixelScale scale{*px, set.origin_u_px, set.origin_v_px};
+  PixelScale scale{*px, set.origin_u_px, set.origin_v_px};
+  if (set.camera) {
+    scale.camera = set.camera;
+    scale.radius_m = {0.5 * diam[0], 0.5 * diam[1]};
+  }
   Eigen::Vector2d gdir(set.gravity_dir_image[0], set.gravity_dir_image[1]);
   if (!(gdir.norm() > 0)) return fail("gravity_dir_image must be a non-zero direction");
   gdir.normalize();

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/trajectory.hpp"
 #include "analysis/types.hpp"
@@ -68,6 +69,14 @@ struct AnalysisSettings {
   /// track gives the sphere's velocity towards the camera
   /// (SphereKinematics::vz_from_size_m_s); 0: unknown, not measured.
   double camera_distance_m = 0.0;
+  /// The camera's lens when it is known (a camera calibration, or the
+  /// simulated camera's [camera.imaging] perspective lens): sphere centres are
+  /// then turned into metres through it, distortion removed and each
+  /// silhouette's centre taken back to its sphere's (under perspective they
+  /// differ), on the collision plane z = 0. pixel_size_m still gives the
+  /// expected radii; camera_distance_m defaults to the lens' distance. None:
+  /// pixels are pixel_size_m apart everywhere.
+  std::optional<PinholeCamera> camera;
   /// Optional progress callback (frames processed, total); may be empty.
   std::function<void(int, int)> progress;
 };

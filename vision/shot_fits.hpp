@@ -6,16 +6,26 @@
 #include <optional>
 #include <vector>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/trajectory.hpp"
 #include "vision/shot_tracking.hpp"
 
 namespace collide::vision {
 
-/// Image pixels to world metres: x = (u - origin_u) s, y = -(v - origin_v) s.
+/// Image pixels to world metres on the collision plane: through the lens when
+/// it is known (AnalysisSettings::camera), else x = (u - origin_u) s,
+/// y = -(v - origin_v) s.
 struct PixelScale {
   double px = 0;  ///< metres per pixel
   double ou = 0, ov = 0;
+  std::optional<PinholeCamera> camera;
+  std::array<double, 2> radius_m{0, 0};  ///< each sphere's, for the silhouette correction
+  /// World (x, y) of the centre of sphere `sphere` whose outline is `c`.
+  Eigen::Vector2d world(const CircleFit& c, int sphere) const {
+    if (!camera) return {(c.u - ou) * px, -(c.v - ov) * px};
+    return camera->sphereCentre(c.u, c.v, radius_m[sphere]).head<2>();
+  }
 };
 
 struct SideFit {
