@@ -25,7 +25,7 @@ JOBS="${JOBS:-$(nproc)}"
 # Debian 12 packages the project needs to build, test and run.
 PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config git
-  libeigen3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
+  libeigen3-dev libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev libopencv-calib3d-dev
   libhdf5-dev libsqlite3-dev libtomlplusplus-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libaravis-dev aravis-tools libusb-1.0-0-dev libgpiod-dev gpiod libmodbus-dev libv4l-dev

@@ -12,7 +12,8 @@ cv::Mat to8bit(const cv::Mat& image) {
   double lo = 0, hi = 0;
   cv::minMaxLoc(image, &lo, &hi);
   cv::Mat out;
-  image.convertTo(out, CV_8U, hi > lo ? 255.0 / (hi - lo) : 1.0, hi > lo ? -lo * 255.0 / (hi - lo) : 0);
+  image.convertTo(out, CV_8U, hi > lo ? 255.0 / (hi - lo) : 1.0,
+                  hi > lo ? -lo * 255.0 / (hi - lo) : 0);
   return out;
 }
 
@@ -61,7 +62,8 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
   }
   if (plane_slot < 0)
     return fail("the chessboard was not found in the plane picture (" +
-                std::to_string(plane_image) + "): without it the collision plane's distance is "
+                std::to_string(plane_image) +
+                "): without it the collision plane's distance is "
                 "unknown; show the whole board lying in the collision plane");
   if (found.size() < 3)
     return fail("the chessboard was found in " + std::to_string(found.size()) + " of " +
@@ -70,8 +72,8 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
   cv::Mat K, dist;
   std::vector<cv::Mat> rvecs, tvecs;
   // k1, k2, p1, p2 (the model's), no k3.
-  const double rms = cv::calibrateCamera(object, found, size, K, dist, rvecs, tvecs,
-                                         cv::CALIB_FIX_K3);
+  const double rms =
+      cv::calibrateCamera(object, found, size, K, dist, rvecs, tvecs, cv::CALIB_FIX_K3);
   if (!std::isfinite(rms)) return fail("the calibration did not converge");
   const double fx = K.at<double>(0, 0), fy = K.at<double>(1, 1);
   PinholeCamera& c = out.camera;
@@ -83,10 +85,12 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
   // The plane picture: the board's normal in camera axes and its distance.
   cv::Mat R;
   cv::Rodrigues(rvecs[plane_slot], R);
-  const double nz = std::abs(R.at<double>(2, 2));
-  out.plane_tilt_deg = std::acos(std::min(1.0, nz)) * 180.0 / 3.14159265358979323846;
   const cv::Mat& t = tvecs[plane_slot];
-  const double distance = t.at<double>(2) * nz;  // along the optical axis to the plane
+  const double n[3] = {R.at<double>(0, 2), R.at<double>(1, 2), R.at<double>(2, 2)};
+  out.plane_tilt_deg = std::acos(std::min(1.0, std::abs(n[2]))) * 180.0 / 3.14159265358979323846;
+  // Where the optical axis meets the board's plane n . X = n . t.
+  const double distance =
+      (n[0] * t.at<double>(0) + n[1] * t.at<double>(1) + n[2] * t.at<double>(2)) / n[2];
   c.centre_m = Vec3(0, 0, distance);
   out.focal_aspect = fy / fx;
   out.rms_px = rms;

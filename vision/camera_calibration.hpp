@@ -22,11 +22,11 @@ struct CameraCalibration {
   /// The lens, with centre_m = (0, 0, plane distance): the camera looks along
   /// -z at the collision plane z = 0, the world origin on the optical axis.
   PinholeCamera camera;
-  double focal_aspect = 1.0;      ///< fy / fx as fitted (1 for square pixels)
-  double rms_px = 0.0;            ///< reprojection error over every corner used
-  double plane_tilt_deg = 0.0;    ///< the plane picture's board against the image plane
-  int images_used = 0;            ///< pictures in which the board was found
-  std::vector<std::string> notes; ///< pictures left out and why
+  double focal_aspect = 1.0;       ///< fy / fx as fitted (1 for square pixels)
+  double rms_px = 0.0;             ///< reprojection error over every corner used
+  double plane_tilt_deg = 0.0;     ///< the plane picture's board against the image plane
+  int images_used = 0;             ///< pictures in which the board was found
+  std::vector<std::string> notes;  ///< pictures left out and why
 };
 
 /// Calibrates from `images` (8- or 16-bit grey; at least 3 with the board
