@@ -34,6 +34,7 @@
 #include "analysis/walton.hpp"
 #include "app/analyze.hpp"
 #include "app/campaign.hpp"
+#include "app/report/results_json.hpp"
 #include "app/rig_setup.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
@@ -123,21 +124,6 @@ struct PresetResult {
   int frames = 0, max_frames = 0;
   double worst_shot_ms = 0;
 };
-
-CampaignShot campaignPoint(const vision::CollisionProperties& c) {
-  CampaignShot p;
-  p.v_n_m_s = c.vn_m_s.value;
-  p.v_n_sigma_m_s = c.vn_m_s.sigma;
-  p.v_s_m_s = c.vs_m_s.value;
-  p.v_s_sigma_m_s = c.vs_m_s.sigma;
-  p.e = c.e.value;
-  p.e_sigma = c.e.sigma;
-  p.beta = c.beta.value;
-  p.beta_sigma = c.beta.sigma;
-  p.f = c.f.value;
-  p.f_sigma = c.f.sigma;
-  return p;
-}
 
 void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>& tb,
                      const std::array<Sphere, 2>& ta) {
@@ -265,7 +251,7 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
     const vision::CollisionProperties& c = r->collision;
     if (r->quality_flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 &&
         c.e.sigma > 0)
-      out.points.push_back(campaignPoint(c));
+      out.points.push_back(app::campaignShotFrom(c));
     const double e_err = c.e.value - truth->e, b_err = c.beta.value - truth->beta;
     const double g_err = c.gamma_deg.value - truth->before.gamma_rad * 180 / std::numbers::pi;
     const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||

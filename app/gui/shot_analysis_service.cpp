@@ -5,8 +5,8 @@
 #include <filesystem>
 
 #include "app/analyze.hpp"
-#include "app/store/catalog.hpp"
 #include "app/report/results_json.hpp"
+#include "app/store/catalog.hpp"
 #include "app/store/shot_file.hpp"
 
 namespace collide::gui {
@@ -22,17 +22,7 @@ Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot) {
 
 std::optional<CampaignShot> campaignPoint(const vision::ShotAnalysis& a) {
   const vision::CollisionProperties& c = a.collision;
-  CampaignShot s;
-  s.v_n_m_s = c.vn_m_s.value;
-  s.v_n_sigma_m_s = c.vn_m_s.sigma;
-  s.v_s_m_s = c.vs_m_s.value;
-  s.v_s_sigma_m_s = c.vs_m_s.sigma;
-  s.e = c.e.value;
-  s.e_sigma = c.e.sigma;
-  s.beta = c.beta.value;
-  s.beta_sigma = c.beta.sigma;
-  s.f = c.f.value;
-  s.f_sigma = c.f.sigma;
+  const CampaignShot s = app::campaignShotFrom(c);
   if (!(s.v_n_m_s < 0) || !std::isfinite(s.e) || !std::isfinite(s.v_s_m_s)) return std::nullopt;
   return s;
 }

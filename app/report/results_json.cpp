@@ -185,6 +185,10 @@ Result<CampaignShot> toCampaignShot(const ShotResults& r) {
       {"collision.vn_m_s", &c.vn_m_s}, {"collision.vs_m_s", &c.vs_m_s}, {"collision.e", &c.e}};
   for (const auto& [name, m] : needed)
     if (!std::isfinite(m->value)) return fail(std::string("no ") + name + " in the results");
+  return campaignShotFrom(c);
+}
+
+CampaignShot campaignShotFrom(const vision::CollisionProperties& c) {
   CampaignShot s;
   s.v_n_m_s = c.vn_m_s.value;
   s.v_n_sigma_m_s = std::isfinite(c.vn_m_s.sigma) ? c.vn_m_s.sigma : 0.0;

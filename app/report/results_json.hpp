@@ -51,6 +51,10 @@ struct ShotResults {
 /// (named, e.g. "collision.e").
 Result<ShotResults> parseResultsJson(const std::string& json);
 
+/// A shot's collision as the campaign fits take it (non-finite sigmas of
+/// v_n, v_s and f become 0; the values are copied as they are).
+CampaignShot campaignShotFrom(const vision::CollisionProperties& collision);
+
 /// The shot as the campaign fits see it. Errors: the analysis failed, or a
 /// quantity the fits need is missing (named).
 Result<CampaignShot> toCampaignShot(const ShotResults& results);
