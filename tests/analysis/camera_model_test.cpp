@@ -51,7 +51,7 @@ TEST(CameraModel, SphereCentreFromItsPerspectiveSilhouette) {
   PinholeCamera c = labCamera();
   c.k1 = c.k2 = c.p1 = c.p2 = 0;  // the silhouette is an ellipse in ideal coordinates
   const double radius = 0.0127;
-  for (const Vec3 centre :
+  for (const Vec3& centre :
        {Vec3(0.07, 0.05, 0), Vec3(-0.09, 0.01, 0), Vec3(0.0, -0.07, 0), Vec3(0.02, 0.0, 0)}) {
     // The silhouette's two ends along the radial line through the centre's
     // image, by bisection on ray-sphere intersection; their midpoint is the
@@ -77,7 +77,9 @@ TEST(CameraModel, SphereCentreFromItsPerspectiveSilhouette) {
     const Vec3 found = c.sphereCentre(u, v, radius, 0.0);
     EXPECT_LT((found - centre).norm(), 1e-8) << centre.transpose();
     // ... by a shift that matters at a hundredth of a pixel (~2 um here).
-    if (centre.head<2>().norm() > 0.05) EXPECT_GT((naive - centre).norm(), 5e-6);
+    if (centre.head<2>().norm() > 0.05) {
+      EXPECT_GT((naive - centre).norm(), 5e-6);
+    }
   }
 }
 
