@@ -11,7 +11,9 @@
 #include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 #include "app/report/results_summary.hpp"
@@ -665,12 +667,32 @@ Result<hw::Shot> readShotLocked(const std::string& path, const ReadOptions& opti
   return shot;
 }
 
+// CPU seconds (user + system) process `pid` has used, from /proc; NaN if unknown.
+double cpuSeconds(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), {});
+  const auto close = text.rfind(')');  // the command name may hold spaces
+  if (close == std::string::npos) return NAN;
+  std::istringstream fields(text.substr(close + 2));
+  std::string f;
+  double ticks = 0;
+  for (int i = 3; i <= 15 && fields >> f; ++i)
+    if (i == 14 || i == 15) ticks += std::atof(f.c_str());  // utime, stime
+  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+enum class Probe { Fine, Stalled };
+
 /// Reads `path` in a forked child and reports whether the child died of a
 /// signal. The caller holds hdf5Mutex(), so no other thread of ours is inside
 /// HDF5 at the fork and the child cannot inherit a held library lock.
-Status probeInChild(const std::string& path, const ReadOptions& options) {
+/// A child that outlives its time limit while working is reading a file the
+/// library loops on (an error); one that outlives it idle inherited another
+/// thread's lock at the fork (seen under AddressSanitizer with analysis
+/// threads busy): Stalled, not the file's fault.
+Result<Probe> probeInChild(const std::string& path, const ReadOptions& options) {
   const pid_t pid = ::fork();
-  if (pid < 0) return Ok{};  // cannot fork: read unprotected rather than not at all
+  if (pid < 0) return Probe::Fine;  // cannot fork: read unprotected rather than not at all
   if (pid == 0) {
     ReadOptions inner = options;
     inner.contained = false;
@@ -689,9 +711,11 @@ Status probeInChild(const std::string& path, const ReadOptions& options) {
     const pid_t done = ::waitpid(pid, &status, WNOHANG);
     if (done == pid || (done < 0 && errno != EINTR)) break;
     if (std::chrono::steady_clock::now() > deadline) {
+      const double cpu = cpuSeconds(pid);
       ::kill(pid, SIGKILL);
       while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
       }
+      if (std::isfinite(cpu) && cpu < 0.1 * limit_s) return Probe::Stalled;
       return fail("shot file " + path + " is corrupt: reading it did not finish within " +
                   std::to_string(static_cast<int>(limit_s)) +
                   " s (the HDF5 library loops on it); restore it from a backup, or move it out "
@@ -705,15 +729,20 @@ Status probeInChild(const std::string& path, const ReadOptions& options) {
     return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" +
                 sigabbrev_np(sig) + "); restore it from a backup, or move it out of the folder");
   }
-  return Ok{};
+  return Probe::Fine;
 }
 
 }  // namespace
 
 Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
   std::lock_guard lock(hdf5Mutex());
-  if (options.contained)
-    if (auto probe = probeInChild(path, options); !probe) return probe.error();
+  // A stalled child is tried once more; twice stalled, the file is read here
+  // (it did not make the library loop: the child sat idle).
+  for (int attempt = 0; options.contained && attempt < 2; ++attempt) {
+    auto probe = probeInChild(path, options);
+    if (!probe) return probe.error();
+    if (*probe == Probe::Fine) break;
+  }
   return readShotLocked(path, options);
 }
 
