@@ -51,15 +51,24 @@ Result<Aim> aimAt(const hw::RigProfile& p, double incidence_deg,
 
 // The largest incidence in [0, wanted] that can be aimed at these speeds
 // (bisection: the aimable angles run from head-on up to a limit).
-std::optional<double> largestAimable(const hw::RigProfile& p, double wanted_deg,
-                                     const std::array<double, 2>& speed) {
-  if (!aimAt(p, 0.0, speed)) return std::nullopt;
+// The largest angle in [0, wanted] (one decimal, on the feasible side) for
+// which `feasible` holds, by bisection (the feasible angles run from head-on
+// up to a limit); none when head-on is not feasible either.
+template <class Feasible>
+std::optional<double> largestAngle(double wanted_deg, const Feasible& feasible) {
+  if (!feasible(0.0)) return std::nullopt;
   double lo = 0.0, hi = wanted_deg;
   for (int i = 0; i < 30 && hi - lo > 0.01; ++i) {
     const double mid = 0.5 * (lo + hi);
-    (aimAt(p, mid, speed) ? lo : hi) = mid;
+    (feasible(mid) ? lo : hi) = mid;
   }
-  return std::floor(lo * 10) / 10;  // one decimal, on the feasible side
+  return std::floor(lo * 10) / 10;
+}
+
+// The largest incidence in [0, wanted] that can be aimed at these speeds.
+std::optional<double> largestAimable(const hw::RigProfile& p, double wanted_deg,
+                                     const std::array<double, 2>& speed) {
+  return largestAngle(wanted_deg, [&](double g) { return static_cast<bool>(aimAt(p, g, speed)); });
 }
 
 // The smallest common scale (>= 1, at most `max_scale`) of both speeds at
@@ -139,16 +148,14 @@ Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& requ
   auto aim = aimAt(free, request.incidence_deg, request.speed_m_s);
   if (!aim) {
     const auto largest = largestAimable(free, request.incidence_deg, request.speed_m_s);
+    const double max_scale = v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]);
     std::optional<PlanRequest> nearest;
     if (largest) {
       nearest = request;
       nearest->incidence_deg = *largest;
-    } else if (const auto faster_head_on =
-                   fasterAimable(free, 0.0, request.speed_m_s,
-                                 v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]));
+    } else if (const auto faster_head_on = fasterAimable(free, 0.0, request.speed_m_s, max_scale);
                faster_head_on &&
-               !fasterAimable(free, request.incidence_deg, request.speed_m_s,
-                              v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]))) {
+               !fasterAimable(free, request.incidence_deg, request.speed_m_s, max_scale)) {
       // Too slow for any angle and too grazing at any speed: faster, then
       // as near the angle as that speed allows.
       const auto angle = largestAimable(free, request.incidence_deg, *faster_head_on);
@@ -158,8 +165,7 @@ Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& requ
         nearest->incidence_deg = *angle;
       }
     } else if (const auto faster =
-                   fasterAimable(free, request.incidence_deg, request.speed_m_s,
-                                 v_hi / std::max(request.speed_m_s[0], request.speed_m_s[1]))) {
+                   fasterAimable(free, request.incidence_deg, request.speed_m_s, max_scale)) {
       nearest = request;
       nearest->speed_m_s = *faster;
     }
@@ -178,11 +184,9 @@ Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& requ
       return a && a->slide_offset_m >= (*travel)[0] && a->slide_offset_m <= (*travel)[1];
     };
     std::optional<PlanRequest> nearest;
-    if (inside(0.0)) {
-      double lo = 0.0, hi = request.incidence_deg;
-      while (hi - lo > 0.01) (inside(0.5 * (lo + hi)) ? lo : hi) = 0.5 * (lo + hi);
+    if (const auto angle = largestAngle(request.incidence_deg, inside)) {
       nearest = request;
-      nearest->incidence_deg = std::floor(lo * 10) / 10;
+      nearest->incidence_deg = *angle;
     }
     return refuse(infeasible,
                   describeRequest(request) + " needs launcher " + profile.launchers[1].name +
