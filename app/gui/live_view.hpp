@@ -3,13 +3,17 @@
 // rate (the acquisition thread only swaps a pointer to publish, so the view
 // can never stall acquisition; frames in between are simply not shown) and
 // draws it. Detection overlays come from an optional detector run on a worker
-// thread for the shown frames only, never on the acquisition thread.
+// thread for the shown frames only, never on the acquisition thread. Beside
+// the image, as in a vendor viewer: the camera's exposure, gain, frame rate,
+// region of interest and format, and the frame's histogram with a saturation
+// warning; a crosshair over the image.
 #include <QElapsedTimer>
 #include <QFutureWatcher>
 #include <QTimer>
 #include <QWidget>
 #include <functional>
 
+#include "app/gui/histogram_view.hpp"
 #include "app/gui/image_view.hpp"
 #include "app/gui/rig_worker.hpp"
 
@@ -42,15 +46,25 @@ class LiveView : public QWidget {
   /// last one was drawn.
   std::uint64_t framesShown() const { return shown_; }
   ImageView* imageView() const { return view_; }
+  HistogramView* histogramView() const { return histogram_; }
+  /// The saturation warning under the histogram (empty when nothing saturates).
+  QString saturationWarning() const;
+  /// The camera settings shown beside the image.
+  QString cameraSettingsText() const;
 
  private:
   void refresh();
+  void showCameraSettings();
 
   CameraPtr camera_;
   Detector detector_;
   ImageView* view_ = nullptr;
   QLabel* info_ = nullptr;
   QCheckBox* overlays_ = nullptr;
+  QCheckBox* crosshair_ = nullptr;
+  HistogramView* histogram_ = nullptr;
+  QLabel* saturation_ = nullptr;
+  QLabel* settings_ = nullptr;
   QTimer timer_;
   std::uint64_t last_published_ = 0;
   std::uint64_t shown_ = 0;

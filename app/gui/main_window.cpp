@@ -21,6 +21,7 @@
 #include <QVBoxLayout>
 #include <QtConcurrent/QtConcurrentRun>
 
+#include "app/footage_shot.hpp"
 #include "app/gui/calibration_dialog.hpp"
 #include "app/gui/campaign_view.hpp"
 #include "app/gui/live_view.hpp"
@@ -29,6 +30,7 @@
 #include "app/gui/shot_browser.hpp"
 #include "app/report/results_json.hpp"
 #include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
 
 namespace collide::gui {
 namespace {
@@ -229,11 +231,19 @@ MainWindow::~MainWindow() {
 
 void MainWindow::buildMenus() {
   QMenu* file = menuBar()->addMenu(tr("&File"));
-  file->addAction(tr("&Open rig profile..."), this, [this] {
+  file->addAction(tr("&Open rig profile..."), QKeySequence::Open, this, [this] {
     const QString path = QFileDialog::getOpenFileName(this, tr("Rig profile"), profile_path_,
                                                       tr("Rig profiles (*.toml)"));
     if (!path.isEmpty()) loadProfile(path);
   });
+  file->addAction(
+      tr("Open shot or &footage..."), QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_O), this, [this] {
+        const QString path = QFileDialog::getOpenFileName(
+            this, tr("Shot file or camera footage"), shots_dir_,
+            tr("Shots and footage (*.h5 *.mraw *.cih *.cihx *.cine *.b16 *.avi *.mp4 *.mkv);;"
+               "All files (*)"));
+        if (!path.isEmpty()) openRecording(path);
+      });
   file->addAction(tr("&Shot folder..."), this, [this] {
     const QString dir = QFileDialog::getExistingDirectory(this, tr("Shot folder"), shots_dir_);
     if (!dir.isEmpty()) setShotsDir(dir);
@@ -396,6 +406,47 @@ void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag, QS
     replay_view_->resultCard()->setMessage(id, message);
   if (tag != "fired" && tag != "replay") statusBar()->showMessage(message, 8000);
   emit shotAnalysed(id, false);
+}
+
+void MainWindow::openRecording(const QString& path) {
+  app::FootageShotOptions options;
+  if (profile_) options.diameter_m = profile_->spheres.diameter_m;
+  const bool shot_file = path.endsWith(".h5", Qt::CaseInsensitive);
+  auto* watcher = new QFutureWatcher<std::pair<ShotPtr, QString>>(this);
+  connect(watcher, &QFutureWatcher<std::pair<ShotPtr, QString>>::finished, this,
+          [this, watcher, path, shot_file, options] {
+            auto [shot, error] = watcher->result();
+            watcher->deleteLater();
+            QApplication::restoreOverrideCursor();
+            if (!shot) {
+              showMessage(tr("Could not open %1: %2").arg(path, error));
+              emit recordingOpened(path, error);
+              return;
+            }
+            showShot(shot);
+            replay_file_ = shot_file ? path : QString();
+            replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
+            // Footage has no shot file: its results are shown, not stored.
+            runner_->analyze(shot, shot_file ? "replay" : "footage", replay_file_);
+            if (!shot_file)
+              showMessage(tr("%1: %2 frames at %3 frames/s; spheres taken as %4 and %5 mm across "
+                             "(from %6)")
+                              .arg(path)
+                              .arg(shot->burst.frames.size())
+                              .arg(shot->burst.fps, 0, 'g', 6)
+                              .arg(options.diameter_m[0] * 1e3, 0, 'f', 2)
+                              .arg(options.diameter_m[1] * 1e3, 0, 'f', 2)
+                              .arg(profile_ ? tr("the rig profile") : tr("the default, 25.4 mm")),
+                          MessageKind::Info);
+            emit recordingOpened(path, {});
+          });
+  QApplication::setOverrideCursor(Qt::WaitCursor);
+  const std::string file = path.toStdString();
+  watcher->setFuture(QtConcurrent::run([file, shot_file, options]() -> std::pair<ShotPtr, QString> {
+    Result<hw::Shot> shot = shot_file ? app::readShot(file) : app::shotFromFootage(file, options);
+    if (!shot) return {nullptr, QString::fromStdString(shot.error().message)};
+    return {std::make_shared<const hw::Shot>(std::move(shot).value()), {}};
+  }));
 }
 
 void MainWindow::storeResults(const QString& file, const std::string& id, std::string json) {

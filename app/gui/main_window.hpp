@@ -76,8 +76,15 @@ class MainWindow : public QMainWindow {
   void saveUnsavedShotTo(const QString& dir);
 
   void openCalibrationDialog();
+  /// Opens a recording in Replay and analyses it (results not stored): a shot
+  /// file (.h5) or footage from another program (Photron .mraw/.cih/.cihx,
+  /// Phantom .cine, pco .b16, a video). Read on a worker; recordingOpened says
+  /// how it went.
+  void openRecording(const QString& path);
 
  signals:
+  /// A recording opened with openRecording is in Replay (error empty), or why not.
+  void recordingOpened(QString path, QString error);
   /// A shot's analysis finished (or failed) and is on the result card.
   void shotAnalysed(QString shot_id, bool ok);
   /// A shot's results were written into its file and catalog row (or not: `error`).

@@ -1,13 +1,18 @@
 #include "app/gui/replay_view.hpp"
 
 #include <QCheckBox>
+#include <QComboBox>
+#include <QFileDialog>
 #include <QHBoxLayout>
 #include <QLabel>
 #include <QPushButton>
+#include <QShortcut>
 #include <QSlider>
 #include <QSplitter>
 #include <QVBoxLayout>
 #include <cmath>
+
+#include "vision/frame_io.hpp"
 
 namespace collide::gui {
 namespace {
@@ -147,16 +152,50 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   auto* last = button(">|", "last_frame");
   for (auto* b : {first, prev, next, last}) b->setMaximumWidth(44);
   play_->setMaximumWidth(70);
+  first->setToolTip(tr("First frame (Home)"));
+  prev->setToolTip(tr("Previous frame (Left; Shift+Left: 10 back)"));
+  play_->setToolTip(tr("Play / pause (Space)"));
+  next->setToolTip(tr("Next frame (Right; Shift+Right: 10 on)"));
+  last->setToolTip(tr("Last frame (End)"));
   frame_label_ = new QLabel;
   frame_label_->setObjectName("frame_label");
   row->addWidget(frame_label_, 1);
+  layout->addLayout(row);
+
+  // Second row: how to play, what to draw, what to export.
+  auto* tools = new QHBoxLayout;
+  speed_ = new QComboBox;
+  speed_->setObjectName("playback_speed");
+  for (int fps : {2, 5, 10, 25, 50, 100}) speed_->addItem(tr("%1 frames/s").arg(fps), fps);
+  speed_->setCurrentIndex(3);
+  speed_->setToolTip(tr("Playback speed: frames shown per second of screen time"));
+  speed_->setFocusPolicy(Qt::StrongFocus);  // the wheel only once clicked
+  loop_ = new QCheckBox(tr("loop"));
+  loop_->setObjectName("loop");
+  reverse_ = new QCheckBox(tr("reverse"));
+  reverse_->setObjectName("reverse");
   show_analysis_ = new QCheckBox(tr("analysis"));
   show_analysis_->setChecked(true);
   show_truth_ = new QCheckBox(tr("ground truth"));
-  row->addWidget(show_analysis_);
-  row->addWidget(show_truth_);
-  reanalyse_ = button(tr("Re-run analysis"), "reanalyse");
-  layout->addLayout(row);
+  crosshair_ = new QCheckBox(tr("crosshair"));
+  crosshair_->setObjectName("crosshair");
+  for (QWidget* w :
+       std::initializer_list<QWidget*>{new QLabel(tr("play at")), speed_, loop_, reverse_,
+                                       show_analysis_, show_truth_, crosshair_})
+    tools->addWidget(w);
+  tools->addStretch(1);
+  marks_ = new QLabel;
+  marks_->setObjectName("export_marks");
+  tools->addWidget(marks_);
+  auto* export_frames = new QPushButton(tr("Export frames..."));
+  export_frames->setObjectName("export_frames");
+  export_frames->setToolTip(
+      tr("Write the frames from the in mark to the out mark (keys I and O) as PNG files"));
+  tools->addWidget(export_frames);
+  reanalyse_ = new QPushButton(tr("Re-run analysis"));
+  reanalyse_->setObjectName("reanalyse");
+  tools->addWidget(reanalyse_);
+  layout->addLayout(tools);
   splitter->addWidget(left);
 
   card_ = new ResultCard;
@@ -172,28 +211,103 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   connect(last, &QPushButton::clicked, this, [this] { showFrame(frameCount() - 1); });
   connect(show_analysis_, &QCheckBox::toggled, this, &ReplayView::redraw);
   connect(show_truth_, &QCheckBox::toggled, this, &ReplayView::redraw);
+  connect(crosshair_, &QCheckBox::toggled, view_, &ImageView::setCrosshair);
   connect(reanalyse_, &QPushButton::clicked, this, [this] {
     if (shot_) emit reanalyseRequested(shot_);
   });
-  play_timer_.setInterval(40);
-  connect(&play_timer_, &QTimer::timeout, this, [this] {
-    if (index_ + 1 >= frameCount()) {
-      play_timer_.stop();
-      play_->setText(tr("Play"));
-    } else {
-      showFrame(index_ + 1);
-    }
+  connect(export_frames, &QPushButton::clicked, this, &ReplayView::chooseExportFolder);
+  connect(speed_, &QComboBox::currentIndexChanged, this, [this] {
+    play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
   });
-  connect(play_, &QPushButton::clicked, this, [this] {
-    if (play_timer_.isActive()) {
-      play_timer_.stop();
-      play_->setText(tr("Play"));
-    } else {
-      if (index_ + 1 >= frameCount()) showFrame(0);
-      play_timer_.start();
-      play_->setText(tr("Pause"));
-    }
-  });
+  play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
+  connect(&play_timer_, &QTimer::timeout, this, &ReplayView::playStep);
+  connect(play_, &QPushButton::clicked, this, &ReplayView::togglePlay);
+
+  // Keys anywhere in the view (the image, the slider, the buttons).
+  auto key = [this](QKeySequence k, auto f) {
+    auto* s = new QShortcut(k, this);
+    s->setContext(Qt::WidgetWithChildrenShortcut);
+    connect(s, &QShortcut::activated, this, f);
+  };
+  key(Qt::Key_Left, [this] { showFrame(index_ - 1); });
+  key(Qt::Key_Right, [this] { showFrame(index_ + 1); });
+  key(QKeySequence(Qt::SHIFT | Qt::Key_Left), [this] { showFrame(index_ - 10); });
+  key(QKeySequence(Qt::SHIFT | Qt::Key_Right), [this] { showFrame(index_ + 10); });
+  key(Qt::Key_Home, [this] { showFrame(0); });
+  key(Qt::Key_End, [this] { showFrame(frameCount() - 1); });
+  key(Qt::Key_Space, [this] { togglePlay(); });
+  key(Qt::Key_I, [this] { setMark(true); });
+  key(Qt::Key_O, [this] { setMark(false); });
+}
+
+double ReplayView::playbackRate() const {
+  return speed_->currentData().toDouble();
+}
+
+void ReplayView::togglePlay() {
+  if (!shot_ || frameCount() == 0) return;
+  if (play_timer_.isActive()) {
+    play_timer_.stop();
+    play_->setText(tr("Play"));
+    return;
+  }
+  // From the far end, a new pass starts at the other one.
+  const bool back = reverse_->isChecked();
+  if (!back && index_ + 1 >= frameCount()) showFrame(0);
+  if (back && index_ <= 0) showFrame(frameCount() - 1);
+  play_timer_.start();
+  play_->setText(tr("Pause"));
+}
+
+void ReplayView::playStep() {
+  const int step = reverse_->isChecked() ? -1 : 1;
+  const int next = index_ + step;
+  if (next >= 0 && next < frameCount()) return showFrame(next);
+  if (loop_->isChecked()) return showFrame(step > 0 ? 0 : frameCount() - 1);
+  play_timer_.stop();
+  play_->setText(tr("Play"));
+}
+
+void ReplayView::setMark(bool in) {
+  if (!shot_ || frameCount() == 0) return;
+  if (in) {
+    mark_in_ = index_;
+    mark_out_ = std::max(mark_out_, mark_in_);
+  } else {
+    mark_out_ = index_;
+    mark_in_ = std::min(mark_in_, mark_out_);
+  }
+  updateMarkLabel();
+}
+
+void ReplayView::updateMarkLabel() {
+  if (!shot_ || frameCount() == 0) return marks_->clear();
+  marks_->setText(tr("export %1 to %2 (%3 frames; I/O to mark)")
+                      .arg(mark_in_ + 1)
+                      .arg(mark_out_ + 1)
+                      .arg(mark_out_ - mark_in_ + 1));
+}
+
+QString ReplayView::exportMarkedFrames(const QString& dir) {
+  if (!shot_ || frameCount() == 0) return tr("no shot to export frames from");
+  vision::Burst part = shot_->burst;  // frames share their pixels (cv::Mat)
+  part.frames.assign(shot_->burst.frames.begin() + mark_in_,
+                     shot_->burst.frames.begin() + mark_out_ + 1);
+  auto written = vision::exportBurstPng(part, dir.toStdString(), {.stretch_mono12 = true});
+  if (!written) return QString::fromStdString(written.error().message);
+  return {};
+}
+
+void ReplayView::chooseExportFolder() {
+  if (!shot_ || frameCount() == 0) return;
+  const QString dir = QFileDialog::getExistingDirectory(
+      this, tr("Folder for frames %1 to %2").arg(mark_in_ + 1).arg(mark_out_ + 1));
+  if (dir.isEmpty()) return;
+  const QString error = exportMarkedFrames(dir);
+  frame_label_->setText(
+      error.isEmpty()
+          ? tr("wrote frames %1 to %2 into %3").arg(mark_in_ + 1).arg(mark_out_ + 1).arg(dir)
+          : tr("frames not exported: %1").arg(error));
 }
 
 int ReplayView::frameCount() const {
@@ -204,6 +318,7 @@ void ReplayView::setShot(ShotPtr shot) {
   shot_ = std::move(shot);
   analysis_.reset();
   play_timer_.stop();
+  play_->setText(tr("Play"));
   slider_->setRange(0, std::max(0, frameCount() - 1));
   if (!shot_ || frameCount() == 0) {
     view_->clear(shot_ ? tr("shot %1 has no frames (%2)")
@@ -211,9 +326,14 @@ void ReplayView::setShot(ShotPtr shot) {
                                   QString::fromStdString(shot_->failure_reason))
                        : tr("no shot"));
     frame_label_->clear();
+    marks_->clear();
     return;
   }
   show_truth_->setEnabled(shot_->truth.has_value());
+  view_->setPixelSize(shot_->scene.pixel_size_m);
+  mark_in_ = 0;
+  mark_out_ = frameCount() - 1;
+  updateMarkLabel();
   // Start at frame 0, the trigger (the predicted contact).
   int start = 0;
   for (int k = 0; k < frameCount(); ++k)
@@ -225,6 +345,8 @@ void ReplayView::setShot(ShotPtr shot) {
 
 void ReplayView::setAnalysis(AnalysisPtr analysis) {
   analysis_ = std::move(analysis);
+  // The analysis' scale (measured from the spheres when the footage had none).
+  if (analysis_ && analysis_->pixel_size_m > 0) view_->setPixelSize(analysis_->pixel_size_m);
   redraw();
 }
 
@@ -236,6 +358,7 @@ void ReplayView::showFrame(int index) {
   if (slider_->value() != index) slider_->setValue(index);
   const vision::Frame& f = shot_->burst.frames[index];
   view_->setImage(f.image.empty() ? QImage() : toDisplayImage(f.image, shot_->burst.format));
+  view_->setRawFrame(f.image, shot_->burst.format);
   redraw();
 }
 

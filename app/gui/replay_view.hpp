@@ -3,6 +3,9 @@
 // analysis drawn over it (detected spheres and dots, the fitted trajectories
 // before and after impact, the collision point and instant) and, for a
 // simulated shot, optionally the ground truth; the result card beside it.
+// Keys as in a vendor viewer: Left/Right one frame (Shift: 10), Home/End,
+// Space play/pause, I/O mark the first/last frame to export; playback speed,
+// loop and reverse; the image zooms, pans and measures (ImageView).
 #include <QTimer>
 #include <QWidget>
 
@@ -14,6 +17,7 @@ class QSlider;
 class QLabel;
 class QCheckBox;
 class QPushButton;
+class QComboBox;
 
 namespace collide::gui {
 
@@ -42,11 +46,26 @@ class ReplayView : public QWidget {
   ResultCard* resultCard() const { return card_; }
   ImageView* imageView() const { return view_; }
 
+  bool playing() const { return play_timer_.isActive(); }
+  /// Display rate while playing, frames per second of screen time.
+  double playbackRate() const;
+  /// First and last frame (positions in the burst) that "Export frames" writes.
+  int markIn() const { return mark_in_; }
+  int markOut() const { return mark_out_; }
+  /// Writes frames markIn()..markOut() as PNG files into `dir` (Mono12 shown
+  /// stretched to 16 bits). Returns an error message, or empty on success.
+  QString exportMarkedFrames(const QString& dir);
+
  signals:
   void reanalyseRequested(collide::gui::ShotPtr shot);
 
  private:
   void redraw();
+  void togglePlay();
+  void playStep();
+  void setMark(bool in);
+  void updateMarkLabel();
+  void chooseExportFolder();
 
   ShotPtr shot_;
   AnalysisPtr analysis_;
@@ -59,6 +78,12 @@ class ReplayView : public QWidget {
   QCheckBox* show_truth_ = nullptr;
   QPushButton* play_ = nullptr;
   QPushButton* reanalyse_ = nullptr;
+  QComboBox* speed_ = nullptr;
+  QCheckBox* loop_ = nullptr;
+  QCheckBox* reverse_ = nullptr;
+  QCheckBox* crosshair_ = nullptr;
+  QLabel* marks_ = nullptr;
+  int mark_in_ = 0, mark_out_ = 0;
   QTimer play_timer_;
 };
 

@@ -72,7 +72,13 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
   message_ = new QLabel;
   message_->setObjectName("result_message");
   message_->setWordWrap(true);
-  grid->addWidget(message_, r++, 0, 1, 3);
+  // The message takes the card's remaining height: a long, wrapped error is
+  // read whole, not cut after two lines (a wrapped label's height is not
+  // known to the layout until its width is).
+  message_->setAlignment(Qt::AlignLeft | Qt::AlignTop);
+  message_->setSizePolicy(QSizePolicy::Preferred, QSizePolicy::Expanding);
+  message_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  grid->addWidget(message_, r, 0, 1, 3);
   grid->setRowStretch(r, 1);
   setMessage({}, tr("no shot yet"));
 }

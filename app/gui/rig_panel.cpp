@@ -239,7 +239,15 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   cancel_ = new QPushButton(tr("Cancel"));
   cancel_->setObjectName("cancel_button");
   cancel_->setToolTip(tr("Stop the running shot or campaign between steps."));
+  // Keyboard: two-hand chords for what pressurises or fires, Escape for what
+  // stops. A button's shortcut acts only while the button is enabled, so Fire
+  // by key needs the same armed-and-settled state as by mouse.
+  arm_->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_A));
+  disarm_->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_D));
+  fire_->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_F));
+  cancel_->setShortcut(QKeySequence(Qt::Key_Escape));
   for (auto* b : {arm_, disarm_, fire_, cancel_}) {
+    b->setToolTip(b->toolTip() + "  (" + b->shortcut().toString(QKeySequence::NativeText) + ")");
     b->setMinimumWidth(60);
     b->setSizePolicy(QSizePolicy::Preferred, QSizePolicy::Fixed);
     buttons->addWidget(b);
