@@ -85,6 +85,7 @@ struct Shot {
   vision::Burst burst;
   std::optional<TruthRecord> truth;
   std::string results_json;  ///< analysis results (JSON text); empty until analysed
+  std::string note;          ///< the experimenter's note on the shot (UTF-8); empty if none
 };
 
 }  // namespace collide::hw

@@ -64,21 +64,23 @@ nlohmann::json toJson(const CatalogRow& r) {
       {"vn_m_s", numberOrNull(res.vn_m_s)},
       {"vs_m_s", numberOrNull(res.vs_m_s)},
       {"quality_flags", res.quality_flags},
+      {"note", r.note},
   };
 }
 
 void printTable(const std::vector<CatalogRow>& rows) {
   std::printf("%-22s %-20s %-6s %-12s %-13s %-13s %-11s %6s %6s %6s %6s %9s  %s\n", "id",
               "time (UTC)", "status", "material", "kPa 0 cmd/rb", "kPa 1 cmd/rb", "v m/s 0/1",
-              "frames", "e", "beta", "f", "gamma_deg", "flags / failure");
+              "frames", "e", "beta", "f", "gamma_deg", "flags / failure; note");
   for (const auto& r : rows) {
     const std::string kPa0 = cell(r.commanded_kPa[0], 1) + "/" + cell(r.readback_kPa[0], 1);
     const std::string kPa1 = cell(r.commanded_kPa[1], 1) + "/" + cell(r.readback_kPa[1], 1);
     const std::string speeds =
         cell(r.wanted_speed_m_s[0], 2) + "/" + cell(r.wanted_speed_m_s[1], 2);
-    const std::string note = r.status == collide::hw::ShotStatus::Failed
-                                 ? r.failure_reason
-                                 : collide::app::joinFlags(r.results.quality_flags);
+    std::string note = r.status == collide::hw::ShotStatus::Failed
+                           ? r.failure_reason
+                           : collide::app::joinFlags(r.results.quality_flags);
+    if (!r.note.empty()) note += (note.empty() ? "note: " : "; note: ") + r.note;
     std::printf("%-22s %-20s %-6s %-12s %-13s %-13s %-11s %6lld %6s %6s %6s %9s  %s\n",
                 r.id.c_str(), utcTime(r.wall_time_unix_ns).c_str(), collide::hw::toString(r.status),
                 r.material.c_str(), kPa0.c_str(), kPa1.c_str(), speeds.c_str(),

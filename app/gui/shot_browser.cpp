@@ -16,6 +16,7 @@
 #include <cmath>
 #include <set>
 
+#include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
 
 namespace collide::gui {
@@ -43,6 +44,7 @@ enum Column {
   kVn,
   kVs,
   kFlags,
+  kNote,
   kColumns
 };
 
@@ -95,9 +97,14 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
   table_->setHorizontalHeaderLabels({tr("shot"), tr("time (local)"), tr("material"), tr("status"),
                                      tr("frames"), tr("speeds (m/s)"), "e", "beta", "f",
                                      tr("gamma (deg)"), "v_n (m/s)", "v_s (m/s)",
-                                     tr("flags / reason")});
+                                     tr("flags / reason"), tr("note")});
+  table_->horizontalHeaderItem(kNote)->setToolTip(
+      tr("Your note on the shot, kept in its file: select the cell and press F2 (or click it "
+         "again) to write it, Enter to store it"));
   table_->setSelectionBehavior(QAbstractItemView::SelectRows);
-  table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
+  // Only the note column is editable (its items say so), by F2 or a click on
+  // the selected cell: a double click still opens the shot.
+  table_->setEditTriggers(QAbstractItemView::EditKeyPressed | QAbstractItemView::SelectedClicked);
   table_->horizontalHeader()->setStretchLastSection(true);
   table_->verticalHeader()->hide();
   layout->addWidget(table_, 1);
@@ -138,6 +145,13 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
     QStringList files;
     for (const auto& r : rows_) files << QDir(dir_).filePath(qs(r.file));
     if (!files.isEmpty()) emit reanalyseRequested(files);
+  });
+  connect(table_, &QTableWidget::itemChanged, this, [this](QTableWidgetItem* item) {
+    if (filling_ || item->column() != kNote || item->row() >= static_cast<int>(rows_.size()))
+      return;
+    const app::CatalogRow& r = rows_[item->row()];
+    const std::string note = item->text().trimmed().toStdString();
+    if (note != r.note) saveNote(r.id, note);
   });
   connect(&reader_, &QFutureWatcher<ReadOutcome>::finished, this, [this] {
     const ReadOutcome r = reader_.result();
@@ -219,6 +233,7 @@ void ShotBrowser::fill() {
     if (f.until_unix_ns && r.wall_time_unix_ns >= *f.until_unix_ns) continue;
     rows_.push_back(r);
   }
+  filling_ = true;  // the items set below are not the user's edits
   table_->setRowCount(static_cast<int>(rows_.size()));
   for (int i = 0; i < static_cast<int>(rows_.size()); ++i) {
     const app::CatalogRow& r = rows_[i];
@@ -244,16 +259,36 @@ void ShotBrowser::fill() {
         number(res.vs_m_s, 3),
         r.status == hw::ShotStatus::Failed ? qs(r.failure_reason)
                                            : qs(app::joinFlags(res.quality_flags)),
+        qs(r.note),
     };
     for (int c = 0; c < kColumns; ++c) {
       auto* item = new QTableWidgetItem(cells[c]);
+      if (c != kNote) item->setFlags(item->flags() & ~Qt::ItemIsEditable);
       if (c == kStatus && r.status == hw::ShotStatus::Failed)
         item->setForeground(QColor(170, 40, 30));
       table_->setItem(i, c, item);
     }
   }
+  filling_ = false;
   table_->resizeColumnsToContents();
   count_->setText(tr("%1 of %2 shots listed").arg(rows_.size()).arg(all_.size()));
+}
+
+void ShotBrowser::saveNote(const std::string& id, const std::string& note) {
+  // Rewriting the file copies it (frames included): off the GUI thread.
+  auto* watcher = new QFutureWatcher<QString>(this);
+  connect(watcher, &QFutureWatcher<QString>::finished, this, [this, watcher, id] {
+    const QString problem = watcher->result();
+    watcher->deleteLater();
+    if (!problem.isEmpty())
+      emit error(tr("The note on shot %1 was not stored: %2").arg(qs(id), problem));
+    refresh();
+    emit noteSaved(qs(id), problem);
+  });
+  watcher->setFuture(QtConcurrent::run([dir = dir_.toStdString(), id, note]() -> QString {
+    Status s = app::saveNote(dir, id, note);
+    return s ? QString() : QString::fromStdString(s.error().message);
+  }));
 }
 
 QStringList ShotBrowser::selectedFiles() const {

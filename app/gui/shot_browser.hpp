@@ -7,8 +7,8 @@
 #include <QWidget>
 #include <vector>
 
-#include "app/store/catalog.hpp"
 #include "app/gui/shot_analysis_service.hpp"
+#include "app/store/catalog.hpp"
 
 class QComboBox;
 class QDateEdit;
@@ -43,10 +43,14 @@ class ShotBrowser : public QWidget {
   void shotOpened(collide::gui::ShotPtr shot, QString file);
   void reanalyseRequested(QStringList files);
   void error(QString message);
+  /// A note typed into the note column was stored in the shot's file and
+  /// catalog row (error empty), or why not.
+  void noteSaved(QString shot_id, QString error);
 
  private:
   void fill();
   QStringList selectedFiles() const;
+  void saveNote(const std::string& id, const std::string& note);
 
   QString dir_;
   std::vector<app::CatalogRow> all_;   ///< every row of the catalog
@@ -64,6 +68,7 @@ class ShotBrowser : public QWidget {
     QString error;
   };
   QFutureWatcher<ReadOutcome> reader_;
+  bool filling_ = false;
   QString reading_file_;
 };
 

@@ -21,8 +21,8 @@ constexpr const char* kColumns =
     "id, file, wall_time_unix_ns, rig_name, material,"
     " wanted_speed_0_m_s, wanted_speed_1_m_s, commanded_0_kpa, commanded_1_kpa,"
     " readback_0_kpa, readback_1_kpa, status, failure_reason, frames, analysed,"
-    " e, beta, f, gamma_deg, vn_m_s, vs_m_s, quality_flags";
-constexpr int kColumnCount = 22;
+    " e, beta, f, gamma_deg, vn_m_s, vs_m_s, quality_flags, note";
+constexpr int kColumnCount = 23;
 
 constexpr const char* kCreateSchema = R"sql(
 CREATE TABLE IF NOT EXISTS shots (
@@ -47,7 +47,8 @@ CREATE TABLE IF NOT EXISTS shots (
   gamma_deg          REAL,
   vn_m_s             REAL,
   vs_m_s             REAL,
-  quality_flags      TEXT    -- comma-separated
+  quality_flags      TEXT,   -- comma-separated
+  note               TEXT NOT NULL DEFAULT ''
 );
 CREATE INDEX IF NOT EXISTS shots_by_time ON shots (wall_time_unix_ns);
 CREATE INDEX IF NOT EXISTS shots_by_material ON shots (material, wall_time_unix_ns);
@@ -127,6 +128,7 @@ void bindRow(sqlite3_stmt* s, const CatalogRow& r) {
   sqlite3_bind_int64(s, 14, r.frames);
   sqlite3_bind_int(s, 15, r.analysed ? 1 : 0);
   bindResults(s, 16, r.analysed, r.results);
+  bindText(s, 23, r.note);
 }
 
 std::string columnText(sqlite3_stmt* s, int i) {
@@ -165,6 +167,7 @@ CatalogRow readRow(sqlite3_stmt* s) {
                                       &r.results.gamma_deg, &r.results.vn_m_s, &r.results.vs_m_s};
   for (int k = 0; k < 6; ++k) *numbers[k] = columnOptional(s, 15 + k);
   r.results.quality_flags = splitFlags(columnText(s, 21));
+  r.note = columnText(s, 22);
   return r;
 }
 
@@ -173,7 +176,7 @@ CatalogRow readRow(sqlite3_stmt* s) {
 struct Catalog::Impl {
   std::string path;
   Db db;
-  Stmt upsert, update_results, query;
+  Stmt upsert, update_results, update_note, query;
 
   Result<Stmt> prepare(const std::string& sql) {
     sqlite3_stmt* s = nullptr;
@@ -214,7 +217,11 @@ struct Catalog::Impl {
                   "catalog rebuild " + dir + "` to recreate it for this version");
     if (version == kCatalogSchemaVersion) return Ok{};
     if (auto s = exec("BEGIN IMMEDIATE", "creating"); !s) return s;
-    Status created = exec(kCreateSchema, "creating");
+    // Version 1 (before notes): the table is there, the note column is added.
+    Status created = version == 1
+                         ? exec("ALTER TABLE shots ADD COLUMN note TEXT NOT NULL DEFAULT ''",
+                                "updating the schema of")
+                         : exec(kCreateSchema, "creating");
     if (created)
       created = exec(("PRAGMA user_version = " + std::to_string(kCatalogSchemaVersion)).c_str(),
                      "creating");
@@ -261,6 +268,7 @@ Result<Catalog> Catalog::open(const std::string& dir, Mode mode) {
   }();
   auto upsert = impl->prepare(std::string("INSERT OR REPLACE INTO shots (") + kColumns +
                               ") VALUES (" + placeholders + ")");
+  auto update_note = impl->prepare("UPDATE shots SET note = ?1 WHERE id = ?2");
   auto update = impl->prepare(
       "UPDATE shots SET analysed = ?1, e = ?2, beta = ?3, f = ?4, gamma_deg = ?5, vn_m_s = ?6,"
       " vs_m_s = ?7, quality_flags = ?8 WHERE id = ?9");
@@ -272,8 +280,9 @@ Result<Catalog> Catalog::open(const std::string& dir, Mode mode) {
                              " AND (?3 IS NULL OR wall_time_unix_ns >= ?3)"
                              " AND (?4 IS NULL OR wall_time_unix_ns < ?4)"
                              " ORDER BY wall_time_unix_ns, id");
-  for (auto* r : {&upsert, &update, &query})
+  for (auto* r : {&upsert, &update, &update_note, &query})
     if (!*r) return r->error();
+  impl->update_note = std::move(*update_note);
   impl->upsert = std::move(*upsert);
   impl->update_results = std::move(*update);
   impl->query = std::move(*query);
@@ -318,6 +327,17 @@ Status Catalog::updateResults(const std::string& id, const std::string& results_
   return Ok{};
 }
 
+Status Catalog::updateNote(const std::string& id, const std::string& note) {
+  sqlite3_stmt* s = impl_->update_note.get();
+  bindText(s, 1, note);
+  bindText(s, 2, id);
+  if (auto st = impl_->step(s, "recording the note in"); !st) return st;
+  if (sqlite3_changes(impl_->db.get()) == 0)
+    return fail("no shot " + id + " in catalog " + impl_->path + ": run `collide catalog rebuild " +
+                fs::path(impl_->path).parent_path().string() + "`");
+  return Ok{};
+}
+
 Result<std::vector<CatalogRow>> Catalog::query(const ShotFilter& filter) const {
   sqlite3_stmt* s = impl_->query.get();
   if (filter.material) bindText(s, 1, *filter.material);
@@ -350,6 +370,7 @@ CatalogRow catalogRow(const hw::Shot& shot, const std::string& file_name) {
   r.failure_reason = shot.failure_reason;
   r.frames = static_cast<std::int64_t>(shot.burst.frames.size());
   r.analysed = !shot.results_json.empty();
+  r.note = shot.note;
   // writeShot and storeResults refuse results that do not parse, so a stored
   // shot's summary is always available.
   if (r.analysed)

@@ -23,8 +23,9 @@
 namespace collide::app {
 
 inline constexpr const char* kCatalogFileName = "catalog.sqlite";
-/// Stored in PRAGMA user_version; a catalog from a newer collide is refused.
-inline constexpr int kCatalogSchemaVersion = 1;
+/// Stored in PRAGMA user_version; a catalog from a newer collide is refused,
+/// an older one is brought up to date when opened (1 -> 2: the note column).
+inline constexpr int kCatalogSchemaVersion = 2;
 
 /// One shot as the catalog lists it. Arrays are indexed like Shot::launchers
 /// (launcher/sphere 0 and 1).
@@ -44,6 +45,7 @@ struct CatalogRow {
   std::int64_t frames = 0;
   bool analysed = false;
   ResultsSummary results;  ///< all empty (NULL) until analysed
+  std::string note;        ///< the experimenter's note (Shot::note)
 };
 
 /// The catalog row of `shot`, stored as `file_name` in its folder. Results
@@ -83,6 +85,8 @@ class Catalog {
   /// Sets the results columns of shot `id` from its results JSON (empty: back
   /// to not analysed). Errors: no such shot, JSON not usable (see summarizeResults).
   Status updateResults(const std::string& id, const std::string& results_json);
+  /// Sets the note of shot `id`. Errors: no such shot.
+  Status updateNote(const std::string& id, const std::string& note);
   /// Matching rows, oldest first (ties by id).
   Result<std::vector<CatalogRow>> query(const ShotFilter& filter = {}) const;
 

@@ -75,22 +75,42 @@ Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
               " ids after it are all taken; save into another folder (--out)");
 }
 
-Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json) {
-  auto path = shotPath(dir, id);
-  if (!path) return path.error();
-  // One rename and row update at a time per folder, across processes: the
-  // file and its row then always agree, whatever order two tasks storing one
-  // shot run in. The copy each store writes is made outside the lock.
-  return storeResults(*path, results_json, [&](const std::function<Status()>& rename) -> Status {
+namespace {
+
+// The file's update (`store`, with the rename at its commit) and the catalog
+// row's (`update_row`) under the folder's store lock: the file and its row
+// always agree, whatever order two tasks storing one shot run in. The copy
+// each store writes is made outside the lock.
+Status storeUnderFolderLock(const std::string& dir, const std::string& path,
+                            const std::function<Status(const CommitHook&)>& store,
+                            const std::function<Status(Catalog&)>& update_row) {
+  return store([&](const std::function<Status()>& rename) -> Status {
     auto folder_lock = FileLock::acquire(storeLockPath(dir));
     if (!folder_lock) return folder_lock.error();
     if (auto renamed = rename(); !renamed) return renamed;
     auto catalog = Catalog::open(dir);
-    if (!catalog) return catalogError(dir, *path, catalog.error());
-    if (auto s = catalog->updateResults(id, results_json); !s)
-      return catalogError(dir, *path, s.error());
+    if (!catalog) return catalogError(dir, path, catalog.error());
+    if (auto s = update_row(*catalog); !s) return catalogError(dir, path, s.error());
     return Ok{};
   });
+}
+
+}  // namespace
+
+Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json) {
+  auto path = shotPath(dir, id);
+  if (!path) return path.error();
+  return storeUnderFolderLock(
+      dir, *path, [&](const CommitHook& hook) { return storeResults(*path, results_json, hook); },
+      [&](Catalog& c) { return c.updateResults(id, results_json); });
+}
+
+Status saveNote(const std::string& dir, const std::string& id, const std::string& note) {
+  auto path = shotPath(dir, id);
+  if (!path) return path.error();
+  return storeUnderFolderLock(
+      dir, *path, [&](const CommitHook& hook) { return storeNote(*path, note, hook); },
+      [&](Catalog& c) { return c.updateNote(id, note); });
 }
 
 }  // namespace collide::app

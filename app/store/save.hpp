@@ -32,4 +32,8 @@ Result<std::string> saveShot(const std::string& dir, const hw::Shot& shot,
 /// tasks) take turns, so a file and its row always hold the same results.
 Status saveResults(const std::string& dir, const std::string& id, const std::string& results_json);
 
+/// Stores the experimenter's note on shot `id` in its file (storeNote) and its
+/// catalog row, the same way as saveResults (empty: no note).
+Status saveNote(const std::string& dir, const std::string& id, const std::string& note);
+
 }  // namespace collide::app

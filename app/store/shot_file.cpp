@@ -300,6 +300,11 @@ void writeTruth(h5::Writer& w, const hw::TruthRecord& t) {
 
 /// /results: the JSON text, plus the summary numbers as scalar datasets for
 /// tools that do not parse JSON. The JSON was checked before the file was opened.
+/// /note: the experimenter's note, a text dataset; absent when empty.
+void writeNote(h5::Writer& w, const std::string& note) {
+  if (!note.empty()) w.text("/note", note, "text/plain");
+}
+
 void writeResults(h5::Writer& w, const std::string& results_json) {
   if (results_json.empty()) return;
   w.group("/results");
@@ -625,6 +630,7 @@ Result<WriteOutcome> writeShotIfAbsent(const std::string& path, const hw::Shot& 
     writeFrames(w, shot.burst, *geometry, options);
     if (shot.truth) writeTruth(w, *shot.truth);
     writeResults(w, shot.results_json);
+    writeNote(w, shot.note);
     closeFile(w, file);
     if (!w.ok()) return w.error();  // ~AtomicFile removes the temporary file
   }
@@ -663,6 +669,7 @@ Result<hw::Shot> readShotLocked(const std::string& path, const ReadOptions& opti
     readTruth(r, *shot.truth);
   }
   if (r.ok() && r.exists("/results")) shot.results_json = r.text("/results/json");
+  if (r.ok() && r.exists("/note")) shot.note = r.text("/note");
   if (!r.ok()) return r.error();
   return shot;
 }
@@ -757,16 +764,17 @@ Status storeResults(const std::string& path, const std::string& results_json) {
   return storeResults(path, results_json, {});
 }
 
-Status storeResults(const std::string& path, const std::string& results_json,
-                    const CommitHook& at_commit) {
+namespace {
+
+// Copies the shot file, removes `object` from the copy and lets `write` put
+// the new one in, then renames the copy over the original (through
+// `at_commit` when given): the recorded data is safe at every instant.
+Status replaceInCopy(const std::string& path, const char* object,
+                     const std::function<void(h5::Writer&)>& write, const CommitHook& at_commit) {
   std::lock_guard lock(hdf5Mutex());
   // Temporary copies left by an earlier store that was killed midway.
   removeAbandonedTemps(path);
   h5::silenceErrorPrinting();
-  if (!results_json.empty()) {
-    auto summary = summarizeResults(results_json);
-    if (!summary) return fail("cannot store results in " + path + ": " + summary.error().message);
-  }
   {
     // Refuse anything that is not a readable shot file before copying it.
     auto check = openShotFile(path, H5F_ACC_RDONLY);
@@ -779,12 +787,12 @@ Status storeResults(const std::string& path, const std::string& results_json,
     Handle file(H5Fopen(temp->tempPath().c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
     if (!file.valid()) return fileError("update", path);
     h5::Writer w(file.get(), path);
-    // Unlinking leaves the old results' few bytes unused in the file; not
+    // Unlinking leaves the old object's few bytes unused in the file; not
     // worth a repack.
-    if (H5Lexists(file.get(), "/results", H5P_DEFAULT) > 0 &&
-        H5Ldelete(file.get(), "/results", H5P_DEFAULT) < 0)
-      w.failHdf5("removing the old /results");
-    writeResults(w, results_json);
+    if (H5Lexists(file.get(), object, H5P_DEFAULT) > 0 &&
+        H5Ldelete(file.get(), object, H5P_DEFAULT) < 0)
+      w.failHdf5(std::string("removing the old ") + object);
+    write(w);
     closeFile(w, file);
     if (!w.ok()) return w.error();
   }
@@ -792,6 +800,23 @@ Status storeResults(const std::string& path, const std::string& results_json,
   // The slow part (the copy on disk) is done outside the caller's lock.
   if (auto s = temp->flush(); !s) return s;
   return at_commit([&] { return temp->commit(); });
+}
+
+}  // namespace
+
+Status storeResults(const std::string& path, const std::string& results_json,
+                    const CommitHook& at_commit) {
+  if (!results_json.empty()) {
+    auto summary = summarizeResults(results_json);
+    if (!summary) return fail("cannot store results in " + path + ": " + summary.error().message);
+  }
+  return replaceInCopy(
+      path, "/results", [&](h5::Writer& w) { writeResults(w, results_json); }, at_commit);
+}
+
+Status storeNote(const std::string& path, const std::string& note, const CommitHook& at_commit) {
+  return replaceInCopy(
+      path, "/note", [&](h5::Writer& w) { writeNote(w, note); }, at_commit);
 }
 
 }  // namespace collide::app

@@ -89,6 +89,12 @@ using CommitHook = std::function<Status(const std::function<Status()>& rename)>;
 Status storeResults(const std::string& path, const std::string& results_json,
                     const CommitHook& at_commit);
 
+/// Replaces the experimenter's note stored in the shot file (empty removes
+/// it), the same safe way as storeResults: a copy updated, then renamed over
+/// the original (through `at_commit` when given).
+Status storeNote(const std::string& path, const std::string& note,
+                 const CommitHook& at_commit = {});
+
 /// "ok" / "failed" (hw::toString's inverse); nullopt for anything else.
 std::optional<hw::ShotStatus> parseShotStatus(std::string_view text);
 

@@ -245,6 +245,39 @@ TEST(CatalogOpen, CorruptCatalogPointsToRebuild) {
               AllOf(HasSubstr("corrupt"), HasSubstr("collide catalog rebuild " + dir.path())));
 }
 
+// A catalog written before notes existed (schema 1) opens, keeps its rows,
+// gains the note column and takes notes.
+TEST(CatalogOpen, SchemaOneIsBroughtUpToDate) {
+  ScratchDir dir;
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(dir.file("catalog.sqlite").c_str(), &db), SQLITE_OK);
+  const char* v1 = R"sql(
+CREATE TABLE shots (
+  id TEXT PRIMARY KEY NOT NULL, file TEXT NOT NULL, wall_time_unix_ns INTEGER NOT NULL,
+  rig_name TEXT NOT NULL, material TEXT NOT NULL, wanted_speed_0_m_s REAL,
+  wanted_speed_1_m_s REAL, commanded_0_kpa REAL, commanded_1_kpa REAL, readback_0_kpa REAL,
+  readback_1_kpa REAL, status TEXT NOT NULL CHECK (status IN ('ok', 'failed')),
+  failure_reason TEXT NOT NULL, frames INTEGER NOT NULL,
+  analysed INTEGER NOT NULL CHECK (analysed IN (0, 1)), e REAL, beta REAL, f REAL,
+  gamma_deg REAL, vn_m_s REAL, vs_m_s REAL, quality_flags TEXT);
+INSERT INTO shots VALUES ('20260101-000000-0001', '20260101-000000-0001.h5', 5, 'rig', 'nylon',
+  1.0, 2.0, 30.0, 31.0, 30.1, 31.1, 'ok', '', 70, 1, 0.9, 0.3, 0.1, 40.0, -1.0, 0.5, '');
+PRAGMA user_version = 1;)sql";
+  ASSERT_EQ(sqlite3_exec(db, v1, nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  auto opened = Catalog::open(dir.path(), Catalog::Mode::OpenExisting);
+  ASSERT_TRUE(opened.ok()) << opened.error().message;
+  auto rows = opened->query();
+  ASSERT_TRUE(rows.ok()) << rows.error().message;
+  ASSERT_EQ(rows->size(), 1u);
+  EXPECT_EQ((*rows)[0].material, "nylon");
+  EXPECT_EQ((*rows)[0].results.e, 0.9);
+  EXPECT_EQ((*rows)[0].note, "");
+  ASSERT_TRUE(opened->updateNote("20260101-000000-0001", "first of the day").ok());
+  EXPECT_EQ((*opened->query())[0].note, "first of the day");
+  EXPECT_FALSE(opened->updateNote("20260101-000000-0002", "x").ok());
+}
+
 TEST(CatalogOpen, NewerSchemaIsRefused) {
   ScratchDir dir;
   { ASSERT_TRUE(Catalog::open(dir.path()).ok()); }

@@ -204,6 +204,46 @@ TEST(SaveResults, UpdatesTheFileAndTheRow) {
   EXPECT_EQ((*rows)[0].results.gamma_deg, 150.0);
 }
 
+TEST(SaveNote, StoresTheNoteInTheFileAndTheRowAndKeepsTheResults) {
+  ScratchDir dir;
+  ShotSpec spec;
+  spec.results = false;
+  const auto shot = makeShot(spec);
+  ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+  const std::string json = R"({"e": 0.91})";
+  ASSERT_TRUE(collide::app::saveResults(dir.path(), shot.id, json).ok());
+  const std::string note = "sphere 2 chipped after this shot; lamp moved 5 cm \u00b5";
+  auto s = collide::app::saveNote(dir.path(), shot.id, note);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  auto read = collide::app::readShot(dir.file(shot.id + ".h5"));
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  EXPECT_EQ(read->note, note);
+  EXPECT_EQ(read->results_json, json) << "the results stay";
+  EXPECT_EQ(read->burst.frames.size(), shot.burst.frames.size()) << "the frames stay";
+  auto rows = Catalog::open(dir.path())->query();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 1u);
+  EXPECT_EQ((*rows)[0].note, note);
+  EXPECT_EQ((*rows)[0].results.e, 0.91);
+  // New results keep the note; an empty note removes it from both.
+  ASSERT_TRUE(collide::app::saveResults(dir.path(), shot.id, R"({"e": 0.5})").ok());
+  EXPECT_EQ(collide::app::readShot(dir.file(shot.id + ".h5"), {.frames = false})->note, note);
+  ASSERT_TRUE(collide::app::saveNote(dir.path(), shot.id, "").ok());
+  EXPECT_EQ(collide::app::readShot(dir.file(shot.id + ".h5"), {.frames = false})->note, "");
+  EXPECT_EQ((*Catalog::open(dir.path())->query())[0].note, "");
+  // A rebuilt catalog takes the note from the file.
+  ASSERT_TRUE(collide::app::saveNote(dir.path(), shot.id, note).ok());
+  ASSERT_TRUE(collide::app::rebuildCatalog(dir.path()).ok());
+  EXPECT_EQ((*Catalog::open(dir.path())->query())[0].note, note);
+}
+
+TEST(SaveNote, UnknownShotIsNamed) {
+  ScratchDir dir;
+  const auto s = collide::app::saveNote(dir.path(), "20260101-000000-0000", "x");
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.error().message, HasSubstr("20260101-000000-0000.h5"));
+}
+
 TEST(SaveResults, UnknownShotIsNamed) {
   ScratchDir dir;
   const auto s = collide::app::saveResults(dir.path(), "20260101-000000-0000", R"({"e": 1})");

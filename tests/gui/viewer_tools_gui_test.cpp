@@ -11,6 +11,7 @@
 #include <QComboBox>
 #include <QMouseEvent>
 #include <QPushButton>
+#include <QTableWidget>
 #include <QWheelEvent>
 #include <filesystem>
 #include <fstream>
@@ -20,8 +21,13 @@
 #include "app/gui/main_window.hpp"
 #include "app/gui/replay_view.hpp"
 #include "app/gui/rig_panel.hpp"
+#include "app/gui/shot_browser.hpp"
 #include "app/rig_setup.hpp"
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
+#include "app/store/shot_id.hpp"
 #include "gui_test_support.hpp"
+#include "hw/sequencer.hpp"
 #include "vision/footage.hpp"
 
 using namespace collide;
@@ -368,4 +374,56 @@ TEST(ViewerToolsGui, VendorFootageOpensInReplayAndCorruptFilesAreNamed) {
   EXPECT_FALSE(error.isEmpty());
   EXPECT_TRUE(w.messages().last().contains("truncated.cine")) << w.messages().last().toStdString();
   EXPECT_EQ(w.replayView()->frameCount(), static_cast<int>(footage->info().frame_count));
+}
+
+TEST(ViewerToolsGui, ANoteTypedInTheShotListIsKeptInTheShotFile) {
+  application();
+  const std::string dir = freshDir("notes");
+  auto profile = hw::loadRigProfile(sourcePath("config/sim.toml"));
+  ASSERT_TRUE(profile);
+  auto rig = app::buildRig(*profile);
+  ASSERT_TRUE(rig);
+  hw::Shot fired = hw::Sequencer(*rig).fire(hw::ShotRequest::atSpeeds(2.0, 2.0));
+  (void)hw::shutDown(*rig);
+  fired.id = app::makeShotId(fired.wall_time_unix_ns, 1);
+  auto id = app::saveShot(dir, fired);
+  ASSERT_TRUE(id) << id.error().message;
+
+  ShotBrowser browser;
+  browser.resize(1300, 500);
+  activate(&browser);
+  browser.setFolder(QString::fromStdString(dir));
+  auto* table = browser.findChild<QTableWidget*>("shot_table");
+  ASSERT_TRUE(table);
+  ASSERT_EQ(table->rowCount(), 1);
+  const int note_column = table->columnCount() - 1;
+  ASSERT_EQ(table->horizontalHeaderItem(note_column)->text(), "note");
+  QString saved_id, saved_error = "not yet";
+  QObject::connect(&browser, &ShotBrowser::noteSaved, [&](QString i, QString e) {
+    saved_id = i;
+    saved_error = e;
+  });
+  // Click the note cell, F2, type, Enter: as a user writes a note.
+  QTableWidgetItem* cell = table->item(0, note_column);
+  table->scrollToItem(cell);
+  QTest::mouseClick(table->viewport(), Qt::LeftButton, {}, table->visualItemRect(cell).center());
+  QTest::keyClick(table, Qt::Key_F2);
+  QWidget* editor = QApplication::focusWidget();
+  ASSERT_NE(editor, table) << "F2 opened no editor";
+  QTest::keyClicks(editor, "new lamp; sphere 2 scuffed");
+  QTest::keyClick(editor, Qt::Key_Return);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return !saved_id.isEmpty(); }, 10000));
+  EXPECT_TRUE(saved_error.isEmpty()) << saved_error.toStdString();
+  auto read = app::readShot(dir + "/" + app::shotFileName(*id), {.frames = false});
+  ASSERT_TRUE(read);
+  EXPECT_EQ(read->note, "new lamp; sphere 2 scuffed");
+  ASSERT_EQ(browser.rows().size(), 1u);
+  EXPECT_EQ(browser.rows()[0].note, "new lamp; sphere 2 scuffed");
+  EXPECT_EQ(table->item(0, note_column)->text(), "new lamp; sphere 2 scuffed");
+  // Other columns are not editable: F2 on the shot id opens nothing.
+  QTest::mouseClick(table->viewport(), Qt::LeftButton, {},
+                    table->visualItemRect(table->item(0, 0)).center());
+  QTest::keyClick(table, Qt::Key_F2);
+  EXPECT_EQ(QApplication::focusWidget(), table);
+  EXPECT_TRUE(screenshot(&browser, "shots_note"));
 }
