@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -246,6 +247,32 @@ TEST_F(CliTrack, BacklitFootageForcedToTheWrongPolarityFailsClearly) {
     const json& f = j["spheres"][0]["frames"][10];
     EXPECT_NEAR(f["centre_px"][0].get<double>(), d.centrePx(10 / kFps).x(), 0.05) << p;
   }
+}
+
+// Not a test: writes the footage docs/benchmarks.md times `collide track` on
+// (a 1000-frame 640 x 480 16-bit MRAW of one thrown sphere at 7000 frames/s,
+// 0.25 mm pixels in its .cihx) into $COLLIDE_TRACK_BENCH_DIR. Run with
+// --gtest_also_run_disabled_tests --gtest_filter=*WriteBenchFootage*.
+TEST_F(CliTrack, DISABLED_WriteBenchFootage) {
+  const char* dir = std::getenv("COLLIDE_TRACK_BENCH_DIR");
+  if (!dir) GTEST_SKIP() << "set COLLIDE_TRACK_BENCH_DIR";
+  Drop d;
+  d.frames = 1000;
+  collide::vision::RenderSettings rs;
+  rs.format = collide::vision::PixelFormat::Mono12;
+  rs.noise_grey = 30;
+  const collide::vision::Renderer renderer(rs);
+  std::vector<std::uint8_t> bytes;
+  for (int k = 0; k < d.frames; ++k) {
+    collide::vision::SphereView v;
+    v.centre_px = d.centrePx(k / 7000.0);
+    v.radius_px = kRadiusPx;
+    auto b = mrawFrameBytes(renderer.render({v}, k), 16);
+    bytes.insert(bytes.end(), b.begin(), b.end());
+  }
+  writeBytes(std::string(dir) + "/bench.mraw", bytes);
+  writeText(std::string(dir) + "/bench.cihx",
+            cihxText(kWidth, kHeight, 16, d.frames, 7000, 20000, 0, "mm", 0.25));
 }
 
 TEST_F(CliTrack, BadInputIsNamed) {
