@@ -12,6 +12,8 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "hw/camera_sim.hpp"
+#include "hw/rig_profile.hpp"
 #include "vision/frame_io.hpp"
 
 namespace collide::app {
@@ -82,10 +84,32 @@ Result<OpenedFootage> openBurst(const TrackOptions& o, bool video) {
   return out;
 }
 
+/// The scale from a rig profile: its camera's lens, else its pixel size; the
+/// spheres' diameter from the profile unless given.
+Status scaleFromRig(const TrackOptions& o, TrackResult& r) {
+  auto profile = hw::loadRigProfile(o.rig);
+  if (!profile) return profile.error();
+  if (!(r.diameter_m > 0)) r.diameter_m = profile->spheres.diameter_m[0];
+  // (A camera calibrated with chessboard pictures, the profile's
+  // [camera.calibration] of issue 11, is to take precedence here.)
+  auto lens = hw::simulatedLens(*profile);
+  if (!lens) return fail(o.rig + ": " + lens.error().message);
+  r.pixel_size_m = profile->geometry.pixel_size_m;
+  r.pixel_size_from = "profile";
+  if (*lens) {
+    r.camera = **lens;
+    r.pixel_size_from = "camera";
+  }
+  if (!(r.pixel_size_m > 0)) return fail(o.rig + ": the profile gives no geometry.pixel_size_m");
+  if (!(r.diameter_m > 0)) return fail(o.rig + ": the profile gives no sphere diameter");
+  return Ok{};
+}
+
 /// The scale: the camera file's own calibration, else the diameter over the
 /// spheres' measured size.
 Status chooseScale(const TrackOptions& o, const OpenedFootage& in, TrackResult& r) {
   r.diameter_m = o.diameter_mm * 1e-3;
+  if (!o.rig.empty()) return scaleFromRig(o, r);
   std::vector<double> radii;
   for (const double rad : r.tracks.radius_px)
     if (std::isfinite(rad)) radii.push_back(rad);
@@ -149,7 +173,7 @@ void fitSegments(TrackResult& r) {
       if (!sp.found) continue;
       FlightPoint p;
       p.t_s = (f.index - index0) / r.fps;
-      p.position_m = {sp.u_px * s, -sp.v_px * s};
+      p.position_m = toWorld(r, sp.u_px, sp.v_px);
       p.sigma_m = std::max(sp.sigma_px, 1e-3) * s;
       p.usable = !sp.cut_by_border && !sp.touching && !sp.contact;
       p.contact = sp.contact;
@@ -176,6 +200,16 @@ void fitSegments(TrackResult& r) {
 }
 
 }  // namespace
+
+Eigen::Vector2d toWorld(const TrackResult& r, double u_px, double v_px) {
+  if (r.camera) return r.camera->sphereCentre(u_px, v_px, 0.5 * r.diameter_m).head<2>();
+  return {u_px * r.pixel_size_m, -v_px * r.pixel_size_m};
+}
+
+Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m) {
+  if (r.camera) return r.camera->project(Vec3(xy_m.x(), xy_m.y(), 0));
+  return {xy_m.x() / r.pixel_size_m, -xy_m.y() / r.pixel_size_m};
+}
 
 Result<OpenedFootage> openFootage(const TrackOptions& o) {
   std::error_code ec;
@@ -245,6 +279,7 @@ std::string trackToJson(const TrackResult& r) {
       fr["centre_px"] = {s.u_px, s.v_px};
       fr["radius_px"] = s.radius_px;
       fr["sigma_px"] = s.sigma_px;
+      fr["position_m"] = pair(toWorld(r, s.u_px, s.v_px));
       if (s.cut_by_border) fr["cut_by_border"] = true;
       if (s.touching) fr["touching"] = true;
       if (s.contact) fr["contact"] = true;
@@ -292,8 +327,8 @@ std::string trackToCsv(const TrackResult& r) {
       std::snprintf(
           buf, sizeof buf, "%d,%lld,%lld,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%d,%d,%d,%d\n", t + 1,
           static_cast<long long>(f.index), static_cast<long long>(f.id), (f.index - index0) / r.fps,
-          s.u_px, s.v_px, s.radius_px, s.sigma_px, s.u_px * r.pixel_size_m,
-          -s.v_px * r.pixel_size_m, s.cut_by_border, s.touching, s.contact, segment);
+          s.u_px, s.v_px, s.radius_px, s.sigma_px, toWorld(r, s.u_px, s.v_px).x(),
+          toWorld(r, s.u_px, s.v_px).y(), s.cut_by_border, s.touching, s.contact, segment);
       out << buf;
     }
   }
@@ -324,8 +359,8 @@ Status writeTrackPng(const TrackResult& r, const OpenedFootage& in, const std::s
       std::vector<cv::Point> curve;
       for (std::int64_t i = ss.first_frame[k]; i <= ss.last_frame[k]; ++i) {
         const Estimate3 p = ss.segments[k].fit.positionAt_m((i - index0) / r.fps);
-        curve.emplace_back(cvRound(p.value.x() / r.pixel_size_m),
-                           cvRound(-p.value.y() / r.pixel_size_m));
+        const Eigen::Vector2d uv = toImage(r, p.value.head<2>());
+        curve.emplace_back(cvRound(uv.x()), cvRound(uv.y()));
       }
       cv::polylines(img, curve, false, c, 1, cv::LINE_AA);
       if (!curve.empty()) cv::circle(img, curve.front(), 4, c, 1, cv::LINE_AA);  // segment start

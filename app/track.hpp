@@ -7,9 +7,11 @@
 // Axes: image u right, v down (pixels, origin at the top-left pixel's
 // centre); physical x right, y up (metres): x = u s, y = -v s for pixel size s.
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/free_flight_segments.hpp"
 #include "analysis/result.hpp"
 #include "vision/footage.hpp"
@@ -18,9 +20,12 @@
 namespace collide::app {
 
 struct TrackOptions {
-  std::string footage;         ///< folder of images, video file, or camera file
-  double fps = 0;              ///< > 0 replaces the file's frame rate (required for a folder)
-  double diameter_mm = 0;      ///< the spheres' diameter; 0: unknown
+  std::string footage;     ///< folder of images, video file, or camera file
+  double fps = 0;          ///< > 0 replaces the file's frame rate (required for a folder)
+  double diameter_mm = 0;  ///< the spheres' diameter; 0: unknown (the rig's, with rig)
+  /// A rig profile: its camera's lens (the simulated camera's perspective
+  /// lens) or, without one, its geometry.pixel_size_m, and its spheres' diameter.
+  std::string rig;
   vision::FootageRange range;  ///< camera files only
   int spheres = 0;             ///< 1..3; 0 automatic
   vision::SphereDetectorSettings::Polarity polarity =
@@ -43,8 +48,12 @@ struct TrackResult {
   /// 0 for the file's own calibration (taken as exact). Every velocity and
   /// acceleration shares its relative error (not in their own sigmas).
   double pixel_size_sigma_m = 0;
-  std::string pixel_size_from;  ///< "file" or "diameter"
-  double diameter_m = 0;        ///< 0 if not given
+  std::string pixel_size_from;  ///< "camera", "profile", "file" or "diameter"
+  /// The lens centres go through (pixel_size_from "camera"): each silhouette's
+  /// centre back to its sphere's centre on the plane z = 0, distortion removed.
+  /// None: x = u s, y = -v s.
+  std::optional<PinholeCamera> camera;
+  double diameter_m = 0;  ///< 0 if not given
   int width = 0, height = 0;
   vision::SphereTracks tracks;
   std::vector<SphereSegments> spheres;  ///< one per tracked sphere
@@ -67,6 +76,10 @@ Result<OpenedFootage> openFootage(const TrackOptions& options);
 /// the file), no scale (neither the file's pixel size nor --diameter-mm).
 Result<TrackResult> trackFootage(const TrackOptions& options, const OpenedFootage& footage,
                                  const std::function<void(int, int)>& progress = {});
+
+/// Image (u, v) px of a sphere centre -> physical (x, y) m, and back.
+Eigen::Vector2d toWorld(const TrackResult& r, double u_px, double v_px);
+Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m);
 
 std::string trackToJson(const TrackResult& r);  ///< schema collide.track/1
 std::string trackToCsv(const TrackResult& r);   ///< one row per sphere per frame

@@ -3,6 +3,7 @@
 #include "app/track.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 
 #include "app/cli/command.hpp"
@@ -19,7 +20,7 @@ using collide::cli::kExitOk;
 constexpr double kNotGiven = -1.0;
 
 struct Options {
-  std::string footage, json_out, csv_out, png_out;
+  std::string footage, json_out, csv_out, png_out, rig;
   std::string spheres = "auto", polarity = "auto", range;
   double diameter_mm = kNotGiven, fps = kNotGiven;
 };
@@ -27,6 +28,12 @@ struct Options {
 /// Checks the flags into TrackOptions; prints why and returns false if wrong.
 bool toTrackOptions(const Options& o, collide::app::TrackOptions& t) {
   t.footage = o.footage;
+  t.rig = o.rig;
+  if (std::error_code ec; !o.rig.empty() && !std::filesystem::is_regular_file(o.rig, ec)) {
+    std::cerr << "collide track: --rig " << o.rig
+              << ": no such file; give a rig profile (e.g. config/sim-lab.toml)\n";
+    return false;
+  }
   if (o.spheres == "auto") {
     t.spheres = 0;
   } else if (o.spheres == "1" || o.spheres == "2" || o.spheres == "3") {
@@ -158,6 +165,9 @@ void setupTrack(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--spheres", o->spheres, "How many spheres: 1, 2, 3 or auto (default)");
   sub.add_option("--diameter-mm", o->diameter_mm,
                  "Sphere diameter, mm: the scale, unless the camera file has a pixel size");
+  sub.add_option("--rig", o->rig,
+                 "A rig profile: pixels to metres through its camera's lens (or its pixel "
+                 "size), its spheres' diameter unless --diameter-mm");
   sub.add_option("--fps", o->fps,
                  "Frame rate, frames/s (required for a folder; a file's own by default)");
   sub.add_option("--polarity", o->polarity, collide::cli::kPolarityHelp);

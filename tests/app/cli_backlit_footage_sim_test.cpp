@@ -2,8 +2,9 @@
 // silhouettes with a bright centre spot on a bright field), exported as PNG
 // frames and read back as footage recorded elsewhere: `analyze --frames
 // --polarity` (auto and dark measure the shot, bright finds nothing and says
-// why) and `collide track` on two colliding spheres (each track's free flight
-// ends at the contact, on the right side of the true collision instant).
+// why) and `collide track --rig` on two colliding spheres (each track's free
+// flight ends at the contact, on the right side of the true collision
+// instant, with the velocity before it).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -86,13 +87,14 @@ TEST_F(CliBacklitFootage, AnalyzeFramesFindsSilhouettesUnlessForcedBright) {
 TEST_F(CliBacklitFootage, TrackEndsEachSpheresFlightAtTheContact) {
   ASSERT_NE(shot_, nullptr) << setup_err_;
   const std::string json = scratch_->file("track.json");
-  auto run = runCollide("track " + q(frames()) + " --fps " + fps() +
-                            " --diameter-mm 25.4 --spheres 2 --json " + q(json),
+  auto run = runCollide("track " + q(frames()) + " --fps " + fps() + " --rig " + q(kRig) +
+                            " --spheres 2 --json " + q(json),
                         *scratch_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto j = nlohmann::json::parse(readAll(json), nullptr, false);
   ASSERT_FALSE(j.is_discarded());
   EXPECT_EQ(j["backlit"], true);
+  EXPECT_EQ(j["pixel_size_from"], "camera");
   ASSERT_EQ(j["spheres"].size(), 2u);
   // Frames are exported in burst order: frame index k has the truth's t_s[k].
   const auto& truth = *shot_->truth;
@@ -106,14 +108,13 @@ TEST_F(CliBacklitFootage, TrackEndsEachSpheresFlightAtTheContact) {
     const int last_before = segs[k]["last_frame"], first_after = segs[k + 1]["first_frame"];
     EXPECT_LT(truth.t_s[last_before], truth.t_collision_s) << "sphere " << s + 1;
     EXPECT_GT(truth.t_s[first_after], truth.t_collision_s) << "sphere " << s + 1;
-    // Before the contact: the sphere's own velocity. (No lens model: the
-    // profile's perspective lens makes the scale vary across the image, so
-    // within 2 %, not the fits' sigmas.)
+    // Before the contact: the sphere's own velocity, through the profile's
+    // perspective lens, within 0.2 % (issue 13's target for track).
     const int first = segs[k]["first_frame"];
     const auto& v = segs[k]["velocity_m_s"];
     const collide::Vec3& v_true = truth.states[first][s].velocity_m_s;
     EXPECT_LT(std::hypot(v[0].get<double>() - v_true.x(), v[1].get<double>() - v_true.y()),
-              0.02 * v_true.head<2>().norm())
+              0.002 * v_true.head<2>().norm())
         << "sphere " << s + 1 << ": " << v.dump() << " vs " << v_true.transpose();
   }
 }
