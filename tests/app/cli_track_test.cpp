@@ -12,6 +12,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "tests/app/cli_run.hpp"
 #include "tests/vision/footage_writers.hpp"
@@ -311,6 +312,36 @@ TEST_F(CliTrack, BadInputIsNamed) {
                    scratch_);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr("--polarity 'up'"));
+}
+
+// A video file (8-bit MJPG AVI, lossy): the frame rate from the container.
+TEST_F(CliTrack, AVideoFileIsTrackedAtItsOwnFrameRate) {
+  const Drop d;
+  const std::string avi = scratch_.file("drop.avi");
+  cv::VideoWriter w(avi, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), kFps,
+                    cv::Size(kWidth, kHeight), false);
+  if (!w.isOpened()) GTEST_SKIP() << "this OpenCV build cannot write MJPG AVI files";
+  for (const cv::Mat& f : d.render()) {
+    cv::Mat f8;
+    f.convertTo(f8, CV_8U, 255.0 / 4095);
+    w.write(f8);
+  }
+  w.release();
+  const std::string js = scratch_.file("avi.json");
+  auto run = runCollide("track " + q(avi) + " --diameter-mm 10 --json " + q(js), scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json j = readJson(js);
+  EXPECT_EQ(j["fps"], kFps);
+  ASSERT_EQ(j["spheres"][0]["frames"].size(), 150u);
+  const json& segs = j["spheres"][0]["segments"];
+  ASSERT_EQ(segs.size(), 1u) << segs.dump(1);
+  const double s = j["pixel_size_m"], s_rel = j["pixel_size_sigma_m"].get<double>() / s;
+  const double ay = segs[0]["acceleration_m_s2"][1], sigma = segs[0]["acceleration_sigma_m_s2"][1];
+  EXPECT_LT(std::abs(ay + kG), 2 * std::hypot(sigma, kG * s_rel)) << ay << " +- " << sigma;
+  const Eigen::Vector2d v(segs[0]["velocity_m_s"][0].get<double>(),
+                          segs[0]["velocity_m_s"][1].get<double>());
+  EXPECT_LT((v - Eigen::Vector2d(d.vx, d.vy)).norm(), 0.002 * std::hypot(d.vx, d.vy))
+      << v.transpose();
 }
 
 // The real camera files of tests/data/footage are read through track (their
