@@ -128,6 +128,31 @@ TEST(FreeFlightSegments, AFloorBounceMakesTwoSegmentsSplitAtTheBounce) {
   }
 }
 
+// A wall: the horizontal velocity reverses (times e) while the fall goes on.
+TEST(FreeFlightSegments, AWallBounceSplitsTheTrackToo) {
+  constexpr double vx = 1.2, e = 0.8, x_wall = 0.05, tb = x_wall / vx;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0, 5e-6);
+  std::vector<FlightPoint> pts;
+  for (int i = 0; i < 160; ++i) {
+    const double t = (i + 0.37) / kFps;  // the wall is met between frames
+    const double x = t < tb ? vx * t : x_wall - e * vx * (t - tb);
+    FlightPoint p;
+    p.t_s = t;
+    p.position_m = {x + noise(rng), 0.2 - 0.5 * kG * t * t + noise(rng)};
+    p.sigma_m = 5e-6;
+    pts.push_back(p);
+  }
+  auto segs = fitFreeFlightSegments(pts);
+  ASSERT_TRUE(segs.ok());
+  ASSERT_EQ(segs->size(), 2u);
+  const int last_before = static_cast<int>(std::floor(tb * kFps - 0.37));
+  EXPECT_EQ((*segs)[0].last, last_before);
+  const auto& b = (*segs)[1];
+  EXPECT_LT(std::abs(b.velocity_m_s.x() + e * vx), 4 * b.velocity_sigma_m_s.x());
+  EXPECT_LT(std::abs(b.acceleration_m_s2.y() + kG), 4 * b.acceleration_sigma_m_s2.y());
+}
+
 TEST(FreeFlightSegments, OneWildPointIsLeftOutNotASplit) {
   const Flight1 f;
   auto pts = sample(f, 80, 5e-6, 3);
