@@ -46,6 +46,7 @@ Result<OpenedFootage> openCameraFile(const TrackOptions& o) {
   if (!(out.fps > 0))
     return fail(o.footage + ": the file records no frame rate: give it with --fps");
   out.file_pixel_size_m = info.pixel_size_m;
+  out.note = info.note;  // e.g. a save step the frame rate does not include
   out.width = info.width;
   out.height = info.height;
   const std::int64_t first_id = info.first_frame, last_id = info.first_frame + info.frame_count - 1;
