@@ -67,9 +67,52 @@ Result<OpenedFootage> openCameraFile(const TrackOptions& o) {
   return out;
 }
 
-Result<OpenedFootage> openBurst(const TrackOptions& o, bool video) {
-  auto burst =
-      video ? vision::loadVideo(o.footage, o.fps) : vision::loadFrameFolder(o.footage, o.fps);
+/// A folder of frame files, decoded one at a time as they are tracked.
+Result<OpenedFootage> openFolder(const TrackOptions& o) {
+  auto folder = vision::listFrameFolder(o.footage);
+  if (!folder) return folder.error();
+  auto paths = std::make_shared<const std::vector<std::string>>(std::move(folder->paths));
+  auto first = vision::readFrameImage(paths->front());
+  if (!first) return first.error();
+  OpenedFootage out;
+  out.fps = o.fps;
+  out.width = first->cols;
+  out.height = first->rows;
+  out.note = folder->note;
+  out.source.count = static_cast<std::int64_t>(paths->size());
+  // Full scale as loadFrameFolder sets it (16-bit data that never exceeds
+  // 4095 is 12-bit), judged here from the first, middle and last frames.
+  out.source.max_value = 255;
+  if (first->depth() == CV_16U) {
+    double highest = 0;
+    for (const std::size_t k : {std::size_t{0}, paths->size() / 2, paths->size() - 1}) {
+      auto img = k == 0 ? first : vision::readFrameImage((*paths)[k]);
+      double lo = 0, hi = 0;
+      if (img) cv::minMaxLoc(*img, &lo, &hi);
+      highest = std::max(highest, hi);
+    }
+    out.source.max_value = highest <= 4095 ? 4095 : 65535;
+  }
+  auto first_image = std::make_shared<const cv::Mat>(std::move(*first));
+  const double fps = o.fps;
+  out.source.read = [paths, first_image, fps](std::int64_t i) -> Result<vision::Frame> {
+    const std::string& path = (*paths)[static_cast<std::size_t>(i)];
+    auto img = vision::readFrameImage(path);
+    if (!img) return img.error();
+    if (Status st = vision::checkSameFrame(*first_image, paths->front(), *img, path); !st)
+      return st.error();
+    vision::Frame f;
+    f.id = i;
+    f.timestamp_ns = std::llround(static_cast<double>(i) * 1e9 / fps);
+    f.image = std::move(*img);
+    return f;
+  };
+  return out;
+}
+
+/// A video, decoded whole (OpenCV reads it in sequence).
+Result<OpenedFootage> openVideo(const TrackOptions& o) {
+  auto burst = vision::loadVideo(o.footage, o.fps);
   if (!burst) return burst.error();
   OpenedFootage out;
   out.fps = o.fps > 0 ? o.fps : burst->fps;
@@ -227,7 +270,7 @@ Result<OpenedFootage> openFootage(const TrackOptions& o) {
     return fail(o.footage +
                 " is a folder of frames: give the frame rate it was recorded at "
                 "(--fps, frames per second)");
-  return openBurst(o, !folder);
+  return folder ? openFolder(o) : openVideo(o);
 }
 
 Result<TrackResult> trackFootage(const TrackOptions& o, const OpenedFootage& in,

@@ -314,6 +314,26 @@ TEST_F(CliTrack, BadInputIsNamed) {
   EXPECT_THAT(run.err, HasSubstr("--polarity 'up'"));
 }
 
+// Frames of a folder are decoded one at a time: a damaged one is left out,
+// named, and the rest is tracked.
+TEST_F(CliTrack, ADamagedFrameFileIsLeftOutAndNamed) {
+  Drop d;
+  d.frames = 40;
+  const std::string dir = writeFolder(d, scratch_.file("damaged"));
+  writeText(dir + "/frame0020.png", "not a picture");
+  const std::string js = scratch_.file("damaged.json");
+  auto run =
+      runCollide("track " + q(dir) + " --fps 1000 --diameter-mm 10 --json " + q(js), scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.err, HasSubstr("1 frames could not be read"));
+  EXPECT_THAT(run.err, HasSubstr("frame0020.png"));
+  const json j = readJson(js);
+  const json& frames = j["spheres"][0]["frames"];
+  ASSERT_EQ(frames.size(), 39u);
+  EXPECT_EQ(frames[20]["index"], 21);
+  EXPECT_DOUBLE_EQ(frames[20]["t_s"].get<double>(), 21 / kFps);
+}
+
 // A video file (8-bit MJPG AVI, lossy): the frame rate from the container.
 TEST_F(CliTrack, AVideoFileIsTrackedAtItsOwnFrameRate) {
   const Drop d;
