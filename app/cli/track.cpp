@@ -30,7 +30,7 @@ bool toTrackOptions(const Options& o, collide::app::TrackOptions& t) {
   t.footage = o.footage;
   t.rig = o.rig;
   if (std::error_code ec; !o.rig.empty() && !std::filesystem::is_regular_file(o.rig, ec)) {
-    std::cerr << "collide track: --rig " << o.rig
+    std::cerr << "collide track: --profile " << o.rig
               << ": no such file; give a rig profile (e.g. config/sim-lab.toml)\n";
     return false;
   }
@@ -165,7 +165,7 @@ void setupTrack(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--spheres", o->spheres, "How many spheres: 1, 2, 3 or auto (default)");
   sub.add_option("--diameter-mm", o->diameter_mm,
                  "Sphere diameter, mm: the scale, unless the camera file has a pixel size");
-  sub.add_option("--rig", o->rig,
+  sub.add_option("--profile,--rig", o->rig,
                  "A rig profile: pixels to metres through its camera's lens (or its pixel "
                  "size), its spheres' diameter unless --diameter-mm");
   sub.add_option("--fps", o->fps,

@@ -2,7 +2,7 @@
 // silhouettes with a bright centre spot on a bright field), exported as PNG
 // frames and read back as footage recorded elsewhere: `analyze --frames
 // --polarity` (auto and dark measure the shot, bright finds nothing and says
-// why) and `collide track --rig` on two colliding spheres (each track's free
+// why) and `collide track --profile` on two colliding spheres (each track's free
 // flight ends at the contact, on the right side of the true collision
 // instant, with the velocity before it).
 #include <gmock/gmock.h>
@@ -87,7 +87,7 @@ TEST_F(CliBacklitFootage, AnalyzeFramesFindsSilhouettesUnlessForcedBright) {
 TEST_F(CliBacklitFootage, TrackEndsEachSpheresFlightAtTheContact) {
   ASSERT_NE(shot_, nullptr) << setup_err_;
   const std::string json = scratch_->file("track.json");
-  auto run = runCollide("track " + q(frames()) + " --fps " + fps() + " --rig " + q(kRig) +
+  auto run = runCollide("track " + q(frames()) + " --fps " + fps() + " --profile " + q(kRig) +
                             " --spheres 2 --json " + q(json),
                         *scratch_);
   ASSERT_EQ(run.exit_code, 0) << run.err;

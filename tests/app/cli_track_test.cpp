@@ -293,8 +293,8 @@ TEST_F(CliTrack, BadInputIsNamed) {
   run = runCollide("track " + q(dir) + " --fps 1000 --spheres 4", scratch_);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr("--spheres '4'"));
-  run =
-      runCollide("track " + q(dir) + " --fps 1000 --rig " + q(scratch_.file("no.toml")), scratch_);
+  run = runCollide("track " + q(dir) + " --fps 1000 --profile " + q(scratch_.file("no.toml")),
+                   scratch_);
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.err, HasSubstr("no.toml: no such file"));
   run = runCollide("track " + q(dir) + " --fps 1000", scratch_);
