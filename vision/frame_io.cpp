@@ -139,15 +139,11 @@ std::string frameFileName(std::size_t index, std::int64_t id, int digits) {
   return "frame_" + text + "_id" + std::to_string(id) + ".png";
 }
 
-Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
-  if (!(fps > 0) || !std::isfinite(fps))
-    return fail("frame rate " + std::to_string(fps) + " for " + dir +
-                " is not > 0: give the frames/s the footage was recorded at");
+Result<FrameFolder> listFrameFolder(const std::string& dir) {
   std::error_code ec;
   if (!fs::exists(dir, ec)) return fail("frame folder " + dir + " does not exist: check the path");
   if (!fs::is_directory(dir, ec))
     return fail(dir + " is not a folder: give the folder that holds the frame images");
-
   std::vector<std::string> images, skipped;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
@@ -163,42 +159,63 @@ Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
                 (skipped.empty() ? std::string() : " (found only: " + listSome(skipped) + ")") +
                 ": give the folder that holds the frames");
   std::sort(images.begin(), images.end(), naturalLess);
+  FrameFolder out;
+  for (const std::string& name : images) out.paths.push_back((fs::path(dir) / name).string());
+  if (!skipped.empty())
+    out.note = "skipped " + std::to_string(skipped.size()) +
+               " entries that are not images: " + listSome(skipped);
+  return out;
+}
 
+Result<cv::Mat> readFrameImage(const std::string& path) {
+  cv::Mat img;
+  if (lower(fs::path(path).extension().string()) == ".b16") {  // pco: not an OpenCV format
+    auto b16 = Footage::open(path);
+    if (!b16) return b16.error();
+    if (Status s = b16->read(0, img); !s) return s.error();
+  } else {
+    try {
+      img = cv::imread(path, cv::IMREAD_UNCHANGED);
+    } catch (const cv::Exception&) {
+      img.release();
+    }
+  }
+  if (img.empty())
+    return fail("cannot decode " + path + " as an image: the file is damaged or not really " +
+                lower(fs::path(path).extension().string()) +
+                "; replace it or move it out of the folder");
+  return toGrey(std::move(img), path);
+}
+
+Status checkSameFrame(const cv::Mat& first, const std::string& first_path, const cv::Mat& image,
+                      const std::string& path) {
+  if (image.size() != first.size())
+    return fail(path + " is " + sizeText(image) + " pixels but the first frame " + first_path +
+                " is " + sizeText(first) +
+                ": all frames of a shot must be the same size; remove the odd file");
+  if (image.depth() != first.depth())
+    return fail(path + " is " + std::to_string(bitsOf(image)) + "-bit but the first frame " +
+                first_path + " is " + std::to_string(bitsOf(first)) +
+                "-bit: all frames of a shot must have the same bit depth");
+  return Ok{};
+}
+
+Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
+  if (!(fps > 0) || !std::isfinite(fps))
+    return fail("frame rate " + std::to_string(fps) + " for " + dir +
+                " is not > 0: give the frames/s the footage was recorded at");
+  auto folder = listFrameFolder(dir);
+  if (!folder) return folder.error();
+  const std::vector<std::string>& paths = folder->paths;
   Burst burst;
   burst.fps = fps;
-  burst.frames.reserve(images.size());
-  for (std::size_t i = 0; i < images.size(); ++i) {
-    const std::string path = (fs::path(dir) / images[i]).string();
-    cv::Mat img;
-    if (lower(fs::path(path).extension().string()) == ".b16") {  // pco: not an OpenCV format
-      auto b16 = Footage::open(path);
-      if (!b16) return b16.error();
-      if (Status s = b16->read(0, img); !s) return s.error();
-    } else {
-      try {
-        img = cv::imread(path, cv::IMREAD_UNCHANGED);
-      } catch (const cv::Exception&) {
-        img.release();
-      }
-    }
-    if (img.empty())
-      return fail("cannot decode " + path + " as an image: the file is damaged or not really " +
-                  lower(fs::path(path).extension().string()) +
-                  "; replace it or move it out of the folder");
-    Result<cv::Mat> grey = toGrey(std::move(img), path);
+  burst.frames.reserve(paths.size());
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    Result<cv::Mat> grey = readFrameImage(paths[i]);
     if (!grey) return grey.error();
-    if (!burst.frames.empty()) {
-      const Frame& first = burst.frames.front();
-      const std::string first_path = (fs::path(dir) / images[0]).string();
-      if (grey->size() != first.image.size())
-        return fail(path + " is " + sizeText(*grey) + " pixels but the first frame " + first_path +
-                    " is " + sizeText(first.image) +
-                    ": all frames of a shot must be the same size; remove the odd file");
-      if (grey->depth() != first.image.depth())
-        return fail(path + " is " + std::to_string(bitsOf(*grey)) + "-bit but the first frame " +
-                    first_path + " is " + std::to_string(bitsOf(first.image)) +
-                    "-bit: all frames of a shot must have the same bit depth");
-    }
+    if (!burst.frames.empty())
+      if (Status st = checkSameFrame(burst.frames.front().image, paths[0], *grey, paths[i]); !st)
+        return st.error();
     Frame f;
     f.id = static_cast<std::int64_t>(i);
     f.timestamp_ns = timestampNs(i, fps);
@@ -207,9 +224,7 @@ Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
   }
   burst.format = formatOf(burst.frames);
   burst.stats.completed = burst.frames.size();
-  if (!skipped.empty())
-    burst.note = "skipped " + std::to_string(skipped.size()) +
-                 " entries that are not images: " + listSome(skipped);
+  burst.note = folder->note;
   return burst;
 }
 

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "analysis/result.hpp"
 #include "vision/frame.hpp"
@@ -26,6 +27,23 @@ namespace collide::vision {
 /// images; an image file that cannot be decoded or has an unsupported pixel
 /// type; frames of different sizes or bit depths. Any thread.
 Result<Burst> loadFrameFolder(const std::string& dir, double fps);
+
+/// The image files of a frame folder in loadFrameFolder's order, for reading
+/// them one at a time (readFrameImage) instead of all at once.
+struct FrameFolder {
+  std::vector<std::string> paths;  ///< full paths, natural name order
+  std::string note;                ///< entries skipped (not images), if any
+};
+/// Errors: `dir` missing, not a folder, unreadable, or without images.
+Result<FrameFolder> listFrameFolder(const std::string& dir);
+
+/// One frame file decoded as loadFrameFolder does (grey, 8- or 16-bit; pco
+/// .b16 too). Errors: a file that cannot be decoded, an unsupported pixel type.
+Result<cv::Mat> readFrameImage(const std::string& path);
+
+/// Error unless `image` has `first`'s size and bit depth (the paths name them).
+Status checkSameFrame(const cv::Mat& first, const std::string& first_path, const cv::Mat& image,
+                      const std::string& path);
 
 /// Decodes every frame of a video file with OpenCV (FFmpeg, or OpenCV's own
 /// MJPEG reader), converting to grey. fps_or_0 = 0 takes the frame rate

@@ -346,8 +346,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   if (!(diam[0] > 0) || !(diam[1] > 0))
     return fail("the sphere diameters must be given and > 0 (got " + fmt("%g", diam[0]) + " and " +
                 fmt("%g", diam[1]) + " m)");
-  const int saturated =
-      detectSpheres(burst, data, diam, set.pixel_size_m, frames->max_value, set.progress);
+  const int saturated = detectSpheres(burst, data, diam, set.pixel_size_m, frames->max_value,
+                                      set.progress, set.polarity);
   auto blobs = selectSphereBlobs(data, diam, set.pixel_size_m);
   if (!blobs) return blobs.error();
   if (auto st = trackSpheres(data, *blobs, diam); !st) return st.error();

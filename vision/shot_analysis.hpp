@@ -22,6 +22,7 @@
 #include "analysis/types.hpp"
 #include "analysis/walton.hpp"
 #include "vision/frame.hpp"
+#include "vision/sphere_detector.hpp"
 
 namespace collide::vision {
 
@@ -77,6 +78,9 @@ struct AnalysisSettings {
   /// expected radii; camera_distance_m defaults to the lens' distance. None:
   /// pixels are pixel_size_m apart everywhere.
   std::optional<PinholeCamera> camera;
+  /// Which way round the spheres are lit (SphereDetectorSettings::polarity):
+  /// auto-detected per frame unless forced (`--polarity`).
+  SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto;
   /// Optional progress callback (frames processed, total); may be empty.
   std::function<void(int, int)> progress;
 };

@@ -144,8 +144,10 @@ Result<BurstFrames> prepareFrames(const Burst& burst, double fps_setting) {
 
 int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
                   const std::array<double, 2>& diam, double pixel_size_m, int max_value,
-                  const std::function<void(int, int)>& progress) {
+                  const std::function<void(int, int)>& progress,
+                  SphereDetectorSettings::Polarity polarity) {
   SphereDetectorSettings ds;
+  ds.polarity = polarity;
   if (pixel_size_m > 0) {
     // Generous bounds: a wrong diameter must still be measured, to be reported.
     ds.min_radius_px = 0.15 * std::min(diam[0], diam[1]) / pixel_size_m;
@@ -169,10 +171,12 @@ Result<SphereBlobs> selectSphereBlobs(std::vector<FrameData>& data,
     for (const SphereMeasurement& m : f.found.spheres)
       if (!m.cut_by_border) radii.push_back(m.circle.radius);
   if (radii.empty())
-    return fail("no sphere found in any of the " + std::to_string(data.size()) + " frames (" +
-                (data.front().found.notes.empty() ? std::string("no bright round blob")
-                                                  : data.front().found.notes[0]) +
-                "); check the exposure and that the spheres are in view");
+    return fail(
+        "no sphere found in any of the " + std::to_string(data.size()) + " frames (" +
+        (data.front().found.notes.empty() ? std::string("no bright round blob")
+                                          : data.front().found.notes[0]) +
+        "); check the exposure, that the spheres are in view, and the polarity (--polarity "
+        "dark for silhouettes on a backlight, bright for lit spheres on a dark background)");
   const double ratio = diam[1] / diam[0];
   std::array<double, 2>& r_expect = out.r_expect_px;
   if (std::abs(ratio - 1) < 0.02) {

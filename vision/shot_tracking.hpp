@@ -44,10 +44,12 @@ struct BurstFrames {
 Result<BurstFrames> prepareFrames(const Burst& burst, double fps);
 
 /// Detect stage: the spheres in every frame. Radius bounds from the pixel size
-/// when known (0: none). Returns the number of saturated frames.
-int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
-                  const std::array<double, 2>& diameter_m, double pixel_size_m, int max_value,
-                  const std::function<void(int, int)>& progress);
+/// when known (0: none); polarity as SphereDetectorSettings. Returns the
+/// number of saturated frames.
+int detectSpheres(
+    const Burst& burst, std::vector<FrameData>& data, const std::array<double, 2>& diameter_m,
+    double pixel_size_m, int max_value, const std::function<void(int, int)>& progress,
+    SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto);
 
 /// Which blobs are spheres: the expected radius of each (one, or two for two
 /// sizes), checked against a given pixel size; every blob within 15 % of it

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "app/cli/command.hpp"
+#include "app/cli/footage_options.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
 #include "app/manifest.hpp"
@@ -42,6 +43,7 @@ struct Options {
   double diameter_mm = kNotGiven, diameter2_mm = 0;
   std::string json_out;
   std::string gravity_dir = "down";
+  std::string polarity = "auto";
   std::string range;  // "FIRST:LAST" frame ids of a camera file
   std::string manifest;
   std::optional<long> index;
@@ -154,6 +156,12 @@ int analyzeFootage(const Options& given) {
   if (!parseGravity(o.gravity_dir, settings.gravity_dir_image)) {
     std::cerr << "collide analyze: --gravity-dir '" << o.gravity_dir
               << "': use down, up, left, right, or U,V in image axes (u right, v down)\n";
+    return kExitBadInput;
+  }
+  if (!collide::cli::parsePolarity(o.polarity, settings.polarity)) {
+    std::cerr << "collide analyze: --polarity '" << o.polarity
+              << "': give auto, dark (silhouettes on a backlight) or bright (lit spheres on a "
+                 "dark background)\n";
     return kExitBadInput;
   }
   std::error_code ec;
@@ -367,6 +375,8 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--json", o->json_out, "Write the results JSON here (default: stdout)");
   sub.add_option("--gravity-dir", o->gravity_dir,
                  "Gravity in the image: down (default), up, left, right, or U,V");
+  sub.add_option("--polarity", o->polarity,
+                 std::string("With --frames: ") + collide::cli::kPolarityHelp);
   sub.footer(
       "Shot files: the results are stored in each file and its catalog row; a shot that\n"
       "cannot be analysed keeps its frames and gets results saying why. Ctrl-C stops after\n"
