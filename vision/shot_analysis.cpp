@@ -169,37 +169,52 @@ void fillFrames(ShotAnalysis& out, const Burst& burst, const std::vector<FrameDa
   }
 }
 
-// Velocity towards the camera from each track's apparent radius, when the
+// Each track's depth (towards the camera) from its apparent radius, when the
 // camera's distance is known: outlines cut by the border or merged with the
-// other sphere's are left out (their radii are not the sphere's).
-void measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
-                        const CollisionFits& fits, const AnalysisSettings& set, double px) {
+// other sphere's are left out (their radii are not the sphere's). With the
+// lens known, each frame's radius is compared with what the lens makes of the
+// sphere at that place on the collision plane (off-axis growth, distortion).
+using DepthFits = std::array<std::array<std::optional<DepthMotion>, 2>, 2>;
+
+DepthFits measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
+                             const CollisionFits& fits, const AnalysisSettings& set,
+                             const PixelScale& scale) {
+  DepthFits depth;
   const double distance = set.camera_distance_m > 0 ? set.camera_distance_m
                                                     : (set.camera ? set.camera->centre_m.z() : 0);
-  if (!(distance > 0)) return;
+  if (!(distance > 0)) return depth;
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
-      std::vector<double> t, r, sr;
+      const double radius_m = 0.5 * set.diameter_m[s];
+      std::vector<double> t, r, sr, r0;
       for (const int k : fits.fit[s][side]->frames) {
         const SphereMeasurement& m = *trackAt(data[k], s);
         if (m.cut_by_border || m.touching) continue;
+        const double plane_r =
+            set.camera ? apparentRadiusPx(
+                             *set.camera,
+                             set.camera->sphereCentre(m.circle.u, m.circle.v, radius_m), radius_m)
+                       : radius_m / scale.px;
+        if (!std::isfinite(plane_r)) continue;
         t.push_back(data[k].t);
         r.push_back(m.circle.radius);
         sr.push_back(std::max(m.circle.sigma_radius, 1e-3));
+        r0.push_back(plane_r);
       }
       if (t.size() < 3) continue;
       const auto vec = [](const std::vector<double>& v) {
         return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
       };
-      const double r_plane = 0.5 * set.diameter_m[s] / px;
-      auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), r_plane, distance, fits.t_split);
+      auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), vec(r0), distance, fits.t_split);
       if (!dm) {
         out.notes.push_back("sphere " + std::to_string(s + 1) +
                             ": no velocity from the apparent size: " + dm.error().message);
         continue;
       }
       out.sphere[s].vz_from_size_m_s[side] = Measured{dm->vz_m_s, dm->vz_sigma_m_s};
+      depth[s][side] = *dm;
     }
+  return depth;
 }
 
 // What the flags are computed from, besides the result itself.
@@ -373,7 +388,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   if (!fits) return fits.error();
 
   // ---- dots and spins, per sphere and side
-  const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value);
+  const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value, &scale);
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side)
       if (const auto& why = spins.side[s][side].unknown_reason) {
@@ -381,6 +396,9 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         out.notes.push_back("sphere " + std::to_string(s + 1) + ", " +
                             (side == 0 ? "before" : "after") + " the impact: " + *why);
       }
+
+  // ---- out-of-plane motion from the apparent size (when the camera's distance is known)
+  const DepthFits depth = measureDepthMotion(out, data, *fits, set, scale);
 
   // ---- Walton's inverse, and its spread over draws of every fitted input
   const ShotModel model = shotModel(set, *fits, spins, r_med, *px);
@@ -391,7 +409,6 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         "the contact instant); check the tracks");
   fillKinematics(out, u, *fits, spins, model.vz_fraction);
   fillFrames(out, burst, data, spins);
-  measureDepthMotion(out, data, *fits, set, *px);
 
   // ---- quality flags
   FlagInputs q;
