@@ -76,4 +76,21 @@ Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::Vector
   return m;
 }
 
+void conserveMomentumZ(std::array<double, 4>& vz, std::array<double, 4>& sigma,
+                       const std::array<double, 2>& mass) {
+  for (double x : sigma)
+    if (!(x > 0) || !std::isfinite(x)) return;
+  const Eigen::Vector4d c(-mass[0], mass[0], -mass[1], mass[1]);
+  Eigen::Vector4d v, var;
+  for (int i = 0; i < 4; ++i) v[i] = vz[i], var[i] = sigma[i] * sigma[i];
+  const Eigen::Vector4d sc = var.cwiseProduct(c);  // Sigma c
+  const double csc = c.dot(sc);
+  if (!(csc > 0)) return;
+  const Eigen::Vector4d adjusted = v - sc * (c.dot(v) / csc);
+  for (int i = 0; i < 4; ++i) {
+    vz[i] = adjusted[i];
+    sigma[i] = std::sqrt(std::max(0.0, var[i] - sc[i] * sc[i] / csc));
+  }
+}
+
 }  // namespace collide

@@ -16,6 +16,7 @@
 // thesis' 1 % launch misalignment at 1-2 m/s. A systematic radius error
 // cancels in v_z (it shifts every dz alike) but not in the depth itself.
 #include <Eigen/Dense>
+#include <array>
 
 #include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
@@ -59,5 +60,15 @@ Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& times_s, const Eigen::
                                    const Eigen::VectorXd& radius_sigma_px,
                                    const Eigen::VectorXd& r_plane_px, double camera_distance_m,
                                    double t_ref_s);
+
+/// Momentum along z is conserved in the impact (the impulse is internal):
+/// m1 (v1' - v1) + m2 (v2' - v2) = 0. Adjusts the four measured velocities
+/// towards the camera, vz = {sphere 1 before, after, sphere 2 before, after}
+/// (m/s) with standard uncertainties `sigma`, by weighted least squares onto
+/// that constraint; `sigma` becomes the adjusted values' uncertainties. A
+/// size-measured v_z after impact, off by a changing radius bias, is then
+/// held by the three others. Nothing changes when a sigma is not finite and > 0.
+void conserveMomentumZ(std::array<double, 4>& vz, std::array<double, 4>& sigma,
+                       const std::array<double, 2>& mass_kg);
 
 }  // namespace collide

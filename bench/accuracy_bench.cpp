@@ -146,7 +146,11 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
                     (side == 0 ? tb : ta)[s].velocity_m_s.z());
   }
   const Vec3 n = (tb[0].position_m - tb[1].position_m).normalized();
-  std::printf("  line of centres z part: truth %+.4f\n", n.z());
+  std::printf("  line of centres z part: truth %+.4f, analysis %+.4f +- %.4f", n.z(),
+              r.collision.line_of_centres_z.value, r.collision.line_of_centres_z.sigma);
+  if (const auto& nz = r.collision.line_of_centres_z_from_size)
+    std::printf(", from size %+.4f +- %.4f", nz->value, nz->sigma);
+  std::printf("\n");
 }
 
 // Errors of one analysed shot against the truth, into `out`.

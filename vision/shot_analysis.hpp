@@ -130,6 +130,12 @@ struct CollisionProperties {
   /// Total kinetic energy after minus before (translation + rotation, the
   /// masses of AnalysisSettings, I = m d^2 / 10), J; > 0 is unphysical.
   Measured kinetic_energy_change_J;
+  /// z part (towards the camera) of the unit line of centres at contact, as
+  /// the inverse found it (apparent sizes, spin changes, the prior).
+  Measured line_of_centres_z;
+  /// The same from the two spheres' apparent sizes alone (their depths at
+  /// the contact), when the camera's distance is known.
+  std::optional<Measured> line_of_centres_z_from_size;
   /// The two collision-instant estimates (pre- and post-impact fits), s.
   double t_collision_before_s = 0, t_collision_after_s = 0;
 };
