@@ -121,7 +121,12 @@ void useDepths(ShotModel& model, const DepthFits& depth, const std::optional<Mea
       if (!d) continue;
       const TrajectoryFit& f = fits.fit[s][side]->fit;
       const double sc = depthScale(*d), s_vz = d->vz_sigma_m_s;
-      if (side == 0) model.vz_before[s] = std::array<double, 2>{d->vz_m_s, s_vz};
+      if (side == 0) {
+        // Combined with the prior N(0, (fraction x speed)^2) the rig's alignment gives.
+        const double sp = model.vz_fraction * f.velocityAt_m_s(f.tRef_s()).value.norm();
+        const double w = sp > 0 ? sp * sp / (sp * sp + s_vz * s_vz) : 0.0;
+        model.vz_before[s] = std::array<double, 2>{w * d->vz_m_s, std::sqrt(w) * s_vz};
+      }
       Eigen::Vector2d x(f.coefficients(0)[0], f.coefficients(1)[0]);
       Eigen::Vector2d v(f.coefficients(0)[1], f.coefficients(1)[1]);
       if (set.camera) x -= set.camera->centre_m.head<2>();
@@ -136,8 +141,11 @@ void useDepths(ShotModel& model, const DepthFits& depth, const std::optional<Mea
     }
   if (nz_size) {
     const double r = 0.5 * (r_med[0] + r_med[1]);
-    model.nz_mean = nz_size->value;
-    model.nz_sigma = std::hypot(nz_size->sigma, z0 * sys_px / (r * model.contact));
+    // Combined with the prior N(0, line_of_centres_z_sigma^2) of the rig's alignment.
+    const double sm = std::hypot(nz_size->sigma, z0 * sys_px / (r * model.contact));
+    const double sp = std::max(model.nz_sigma, 1e-6), w = sp * sp / (sp * sp + sm * sm);
+    model.nz_mean = w * nz_size->value;
+    model.nz_sigma = std::sqrt(w) * sm;
   }
 }
 
