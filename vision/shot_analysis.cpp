@@ -293,7 +293,7 @@ void fillFrames(ShotAnalysis& out, const Burst& burst, const std::vector<FrameDa
 // other sphere's are left out (their radii are not the sphere's). With the
 // lens known, each frame's radius is compared with what the lens makes of the
 // sphere at that place on the collision plane (off-axis growth, distortion).
-DepthFits measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
+DepthFits measureDepthMotion(std::vector<std::string>* notes, const std::vector<FrameData>& data,
                              const CollisionFits& fits, const AnalysisSettings& set,
                              const PixelScale& scale) {
   DepthFits depth;
@@ -324,11 +324,11 @@ DepthFits measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& da
       };
       auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), vec(r0), distance, fits.t_split);
       if (!dm) {
-        out.notes.push_back("sphere " + std::to_string(s + 1) +
-                            ": no velocity from the apparent size: " + dm.error().message);
+        if (notes)
+          notes->push_back("sphere " + std::to_string(s + 1) +
+                           ": no velocity from the apparent size: " + dm.error().message);
         continue;
       }
-      out.sphere[s].vz_from_size_m_s[side] = Measured{dm->vz_m_s, dm->vz_sigma_m_s};
       depth[s][side] = *dm;
     }
   return depth;
@@ -525,14 +525,14 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   // ---- out-of-plane motion from the apparent size (when the camera's distance
   // is known); with the lens, the fits again with each centre at its depth
   const std::array<double, 2> mass{massOf(set, 0), massOf(set, 1)};
-  DepthFits depth = measureDepthMotion(out, data, *fits, set, scale);
+  DepthFits depth = measureDepthMotion(&out.notes, data, *fits, set, scale);
   completeDepths(depth, *fits, set, r_med, mass);
   if (set.camera && setDepths(scale, depth, fits->t_split)) {
     auto refit = fitCollision(data, scale, contact, gravity, set.fix_gravity,
                               burst.exposure_us * 1e-6, frames->frame_dt);
     if (!refit) return refit.error();
     fits = std::move(refit);
-    depth = measureDepthMotion(out, data, *fits, set, scale);
+    depth = measureDepthMotion(nullptr, data, *fits, set, scale);  // notes given above
     completeDepths(depth, *fits, set, r_med, mass);
   }
   for (int s = 0; s < 2; ++s)
