@@ -1,6 +1,8 @@
 #include "analysis/depth_from_size.hpp"
 
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include "analysis/least_squares.hpp"
@@ -11,14 +13,43 @@ double depthFromRadius(double r_px, double r_plane_px, double camera_distance_m)
   return camera_distance_m * (1.0 - r_plane_px / r_px);
 }
 
+double apparentRadiusPx(const PinholeCamera& camera, const Vec3& c, double radius_m) {
+  const Vec3 to_camera = camera.centre_m - c;
+  const double dist = to_camera.norm();
+  if (!(dist > radius_m)) return std::nan("");
+  const Vec3 u = to_camera / dist;
+  // The tangent circle: centre R^2 / L towards the camera, radius R sqrt(1 - R^2 / L^2).
+  const Vec3 centre = c + u * (radius_m * radius_m / dist);
+  const double rho = radius_m * std::sqrt(1 - radius_m * radius_m / (dist * dist));
+  const Vec3 e1 = u.unitOrthogonal(), e2 = u.cross(e1);
+  constexpr int kN = 64;
+  std::array<Eigen::Vector2d, kN> pts;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int i = 0; i < kN; ++i) {
+    const double phi = 2 * std::numbers::pi * i / kN;
+    pts[i] = camera.project(centre + rho * (std::cos(phi) * e1 + std::sin(phi) * e2));
+    mean += pts[i] / kN;
+  }
+  double r = 0;
+  for (const Eigen::Vector2d& p : pts) r += (p - mean).norm() / kN;
+  return r;
+}
+
 Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::VectorXd& r,
                                    const Eigen::VectorXd& sr, double r0, double z0, double t_ref) {
+  return fitDepthMotion(t, r, sr, Eigen::VectorXd::Constant(t.size(), r0), z0, t_ref);
+}
+
+Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::VectorXd& r,
+                                   const Eigen::VectorXd& sr, const Eigen::VectorXd& r0v, double z0,
+                                   double t_ref) {
   const Eigen::Index n = t.size();
+  if (r0v.size() != n) return fail("depth from size: plane radii and times differ in number");
   if (r.size() != n || sr.size() != n)
     return fail("depth from size: " + std::to_string(n) + " times but " + std::to_string(r.size()) +
                 " radii and " + std::to_string(sr.size()) + " sigmas");
   if (n < 3) return fail("depth from size needs at least 3 frames, got " + std::to_string(n));
-  if (!(r0 > 0) || !std::isfinite(r0) || !(z0 > 0) || !std::isfinite(z0))
+  if (!(r0v.array() > 0).all() || !r0v.allFinite() || !(z0 > 0) || !std::isfinite(z0))
     return fail(
         "depth from size needs the radius in the object plane (px) and the camera's distance "
         "(m), both > 0");
@@ -30,8 +61,8 @@ Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::Vector
                   " has no usable radius (radius and its sigma must be finite and > 0)");
     a(i, 0) = 1.0;
     a(i, 1) = t[i] - t_ref;
-    dz[i] = depthFromRadius(r[i], r0, z0);
-    sz[i] = z0 * r0 * sr[i] / (r[i] * r[i]);
+    dz[i] = depthFromRadius(r[i], r0v[i], z0);
+    sz[i] = z0 * r0v[i] * sr[i] / (r[i] * r[i]);
   }
   auto fit = weightedLeastSquares(a, dz, Weights::fromSigmas(sz), "depth from size");
   if (!fit) return fit.error();
@@ -43,6 +74,23 @@ Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::Vector
   m.chi2 = fit->chi2;
   m.dof = fit->dof;
   return m;
+}
+
+void conserveMomentumZ(std::array<double, 4>& vz, std::array<double, 4>& sigma,
+                       const std::array<double, 2>& mass) {
+  for (double x : sigma)
+    if (!(x > 0) || !std::isfinite(x)) return;
+  const Eigen::Vector4d c(-mass[0], mass[0], -mass[1], mass[1]);
+  Eigen::Vector4d v, var;
+  for (int i = 0; i < 4; ++i) v[i] = vz[i], var[i] = sigma[i] * sigma[i];
+  const Eigen::Vector4d sc = var.cwiseProduct(c);  // Sigma c
+  const double csc = c.dot(sc);
+  if (!(csc > 0)) return;
+  const Eigen::Vector4d adjusted = v - sc * (c.dot(v) / csc);
+  for (int i = 0; i < 4; ++i) {
+    vz[i] = adjusted[i];
+    sigma[i] = std::sqrt(std::max(0.0, var[i] - sc[i] * sc[i] / csc));
+  }
 }
 
 }  // namespace collide

@@ -16,7 +16,9 @@
 // thesis' 1 % launch misalignment at 1-2 m/s. A systematic radius error
 // cancels in v_z (it shifts every dz alike) but not in the depth itself.
 #include <Eigen/Dense>
+#include <array>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 
 namespace collide {
@@ -24,6 +26,17 @@ namespace collide {
 /// dz = Z0 (1 - r0 / r): how far a centre imaged with radius r_px lies in
 /// front of the object plane (m, > 0 towards the camera).
 double depthFromRadius(double r_px, double r_plane_px, double camera_distance_m);
+
+/// The radius (px) of the circle the detector fits to the silhouette of a
+/// sphere of radius `radius_m` centred at `centre_m` (world), seen through
+/// `camera`: the mean distance of the projected silhouette (the sphere's
+/// tangent circle from the optical centre, distortion included) from its
+/// centroid. Off the optical axis the silhouette is an ellipse larger than
+/// f R / Z (by about 1 / cos^2 of the angle off axis radially, 1 / cos
+/// tangentially: 1-2 % at the edge of a 50 mm lens' field) and barrel
+/// distortion shrinks it again; a size change along a track is depth only
+/// after this is taken out. NaN when the sphere is not in front of the camera.
+double apparentRadiusPx(const PinholeCamera& camera, const Vec3& centre_m, double radius_m);
 
 struct DepthMotion {
   double dz0_m = 0, dz0_sigma_m = 0;    ///< depth at t_ref, m
@@ -40,5 +53,22 @@ struct DepthMotion {
 Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& times_s, const Eigen::VectorXd& radii_px,
                                    const Eigen::VectorXd& radius_sigma_px, double r_plane_px,
                                    double camera_distance_m, double t_ref_s);
+
+/// The same with each frame's own radius in the object plane (px), e.g.
+/// apparentRadiusPx at the frame's position on the plane z = 0.
+Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& times_s, const Eigen::VectorXd& radii_px,
+                                   const Eigen::VectorXd& radius_sigma_px,
+                                   const Eigen::VectorXd& r_plane_px, double camera_distance_m,
+                                   double t_ref_s);
+
+/// Momentum along z is conserved in the impact (the impulse is internal):
+/// m1 (v1' - v1) + m2 (v2' - v2) = 0. Adjusts the four measured velocities
+/// towards the camera, vz = {sphere 1 before, after, sphere 2 before, after}
+/// (m/s) with standard uncertainties `sigma`, by weighted least squares onto
+/// that constraint; `sigma` becomes the adjusted values' uncertainties. A
+/// size-measured v_z after impact, off by a changing radius bias, is then
+/// held by the three others. Nothing changes when a sigma is not finite and > 0.
+void conserveMomentumZ(std::array<double, 4>& vz, std::array<double, 4>& sigma,
+                       const std::array<double, 2>& mass_kg);
 
 }  // namespace collide

@@ -55,9 +55,11 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   for (int s = 0; s < 2; ++s) {
     st.position_m[s] = d[s][0].pos(o.t_c);
     o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
-    if (!nominal)
-      o.v_before[s].z() =
-          in.vz_fraction * o.v_before[s].norm() * std::normal_distribution<double>()(rng);
+    const double z = nominal ? 0.0 : std::normal_distribution<double>()(rng);
+    if (const auto& vz = in.vz_before[s])
+      o.v_before[s].z() = (*vz)[0] + (*vz)[1] * z;
+    else
+      o.v_before[s].z() = in.vz_fraction * o.v_before[s].norm() * z;
     o.v_after[s] = Vec3(d[s][1].vel(o.t_c).x(), d[s][1].vel(o.t_c).y(), 0);
     o.w_before[s] = drawVec(in.spin[s][0], in.spin_cov[s][0], rng, nominal);
     o.w_after[s] = drawVec(in.spin[s][1], in.spin_cov[s][1], rng, nominal);
@@ -72,7 +74,7 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   for (int s = 0; s < 2; ++s) inv.spin_change_cov[s] = in.spin_cov[s][0] + in.spin_cov[s][1];
   inv.nz_sigma = in.nz_sigma;
   const double sz = std::max(in.nz_sigma, 1e-6);
-  inv.nz_prior = nominal ? 0.0 : sz * std::normal_distribution<double>()(rng);
+  inv.nz_prior = in.nz_mean + (nominal ? 0.0 : sz * std::normal_distribution<double>()(rng));
   o.inverse = invertShot(st, inv);
   o.v_after = o.inverse.v_after;
   o.ok = o.inverse.ok;
@@ -104,6 +106,7 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
     u.vn.add(m.before.v_n_m_s), u.vs.add(m.before.v_s_m_s), u.vs_after.add(o.inverse.vs_after);
     u.t_c.add(o.t_c), u.dt_ba.add(o.dt_ba);
     u.kinetic_energy_change.add(o.inverse.kinetic_energy_change_J);
+    u.n_z.add(o.inverse.n_z);
     for (int s = 0; s < 2; ++s)
       for (int k = 0; k < 3; ++k)
         u.v_before[s][k].add(o.v_before[s][k]), u.v_after[s][k].add(o.v_after[s][k]);

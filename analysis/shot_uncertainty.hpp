@@ -7,6 +7,7 @@
 // uncertainty. Pure maths, SI units.
 #include <Eigen/Dense>
 #include <array>
+#include <optional>
 #include <random>
 
 #include "analysis/contact.hpp"
@@ -28,8 +29,15 @@ struct ShotModel {
   double contact = 0;                ///< contact distance, m
   double t_before = 0, t_after = 0;  ///< the nominal instants (pre-, post-impact fits)
   double w_before = 0.5;             ///< weight of the pre-impact instant in t_c
-  double nz_sigma = 0.01;            ///< prior sigma of the line of centres' z part
-  double vz_fraction = 0.005;        ///< prior sigma of v_z before impact, fraction of the speed
+  /// What is known of the line of centres' z part before the spins speak:
+  /// its mean (a measurement, e.g. from the spheres' apparent sizes, or 0 for
+  /// a prior) and standard deviation.
+  double nz_mean = 0.0;
+  double nz_sigma = 0.01;
+  double vz_fraction = 0.005;  ///< prior sigma of v_z before impact, fraction of the speed
+  /// Each sphere's measured v_z before impact (value, sigma; m/s), e.g. from
+  /// its apparent size; unset: 0 with the prior vz_fraction.
+  std::array<std::optional<std::array<double, 2>>, 2> vz_before;
 };
 
 /// One draw (or the nominal evaluation) of a shot.
@@ -63,7 +71,7 @@ struct Spread {
 struct ShotUncertainty {
   ShotDraw nominal;  ///< nominal.ok false: not a collision
   Spread e, beta, beta_from_impulse, f, gamma_deg, vn, vs, vs_after, t_c, dt_ba;
-  Spread kinetic_energy_change;
+  Spread kinetic_energy_change, n_z;
   std::array<std::array<Spread, 3>, 2> v_before, v_after;  ///< [sphere][axis]
 };
 

@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <filesystem>
 #include <mutex>
+#include <numbers>
 #include <thread>
 
 #include "app/report/results_json.hpp"
@@ -29,6 +31,10 @@ vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
   // camera's perspective imaging): centres through it, not one pixel size.
   if (auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (recorded profile)")) {
     if (auto lens = hw::simulatedLens(*profile); lens && *lens) s.camera = **lens;
+    // The alignment the profile states ([analysis]): priors for the out-of-plane parts.
+    s.line_of_centres_z_sigma =
+        std::sin(profile->analysis.line_of_centres_tilt_deg * std::numbers::pi / 180.0);
+    s.out_of_plane_speed_fraction = profile->analysis.launch_out_of_plane_fraction;
   }
   return s;
 }

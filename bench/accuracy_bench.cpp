@@ -139,7 +139,18 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
     row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
     row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
     row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
+    for (int side = 0; side < 2; ++side)
+      if (const auto& vz = k.vz_from_size_m_s[side])
+        std::printf("    v_z from size %s: %+.4f +- %.4f m/s (truth %+.4f)\n",
+                    side == 0 ? "before" : "after", vz->value, vz->sigma,
+                    (side == 0 ? tb : ta)[s].velocity_m_s.z());
   }
+  const Vec3 n = (tb[0].position_m - tb[1].position_m).normalized();
+  std::printf("  line of centres z part: truth %+.4f, analysis %+.4f +- %.4f", n.z(),
+              r.collision.line_of_centres_z.value, r.collision.line_of_centres_z.sigma);
+  if (const auto& nz = r.collision.line_of_centres_z_from_size)
+    std::printf(", from size %+.4f +- %.4f", nz->value, nz->sigma);
+  std::printf("\n");
 }
 
 // Errors of one analysed shot against the truth, into `out`.

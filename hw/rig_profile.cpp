@@ -21,9 +21,9 @@ namespace collide::hw {
 
 namespace {
 
-const std::vector<std::string> kSections = {"regulator", "valves",   "camera",    "burst",
-                                            "geometry",  "launcher", "spheres",   "calibration",
-                                            "sequencer", "safety",   "simulation"};
+const std::vector<std::string> kSections = {"regulator", "valves",   "camera",     "burst",
+                                            "geometry",  "launcher", "spheres",    "calibration",
+                                            "sequencer", "safety",   "simulation", "analysis"};
 
 std::string at(const std::string& source, const toml::source_region& where) {
   return source + ":" + std::to_string(where.begin.line);
@@ -413,6 +413,18 @@ Status parseSimulation(const SettingsTable& t, RigProfile& p) {
   return r.finish("[simulation]");
 }
 
+Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
+  SettingsReader r(t);
+  AnalysisProfile& a = p.analysis;
+  COLLIDE_ASSIGN_OR_RETURN(
+      a.line_of_centres_tilt_deg,
+      r.number("line_of_centres_tilt_deg", a.line_of_centres_tilt_deg, {.gt = 0.0, .le = 30.0}));
+  COLLIDE_ASSIGN_OR_RETURN(a.launch_out_of_plane_fraction,
+                           r.number("launch_out_of_plane_fraction", a.launch_out_of_plane_fraction,
+                                    {.gt = 0.0, .le = 0.3}));
+  return r.finish("[analysis]");
+}
+
 }  // namespace
 
 SettingsReader DeviceProfile::backendSettings() const {
@@ -468,6 +480,9 @@ Result<RigProfile> parseRigProfile(std::string_view text, const std::string& sou
   const auto sim = doc.sections.find("simulation");
   const SettingsTable empty_sim{"simulation", source_name, 0, {}};
   COLLIDE_RETURN_IF_ERROR(parseSimulation(sim == doc.sections.end() ? empty_sim : sim->second, p));
+  // [analysis] is optional: the alignment the user states for their rig.
+  if (const auto an = doc.sections.find("analysis"); an != doc.sections.end())
+    COLLIDE_RETURN_IF_ERROR(parseAnalysis(an->second, p));
   return p;
 }
 

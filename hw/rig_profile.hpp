@@ -116,6 +116,19 @@ struct SimulationProfile {
   double restitution_exponent = 0.0;
 };
 
+/// What the user states about their rig's alignment ([analysis], optional):
+/// the analysis' priors for what the images cannot show, combined with what
+/// they can (the apparent sizes, when the camera's distance is known).
+struct AnalysisProfile {
+  /// How far the line of centres at contact may lean out of the image plane
+  /// (standard deviation, degrees): the launchers' height difference over the
+  /// contact distance. 0.57 deg = a z part of 0.01.
+  double line_of_centres_tilt_deg = 0.573;
+  /// Each launch's velocity out of the image plane (standard deviation, as a
+  /// fraction of its speed): the tubes' alignment with the plane.
+  double launch_out_of_plane_fraction = 0.005;
+};
+
 struct RigProfile {
   std::string name;    ///< rig name
   std::string source;  ///< file name the profile came from (for messages)
@@ -137,6 +150,7 @@ struct RigProfile {
   SequencerProfile sequencer;
   SafetyProfile safety;
   SimulationProfile simulation;
+  AnalysisProfile analysis;
 };
 
 /// Parses profile `text`; `source_name` names it in messages (a file name).

@@ -70,6 +70,124 @@ Result<double> pixelSize(const AnalysisSettings& set, const std::array<double, 2
   return px;
 }
 
+using DepthFits = std::array<std::array<std::optional<DepthMotion>, 2>, 2>;
+
+// A depth fit's sigma, widened when its residuals scatter more than the
+// radii's own uncertainties say.
+double depthScale(const DepthMotion& d) {
+  return d.dof > 0 ? std::max(1.0, std::sqrt(d.chi2 / d.dof)) : 1.0;
+}
+
+// The line of centres' z part at the instant t_c from the two spheres'
+// depths: (z_1 - z_2) / D, each side's fits weighted by their variance.
+std::optional<Measured> lineOfCentresZFromSize(const DepthFits& depth, double t_split, double t_c,
+                                               double contact_m) {
+  double w_sum = 0, wz_sum = 0;
+  for (int side = 0; side < 2; ++side) {
+    if (!depth[0][side] || !depth[1][side]) continue;
+    const DepthMotion &a = *depth[0][side], &b = *depth[1][side];
+    const double dt = t_c - t_split;
+    const double dz = (a.dz0_m + a.vz_m_s * dt) - (b.dz0_m + b.vz_m_s * dt);
+    const double sa = depthScale(a), sb = depthScale(b);
+    const double var = std::pow(sa * a.dz0_sigma_m, 2) + std::pow(sa * a.vz_sigma_m_s * dt, 2) +
+                       std::pow(sb * b.dz0_sigma_m, 2) + std::pow(sb * b.vz_sigma_m_s * dt, 2);
+    if (!(var > 0)) continue;
+    w_sum += 1 / var;
+    wz_sum += dz / var;
+  }
+  if (!(w_sum > 0)) return std::nullopt;
+  return Measured{wz_sum / w_sum / contact_m, 1 / std::sqrt(w_sum) / contact_m};
+}
+
+// What the apparent sizes tell the Monte Carlo. A radius bias that changes
+// by radius_systematic_px over a track (the lit part of the limb seen from a
+// changing angle) moves v_z by Z0 sigma_r / (r T); the two spheres' biases
+// may differ by as much, which moves the line of centres' z part by
+// Z0 sigma_r / (r D). The measured v_z before impact replaces the prior
+// out_of_plane_speed_fraction, the size-measured n_z the prior
+// line_of_centres_z_sigma; the depths' uncertainties (position on the wrong
+// plane: v |dz| / Z0, x |dv_z| / Z0 from the optical axis, and the track's
+// bending, below) join each fit's systematic velocity drift.
+void useDepths(ShotModel& model, const DepthFits& depth, const std::optional<Measured>& nz_size,
+               const CollisionFits& fits, const AnalysisSettings& set,
+               const std::array<double, 2>& r_med) {
+  const double z0 = set.camera_distance_m > 0 ? set.camera_distance_m
+                                              : (set.camera ? set.camera->centre_m.z() : 0);
+  if (!(z0 > 0)) return;
+  const double sys_px = std::max(0.0, set.radius_systematic_px);
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      const auto& d = depth[s][side];
+      if (!d) continue;
+      const TrajectoryFit& f = fits.fit[s][side]->fit;
+      const double sc = depthScale(*d), s_vz = d->vz_sigma_m_s;
+      if (side == 0) {
+        // Combined with the prior N(0, (fraction x speed)^2) the rig's alignment gives.
+        const double sp = model.vz_fraction * f.velocityAt_m_s(f.tRef_s()).value.norm();
+        const double w = sp > 0 ? sp * sp / (sp * sp + s_vz * s_vz) : 0.0;
+        model.vz_before[s] = std::array<double, 2>{w * d->vz_m_s, std::sqrt(w) * s_vz};
+      }
+      Eigen::Vector2d x(f.coefficients(0)[0], f.coefficients(1)[0]);
+      Eigen::Vector2d v(f.coefficients(0)[1], f.coefficients(1)[1]);
+      if (set.camera) x -= set.camera->centre_m.head<2>();
+      // A wrong v_z bends the back-projected track (x (t) dz (t) / Z0 has a
+      // t^2 term v dv_z / Z0 that a fit with gravity fixed takes into its
+      // velocity: about v dv_z T / Z0 at the track's end).
+      const double span = std::max(f.tLast_s() - f.tFirst_s(), 0.0);
+      model.drift[s][side] =
+          std::sqrt(std::pow(model.drift[s][side], 2) + std::pow(x.norm() * s_vz / z0, 2) +
+                    std::pow(v.norm() * s_vz * span / z0, 2) +
+                    std::pow(v.norm() * sc * d->dz0_sigma_m / z0, 2));
+    }
+  if (nz_size) {
+    const double r = 0.5 * (r_med[0] + r_med[1]);
+    // Combined with the prior N(0, line_of_centres_z_sigma^2) of the rig's alignment.
+    const double sm = std::hypot(nz_size->sigma, z0 * sys_px / (r * model.contact));
+    const double sp = std::max(model.nz_sigma, 1e-6), w = sp * sp / (sp * sp + sm * sm);
+    model.nz_mean = w * nz_size->value;
+    model.nz_sigma = std::sqrt(w) * sm;
+  }
+}
+
+// Each depth fit's v_z sigma made whole: its residual scale, and a radius
+// bias that changes by radius_systematic_px over the track (the lit part of
+// the limb seen from a changing angle: Z0 sigma_r / (r T)); then the four v_z
+// held to momentum conservation along z (analysis/depth_from_size.hpp).
+void completeDepths(DepthFits& depth, const CollisionFits& fits, const AnalysisSettings& set,
+                    const std::array<double, 2>& r_med, const std::array<double, 2>& mass) {
+  const double z0 = set.camera_distance_m > 0 ? set.camera_distance_m
+                                              : (set.camera ? set.camera->centre_m.z() : 0);
+  if (!(z0 > 0)) return;
+  const double sys_px = std::max(0.0, set.radius_systematic_px);
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      auto& d = depth[s][side];
+      if (!d) continue;
+      const TrajectoryFit& f = fits.fit[s][side]->fit;
+      const double span = std::max(f.tLast_s() - f.tFirst_s(), 1e-6);
+      const double sc = depthScale(*d);
+      d->dz0_sigma_m *= sc;
+      d->vz_sigma_m_s = std::hypot(sc * d->vz_sigma_m_s, z0 * sys_px / (r_med[s] * span));
+      d->chi2 = d->dof;  // the scale is in the sigmas now
+    }
+  if (!depth[0][0] || !depth[0][1] || !depth[1][0] || !depth[1][1]) return;
+  std::array<double, 4> vz, sigma;
+  for (int i = 0; i < 4; ++i) {
+    vz[i] = depth[i / 2][i % 2]->vz_m_s;
+    sigma[i] = depth[i / 2][i % 2]->vz_sigma_m_s;
+  }
+  conserveMomentumZ(vz, sigma, mass);
+  for (int i = 0; i < 4; ++i) {
+    depth[i / 2][i % 2]->vz_m_s = vz[i];
+    depth[i / 2][i % 2]->vz_sigma_m_s = sigma[i];
+  }
+}
+
+double massOf(const AnalysisSettings& set, int s) {
+  const double d = set.diameter_m[s];
+  return set.mass_kg[s] > 0 ? set.mass_kg[s] : 1000.0 * std::numbers::pi / 6 * d * d * d;
+}
+
 // The Monte Carlo's inputs: fits, their inflation and systematics, spins.
 ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, const ShotSpins& spins,
                     const std::array<double, 2>& r_med, double px) {
@@ -118,6 +236,7 @@ void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const Collision
   const double chi2 =
       (fits.t_before - fits.t_after) * (fits.t_before - fits.t_after) / std::max(vb + va, 1e-30);
   c.t_collision_s = {nominal.t_c, u.t_c.sigma() * std::max(1.0, std::sqrt(chi2))};
+  c.line_of_centres_z = {nominal.inverse.n_z, u.n_z.sigma()};
   c.kinetic_energy_change_J = {nominal.inverse.kinetic_energy_change_J,
                                u.kinetic_energy_change.sigma()};
   c.t_collision_before_s = fits.t_before;
@@ -169,37 +288,68 @@ void fillFrames(ShotAnalysis& out, const Burst& burst, const std::vector<FrameDa
   }
 }
 
-// Velocity towards the camera from each track's apparent radius, when the
+// Each track's depth (towards the camera) from its apparent radius, when the
 // camera's distance is known: outlines cut by the border or merged with the
-// other sphere's are left out (their radii are not the sphere's).
-void measureDepthMotion(ShotAnalysis& out, const std::vector<FrameData>& data,
-                        const CollisionFits& fits, const AnalysisSettings& set, double px) {
+// other sphere's are left out (their radii are not the sphere's). With the
+// lens known, each frame's radius is compared with what the lens makes of the
+// sphere at that place on the collision plane (off-axis growth, distortion).
+DepthFits measureDepthMotion(std::vector<std::string>* notes, const std::vector<FrameData>& data,
+                             const CollisionFits& fits, const AnalysisSettings& set,
+                             const PixelScale& scale) {
+  DepthFits depth;
   const double distance = set.camera_distance_m > 0 ? set.camera_distance_m
                                                     : (set.camera ? set.camera->centre_m.z() : 0);
-  if (!(distance > 0)) return;
+  if (!(distance > 0)) return depth;
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
-      std::vector<double> t, r, sr;
+      const double radius_m = 0.5 * set.diameter_m[s];
+      std::vector<double> t, r, sr, r0;
       for (const int k : fits.fit[s][side]->frames) {
         const SphereMeasurement& m = *trackAt(data[k], s);
         if (m.cut_by_border || m.touching) continue;
+        const double plane_r =
+            set.camera ? apparentRadiusPx(
+                             *set.camera,
+                             set.camera->sphereCentre(m.circle.u, m.circle.v, radius_m), radius_m)
+                       : radius_m / scale.px;
+        if (!std::isfinite(plane_r)) continue;
         t.push_back(data[k].t);
         r.push_back(m.circle.radius);
         sr.push_back(std::max(m.circle.sigma_radius, 1e-3));
+        r0.push_back(plane_r);
       }
       if (t.size() < 3) continue;
       const auto vec = [](const std::vector<double>& v) {
         return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
       };
-      const double r_plane = 0.5 * set.diameter_m[s] / px;
-      auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), r_plane, distance, fits.t_split);
+      auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), vec(r0), distance, fits.t_split);
       if (!dm) {
-        out.notes.push_back("sphere " + std::to_string(s + 1) +
-                            ": no velocity from the apparent size: " + dm.error().message);
+        if (notes)
+          notes->push_back("sphere " + std::to_string(s + 1) +
+                           ": no velocity from the apparent size: " + dm.error().message);
         continue;
       }
-      out.sphere[s].vz_from_size_m_s[side] = Measured{dm->vz_m_s, dm->vz_sigma_m_s};
+      depth[s][side] = *dm;
     }
+  return depth;
+}
+
+// Each sphere's depth over time for the lens' back-projection: the
+// pre-impact depth line before t_split, the post-impact one after (either
+// when only one was measured). False when no sphere has one.
+bool setDepths(PixelScale& scale, const DepthFits& depth, double t_split) {
+  bool any = false;
+  for (int s = 0; s < 2; ++s) {
+    const std::optional<DepthMotion> before = depth[s][0] ? depth[s][0] : depth[s][1];
+    const std::optional<DepthMotion> after = depth[s][1] ? depth[s][1] : depth[s][0];
+    if (!before) continue;
+    any = true;
+    scale.depth_m[s] = [b = *before, a = *after, t_split](double t) {
+      const DepthMotion& d = t < t_split ? b : a;
+      return d.dz0_m + d.vz_m_s * (t - t_split);
+    };
+  }
+  return any;
 }
 
 // What the flags are computed from, besides the result itself.
@@ -372,8 +522,26 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
                            frames->frame_dt);
   if (!fits) return fits.error();
 
+  // ---- out-of-plane motion from the apparent size (when the camera's distance
+  // is known); with the lens, the fits again with each centre at its depth
+  const std::array<double, 2> mass{massOf(set, 0), massOf(set, 1)};
+  DepthFits depth = measureDepthMotion(&out.notes, data, *fits, set, scale);
+  completeDepths(depth, *fits, set, r_med, mass);
+  if (set.camera && setDepths(scale, depth, fits->t_split)) {
+    auto refit = fitCollision(data, scale, contact, gravity, set.fix_gravity,
+                              burst.exposure_us * 1e-6, frames->frame_dt);
+    if (!refit) return refit.error();
+    fits = std::move(refit);
+    depth = measureDepthMotion(nullptr, data, *fits, set, scale);  // notes given above
+    completeDepths(depth, *fits, set, r_med, mass);
+  }
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side)
+      if (const auto& d = depth[s][side])
+        out.sphere[s].vz_from_size_m_s[side] = Measured{d->vz_m_s, d->vz_sigma_m_s};
+
   // ---- dots and spins, per sphere and side
-  const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value);
+  const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value, &scale);
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side)
       if (const auto& why = spins.side[s][side].unknown_reason) {
@@ -383,7 +551,11 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
       }
 
   // ---- Walton's inverse, and its spread over draws of every fitted input
-  const ShotModel model = shotModel(set, *fits, spins, r_med, *px);
+  ShotModel model = shotModel(set, *fits, spins, r_med, *px);
+  const double t_c0 = model.w_before * fits->t_before + (1 - model.w_before) * fits->t_after;
+  out.collision.line_of_centres_z_from_size =
+      lineOfCentresZFromSize(depth, fits->t_split, t_c0, contact);
+  useDepths(model, depth, out.collision.line_of_centres_z_from_size, *fits, set, r_med);
   const ShotUncertainty u = propagateShot(model);
   if (!u.nominal.ok)
     return fail(
@@ -391,7 +563,6 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         "the contact instant); check the tracks");
   fillKinematics(out, u, *fits, spins, model.vz_fraction);
   fillFrames(out, burst, data, spins);
-  measureDepthMotion(out, data, *fits, set, *px);
 
   // ---- quality flags
   FlagInputs q;

@@ -44,14 +44,19 @@ struct AnalysisSettings {
   double fps = 0.0;
   /// Prior standard deviation of the z part (towards the camera) of the unit
   /// line of centres at contact: how far out of one plane the spheres may
-  /// meet (0.01 = a quarter of a millimetre for 2.54 cm spheres). The images
-  /// cannot show it; the spin changes can when friction acts in the image
-  /// plane. Near head-on it limits v_s and beta (their uncertainties say so).
+  /// meet (0.01 = a quarter of a millimetre for 2.54 cm spheres; the rig
+  /// profile's [analysis] line_of_centres_tilt_deg sets it). When the
+  /// camera's distance is known, the two spheres' apparent sizes measure it
+  /// and this prior is combined with that; the spin changes then tell it
+  /// when friction acts. Near head-on it limits v_s and beta (their
+  /// uncertainties say so).
   double line_of_centres_z_sigma = 0.01;
-  /// Standard deviation of each sphere's velocity component out of the image
-  /// plane before impact, as a fraction of its speed (launch misalignment; the
-  /// thesis found it below 1 %). Taken as 0 in the values, it widens the
-  /// uncertainties of v_s, beta and f.
+  /// Prior standard deviation of each sphere's velocity out of the image
+  /// plane before impact, as a fraction of its speed (launch misalignment;
+  /// the thesis found it below 1 %; [analysis] launch_out_of_plane_fraction).
+  /// Combined with v_z from the apparent size when the camera's distance is
+  /// known; otherwise taken as 0 in the values, it widens the uncertainties
+  /// of v_s, beta and f.
   double out_of_plane_speed_fraction = 0.005;
   /// Longest plausible contact duration, s. The pre-impact fits reach the
   /// contact distance when the spheres first touch, the post-impact fits when
@@ -63,7 +68,9 @@ struct AnalysisSettings {
   /// spheres' outlines carry it (same detector, same lighting), and through
   /// the pixel size (derived from, or calibrated with, the radii) it moves the
   /// contact distance by 2 x this many pixels: the pre-impact instant earlier,
-  /// the post-impact one later (or the reverse).
+  /// the post-impact one later (or the reverse). It is also taken as how much
+  /// the radius bias may change along a track (v_z from the size: Z0 sigma /
+  /// (r T)) and differ between the two spheres (n_z from the sizes).
   double radius_systematic_px = 0.1;
   /// Distance from the camera's projection centre to the object plane (where
   /// pixel_size_m holds), m. When > 0 the apparent radius's change along each
@@ -120,8 +127,10 @@ struct SphereKinematics {
   int frames_before = 0, frames_after = 0;  ///< frames used by the fits
   /// Velocity towards the camera from the apparent radius under perspective
   /// (analysis/depth_from_size.hpp), [0 before, 1 after], m/s; set when
-  /// AnalysisSettings::camera_distance_m > 0 and a side has 3 or more frames
-  /// whose outline is neither cut by the border nor merged.
+  /// AnalysisSettings::camera_distance_m > 0 (or a lens is given) and a side
+  /// has 3 or more frames whose outline is neither cut by the border nor
+  /// merged. With all four, they are held to momentum conservation along z;
+  /// the sigma includes a radius bias changing by radius_systematic_px.
   std::array<std::optional<Measured>, 2> vz_from_size_m_s;
 };
 
@@ -134,6 +143,12 @@ struct CollisionProperties {
   /// Total kinetic energy after minus before (translation + rotation, the
   /// masses of AnalysisSettings, I = m d^2 / 10), J; > 0 is unphysical.
   Measured kinetic_energy_change_J;
+  /// z part (towards the camera) of the unit line of centres at contact, as
+  /// the inverse found it (apparent sizes, spin changes, the prior).
+  Measured line_of_centres_z;
+  /// The same from the two spheres' apparent sizes alone (their depths at
+  /// the contact), when the camera's distance is known.
+  std::optional<Measured> line_of_centres_z_from_size;
   /// The two collision-instant estimates (pre- and post-impact fits), s.
   double t_collision_before_s = 0, t_collision_after_s = 0;
 };

@@ -31,7 +31,7 @@ Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> fra
       const FrameData& f = data[frames[i]];
       const SphereMeasurement& m = *trackAt(f, sphere);
       t[i] = f.t;
-      pos.row(i) = sc.world(m.circle, sphere).transpose();
+      pos.row(i) = sc.world(m.circle, sphere, f.t).transpose();
       const double sig = std::max({m.circle.sigma_u, m.circle.sigma_v, 1e-4});
       w[i] = 1.0 / (sig * sig);
     }
@@ -143,7 +143,7 @@ std::optional<std::array<double, 2>> fallAlongGravity(const std::vector<FrameDat
       for (std::size_t i = 0; i < sf.frames.size(); ++i) {
         const SphereMeasurement& m = *trackAt(data[sf.frames[i]], s);
         t[i] = data[sf.frames[i]].t;
-        p.row(i) = sc.world(m.circle, s).transpose();
+        p.row(i) = sc.world(m.circle, s, t[i]).transpose();
       }
       auto ff = fitTrajectory(t, p, Weights::equal(), fits.t_split, free);
       if (!ff) continue;

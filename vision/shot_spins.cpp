@@ -1,15 +1,26 @@
 #include "vision/shot_spins.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "vision/spin_fit.hpp"
 
 namespace collide::vision {
 
+Vec3 liftThroughLens(const PinholeCamera& camera, const Vec3& centre_m, double radius_m,
+                     double u_px, double v_px) {
+  const Eigen::Vector2d xy = camera.normalised(u_px, v_px);
+  const Vec3 d = Vec3(xy.x(), -xy.y(), -1.0).normalized();  // camera looks along -z
+  const Vec3 oc = camera.centre_m - centre_m;
+  const double b = oc.dot(d), disc = b * b - (oc.squaredNorm() - radius_m * radius_m);
+  const double t = disc > 0 ? -b - std::sqrt(disc) : -b;
+  return (camera.centre_m + t * d - centre_m).normalized();
+}
+
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
-                       const CollisionFits& fits, const std::array<double, 2>& r_med,
-                       int max_value) {
+                       const CollisionFits& fits, const std::array<double, 2>& r_med, int max_value,
+                       const PixelScale* scale) {
   ShotSpins out;
   out.dots.resize(data.size());
   for (int s = 0; s < 2; ++s)
@@ -24,8 +35,16 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
         if (out.dots[k][s].dots.empty()) continue;
         SpinFrame f;
         f.t_s = data[k].t;
+        const bool lens = scale && scale->camera && scale->radius_m[s] > 0;
+        // Dot centroids lie on a sphere of radius R cos(alpha) (alpha: the dots' angular radius).
+        const double r_dots =
+            lens ? scale->radius_m[s] * std::cos(out.dots[k][s].angular_radius_rad) : 0.0;
+        const Vec3 centre =
+            lens ? scale->camera->sphereCentre(m.circle.u, m.circle.v, scale->radius_m[s])
+                 : Vec3::Zero();
         for (const Dot& d : out.dots[k][s].dots) {
-          f.dots.push_back(d.on_sphere);
+          f.dots.push_back(lens ? liftThroughLens(*scale->camera, centre, r_dots, d.u_px, d.v_px)
+                                : d.on_sphere);
           f.weights.push_back(d.weight);
         }
         f.centre_sigma = 1.2 * std::max(m.circle.sigma_u, m.circle.sigma_v) / r_med[s];

@@ -34,9 +34,20 @@ struct ShotSpins {
 };
 
 /// Finds the dots of each sphere in the frames its side fits used and fits
-/// the spins. An unknown spin is zero with kUnknownSpinSigma per axis.
+/// the spins. An unknown spin is zero with kUnknownSpinSigma per axis. When
+/// `scale` carries the camera's lens, each dot is lifted onto its sphere
+/// through the lens (liftThroughLens) rather than orthographically.
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const CollisionFits& fits, const std::array<double, 2>& r_med_px,
-                       int max_value);
+                       int max_value, const PixelScale* scale = nullptr);
+
+/// Where pixel (u, v)'s ray meets a sphere of radius `radius_m` centred at
+/// `centre_m` (world) nearest the camera, as a unit vector from the centre
+/// (world axes: x right, y up, z towards the camera); a ray that misses it is
+/// taken to its closest point. Under perspective the camera sees less than a
+/// hemisphere (the limb lies R / L short of the equator), and an orthographic
+/// lift misplaces dots near the limb by up to that: spins a few % off.
+Vec3 liftThroughLens(const PinholeCamera& camera, const Vec3& centre_m, double radius_m,
+                     double u_px, double v_px);
 
 }  // namespace collide::vision

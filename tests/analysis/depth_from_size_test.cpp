@@ -79,3 +79,75 @@ TEST(FitDepthMotion, RefusesBadInput) {
 }
 
 }  // namespace
+
+namespace {
+
+// sim-lab's lens (as config/sim-lab.toml): 50 mm, 20 um pixels, 0.5292 m away.
+PinholeCamera labLens(bool distorted) {
+  PinholeCamera c;
+  c.focal_px = 0.050 / 20e-6;
+  c.principal_u_px = 319.5;
+  c.principal_v_px = 239.5;
+  c.centre_m = Vec3(0, 0, 0.5292);
+  if (distorted) c.k1 = -0.08, c.k2 = 0.02;
+  return c;
+}
+
+}  // namespace
+
+// On the axis the silhouette is the circle of the tangent cone: tan(alpha) =
+// R / sqrt(L^2 - R^2), radius f tan(alpha) (written out here, not the code's
+// sampling of the tangent circle).
+TEST(ApparentRadius, OnTheAxisIsTheTangentConesCircle) {
+  const PinholeCamera c = labLens(false);
+  for (const double z : {0.0, 0.01, -0.02}) {
+    const double L = c.centre_m.z() - z;
+    const double expected = c.focal_px * kR / std::sqrt(L * L - kR * kR);
+    EXPECT_NEAR(apparentRadiusPx(c, Vec3(0, 0, z), kR), expected, 1e-6 * expected);
+  }
+}
+
+// Off the axis the silhouette is an ellipse: half-axes f (tan(t + a) - tan(t -
+// a)) / 2 radially and f sin(a) / sqrt(cos^2 t - sin^2 a) across (t the
+// axis' angle, sin a = R / L). Its mean radius lies between them, above the
+// on-axis value; barrel distortion takes some of it back.
+TEST(ApparentRadius, OffTheAxisGrowsAsTheEllipseAndDistortionShrinksIt) {
+  const PinholeCamera c = labLens(false);
+  const Vec3 centre(0.08, 0.0, 0.0);
+  const double L = (c.centre_m - centre).norm(), t = std::atan(0.08 / c.centre_m.z());
+  const double a = std::asin(kR / L);
+  const double radial = c.focal_px * 0.5 * (std::tan(t + a) - std::tan(t - a));
+  const double across = c.focal_px * std::sin(a) / std::sqrt(std::pow(std::cos(t), 2) -
+                                                             std::pow(std::sin(a), 2));
+  const double r = apparentRadiusPx(c, centre, kR);
+  EXPECT_GT(r, std::min(radial, across));
+  EXPECT_LT(r, std::max(radial, across));
+  EXPECT_GT(r, apparentRadiusPx(c, Vec3(0, 0, 0), kR) * 1.005);  // > 0.5 % larger: it matters
+  EXPECT_LT(apparentRadiusPx(labLens(true), centre, kR), r);
+  EXPECT_TRUE(std::isnan(apparentRadiusPx(c, Vec3(0, 0, 1.0), kR)));  // behind the camera
+}
+
+// Momentum along z: velocities that conserve it come out as they went in;
+// one poorly measured velocity off by dv takes (almost) all the correction,
+// and the adjusted sigmas shrink.
+TEST(ConserveMomentumZ, MovesThePoorlyMeasuredVelocityOntoTheConstraint) {
+  const std::array<double, 2> m{0.00978, 0.00412};
+  // A true impact: impulse P along z, v1' = v1 + P / m1, v2' = v2 - P / m2.
+  const double v1 = 0.05, v2 = 0.03, p = 0.0008;
+  const std::array<double, 4> truth{v1, v1 + p / m[0], v2, v2 - p / m[1]};
+  std::array<double, 4> vz = truth, sigma{0.002, 0.002, 0.002, 0.002};
+  conserveMomentumZ(vz, sigma, m);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(vz[i], truth[i], 1e-12);
+  vz = truth;
+  vz[3] += 0.08;  // sphere 2 after: a bad size fit
+  sigma = {0.002, 0.002, 0.002, 0.05};
+  conserveMomentumZ(vz, sigma, m);
+  const double residual = -m[0] * vz[0] + m[0] * vz[1] - m[1] * vz[2] + m[1] * vz[3];
+  EXPECT_NEAR(residual, 0.0, 1e-15);
+  EXPECT_NEAR(vz[3], truth[3], 0.01);  // from 0.08 off to within 0.01
+  EXPECT_LT(sigma[3], 0.05 / 4);
+  // A sigma that is not a number: nothing changes.
+  std::array<double, 4> v0 = vz, s0{0.002, NAN, 0.002, 0.002};
+  conserveMomentumZ(v0, s0, m);
+  EXPECT_EQ(v0, vz);
+}

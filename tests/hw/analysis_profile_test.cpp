@@ -1,0 +1,49 @@
+// The rig profile's optional [analysis] table: the alignment a user states
+// for their rig, the analysis' priors for the out-of-plane parts.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "hw/rig_profile.hpp"
+#include "profile_text.hpp"
+
+using namespace collide::hw;
+using collide::hw::testing::simProfileText;
+using ::testing::HasSubstr;
+
+namespace {
+
+collide::Result<RigProfile> withAnalysis(const std::string& table) {
+  return parseRigProfile(simProfileText() + "\n[analysis]\n" + table, "config/sim.toml");
+}
+
+}  // namespace
+
+TEST(AnalysisProfile, AbsentGivesTodaysPriors) {
+  const auto r = parseRigProfile(simProfileText(), "config/sim.toml");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  // sin(0.573 deg) = 0.0100: the z part of the line of centres the analysis assumed before.
+  EXPECT_NEAR(std::sin(r->analysis.line_of_centres_tilt_deg * M_PI / 180), 0.0100, 1e-5);
+  EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.005);
+}
+
+TEST(AnalysisProfile, StatedAlignmentIsRead) {
+  const auto r =
+      withAnalysis("line_of_centres_tilt_deg = 3.0\nlaunch_out_of_plane_fraction = 0.03\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_DOUBLE_EQ(r->analysis.line_of_centres_tilt_deg, 3.0);
+  EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.03);
+}
+
+TEST(AnalysisProfile, ImpossibleOrUnknownValuesAreRefusedByName) {
+  for (const char* bad : {"line_of_centres_tilt_deg = 0.0\n", "line_of_centres_tilt_deg = 45.0\n",
+                          "launch_out_of_plane_fraction = -0.01\n"}) {
+    const auto r = withAnalysis(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_THAT(r.error().message, HasSubstr(std::string(bad).substr(0, 20))) << bad;
+  }
+  const auto typo = withAnalysis("line_of_centre_tilt_deg = 1.0\n");
+  ASSERT_FALSE(typo.ok());
+  EXPECT_THAT(typo.error().message, HasSubstr("line_of_centre_tilt_deg"));
+}
