@@ -25,6 +25,7 @@
 #include "app/gui/calibration_dialog.hpp"
 #include "app/gui/campaign_view.hpp"
 #include "app/gui/live_view.hpp"
+#include "app/gui/plan_dialog.hpp"
 #include "app/gui/replay_view.hpp"
 #include "app/gui/rig_panel.hpp"
 #include "app/gui/shot_browser.hpp"
@@ -131,6 +132,16 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   connect(worker_, &RigWorker::profileLoaded, this, [this](ProfilePtr profile, CameraPtr camera) {
     profile_ = profile;
     rig_panel_->setProfile(profile);
+    // A plan's aimed profile: its exit speeds go into the launchers now.
+    if (pending_plan_ && QFileInfo(qs(profile->source)) == QFileInfo(pending_plan_->path)) {
+      for (int i = 0; i < 2; ++i) rig_panel_->setWantedSpeed(i, pending_plan_->speeds_m_s[i]);
+      showMessage(tr("Planned shot loaded from %1: exit speeds %2 and %3 m/s set; arm when ready")
+                      .arg(pending_plan_->path)
+                      .arg(pending_plan_->speeds_m_s[0], 0, 'f', 3)
+                      .arg(pending_plan_->speeds_m_s[1], 0, 'f', 3),
+                  MessageKind::Info);
+      pending_plan_.reset();
+    }
     live_view_->setCamera(camera);
     // A message about an earlier profile or rig is stale now.
     if (camera) clearStale(MessageTopic::Profile);
@@ -252,6 +263,8 @@ void MainWindow::buildMenus() {
   file->addAction(tr("&Quit"), this, &QWidget::close);
   QMenu* tools = menuBar()->addMenu(tr("&Tools"));
   tools->addAction(tr("&Launch calibration..."), this, &MainWindow::openCalibrationDialog);
+  tools->addAction(tr("&Plan a shot..."), QKeySequence(Qt::CTRL | Qt::Key_P), this,
+                   [this] { openPlanDialog(); });
 }
 
 QString MainWindow::shotsDirProblem(const QString& dir, bool create) {
@@ -406,6 +419,24 @@ void MainWindow::onAnalysisFailed(ShotPtr shot, QString message, QString tag, QS
     replay_view_->resultCard()->setMessage(id, message);
   if (tag != "fired" && tag != "replay") statusBar()->showMessage(message, 8000);
   emit shotAnalysed(id, false);
+}
+
+PlanDialog* MainWindow::openPlanDialog() {
+  if (!profile_) {
+    showMessage(tr("Open a rig profile first (File > Open rig profile): the plan needs its "
+                   "launchers and calibration"),
+                MessageKind::Warning, MessageTopic::Profile);
+    return nullptr;
+  }
+  auto* dialog = new PlanDialog(profile_, profile_path_, this);
+  dialog->setAttribute(Qt::WA_DeleteOnClose);
+  connect(dialog, &PlanDialog::planApplied, this,
+          [this](QString path, std::array<double, 2> speeds) {
+            pending_plan_ = PendingPlan{path, speeds};
+            loadProfile(path);
+          });
+  dialog->show();
+  return dialog;
 }
 
 void MainWindow::openRecording(const QString& path) {

@@ -27,6 +27,7 @@ class LiveView;
 class ReplayView;
 class ShotBrowser;
 class CampaignView;
+class PlanDialog;
 
 struct MainWindowOptions {
   QString rig_profile;  ///< profile to load; empty: the last one used, else the built-in sim
@@ -76,6 +77,8 @@ class MainWindow : public QMainWindow {
   void saveUnsavedShotTo(const QString& dir);
 
   void openCalibrationDialog();
+  /// Tools > Plan a shot: the dialog (non-modal; null without a profile).
+  PlanDialog* openPlanDialog();
   /// Opens a recording in Replay and analyses it (results not stored): a shot
   /// file (.h5) or footage from another program (Photron .mraw/.cih/.cihx,
   /// Phantom .cine, pco .b16, a video). Read on a worker; recordingOpened says
@@ -135,7 +138,13 @@ class MainWindow : public QMainWindow {
   ProfilePtr profile_;
   ShotPtr last_shot_;
   QStringList messages_;
-  std::vector<MeasuredLaunch> launches_;  ///< measured this session, for the calibration
+  std::vector<MeasuredLaunch> launches_;
+  /// Exit speeds to set once the aimed profile at `path` is loaded (a plan).
+  struct PendingPlan {
+    QString path;
+    std::array<double, 2> speeds_m_s;
+  };
+  std::optional<PendingPlan> pending_plan_;  ///< measured this session, for the calibration
 };
 
 }  // namespace collide::gui

@@ -18,18 +18,33 @@ json vec(const Vec3& v) {
   return json::array({number(v.x()), number(v.y()), number(v.z())});
 }
 
-const char* const kCollisionKeys[] = {"e",      "beta",         "beta_from_impulse",
-                                      "f",      "gamma_deg",    "vn_m_s",
-                                      "vs_m_s", "vs_after_m_s", "t_collision_s"};
+const char* const kCollisionKeys[] = {"e",
+                                      "beta",
+                                      "beta_from_impulse",
+                                      "f",
+                                      "gamma_deg",
+                                      "vn_m_s",
+                                      "vs_m_s",
+                                      "vs_after_m_s",
+                                      "t_collision_s",
+                                      "kinetic_energy_change_J",
+                                      "line_of_centres_z"};
 
-// Pointers to the Measured fields in the order of kCollisionKeys.
-std::array<const vision::Measured*, 9> measuredFields(const vision::CollisionProperties& c) {
-  return {&c.e,      &c.beta,         &c.beta_from_impulse, &c.f, &c.gamma_deg, &c.vn_m_s,
-          &c.vs_m_s, &c.vs_after_m_s, &c.t_collision_s};
-}
-std::array<vision::Measured*, 9> measuredFields(vision::CollisionProperties& c) {
-  return {&c.e,      &c.beta,         &c.beta_from_impulse, &c.f, &c.gamma_deg, &c.vn_m_s,
-          &c.vs_m_s, &c.vs_after_m_s, &c.t_collision_s};
+// Pointers to the Measured fields in the order of kCollisionKeys (one list
+// for writing and reading).
+template <class C>
+auto measuredFields(C& c) {
+  return std::array{&c.e,
+                    &c.beta,
+                    &c.beta_from_impulse,
+                    &c.f,
+                    &c.gamma_deg,
+                    &c.vn_m_s,
+                    &c.vs_m_s,
+                    &c.vs_after_m_s,
+                    &c.t_collision_s,
+                    &c.kinetic_energy_change_J,
+                    &c.line_of_centres_z};
 }
 
 const char* const kVectorKeys[] = {"velocity_before_m_s", "velocity_after_m_s", "spin_before_rad_s",
@@ -94,6 +109,10 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
   }
   collision["t_collision_before_s"] = number(c.t_collision_before_s);
   collision["t_collision_after_s"] = number(c.t_collision_after_s);
+  if (c.line_of_centres_z_from_size) {
+    collision["line_of_centres_z_from_size"] = number(c.line_of_centres_z_from_size->value);
+    uncertainty["line_of_centres_z_from_size"] = number(c.line_of_centres_z_from_size->sigma);
+  }
   for (int s = 0; s < 2; ++s) {
     const std::string name = s == 0 ? "sphere1" : "sphere2";
     json values, sigmas;
@@ -104,6 +123,14 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
     }
     values["frames_before"] = a.sphere[s].frames_before;
     values["frames_after"] = a.sphere[s].frames_after;
+    // Towards the camera, from the apparent size (null when not measured).
+    json vz = json::array(), vz_sigma = json::array();
+    for (const auto& m : a.sphere[s].vz_from_size_m_s) {
+      vz.push_back(m ? number(m->value) : json(nullptr));
+      vz_sigma.push_back(m ? number(m->sigma) : json(nullptr));
+    }
+    values["vz_from_size_m_s"] = vz;
+    sigmas["vz_from_size_m_s"] = vz_sigma;
     j[name] = values;
     uncertainty[name] = sigmas;
   }

@@ -29,8 +29,9 @@ vision::ShotAnalysis sample() {
     s.frames_after = static_cast<int>(next());
   }
   auto& c = a.collision;
-  for (vision::Measured* m : {&c.e, &c.beta, &c.beta_from_impulse, &c.f, &c.gamma_deg, &c.vn_m_s,
-                              &c.vs_m_s, &c.vs_after_m_s, &c.t_collision_s})
+  for (vision::Measured* m :
+       {&c.e, &c.beta, &c.beta_from_impulse, &c.f, &c.gamma_deg, &c.vn_m_s, &c.vs_m_s,
+        &c.vs_after_m_s, &c.t_collision_s, &c.kinetic_energy_change_J, &c.line_of_centres_z})
     *m = {next(), next() * 1e-3};
   c.t_collision_before_s = next();
   c.t_collision_after_s = next();
@@ -66,6 +67,26 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(c.t_collision_s.value, a.collision.t_collision_s.value);
   EXPECT_EQ(c.t_collision_before_s, a.collision.t_collision_before_s);
   EXPECT_EQ(c.t_collision_after_s, a.collision.t_collision_after_s);
+  EXPECT_EQ(c.kinetic_energy_change_J.value, a.collision.kinetic_energy_change_J.value);
+  EXPECT_EQ(c.line_of_centres_z.value, a.collision.line_of_centres_z.value);
+  EXPECT_EQ(c.line_of_centres_z.sigma, a.collision.line_of_centres_z.sigma);
+}
+
+// The out-of-plane measurements: written when measured, null when not.
+TEST(ResultsJson, OutOfPlaneMeasurementsAreWrittenWhenMeasured) {
+  auto a = sample();
+  a.sphere[0].vz_from_size_m_s = {vision::Measured{0.012, 0.004}, std::nullopt};
+  a.collision.line_of_centres_z_from_size = vision::Measured{0.031, 0.006};
+  const auto j = nlohmann::json::parse(resultsToJson(a));
+  EXPECT_EQ(j["sphere1"]["vz_from_size_m_s"][0], 0.012);
+  EXPECT_TRUE(j["sphere1"]["vz_from_size_m_s"][1].is_null());
+  EXPECT_EQ(j["uncertainty"]["sphere1"]["vz_from_size_m_s"][0], 0.004);
+  EXPECT_TRUE(j["sphere2"]["vz_from_size_m_s"][0].is_null());
+  EXPECT_EQ(j["collision"]["line_of_centres_z_from_size"], 0.031);
+  EXPECT_EQ(j["uncertainty"]["line_of_centres_z_from_size"], 0.006);
+  a.collision.line_of_centres_z_from_size.reset();
+  EXPECT_FALSE(
+      nlohmann::json::parse(resultsToJson(a))["collision"].contains("line_of_centres_z_from_size"));
 }
 
 TEST(ResultsJson, IssueKeysArePresentAndFeedTheCatalogSummary) {
