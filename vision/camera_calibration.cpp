@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -141,14 +142,33 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
                 "fit");
   out.image_size = images.front().size();
   std::vector<std::vector<cv::Point3f>> object(found.corners.size(), boardPoints(board));
-  cv::Mat K = cv::Mat::eye(3, 3, CV_64F), dist, sd_in, sd_ex, per_view;
+  cv::Mat K, dist, sd_in, sd_ex, per_view;
   std::vector<cv::Mat> rvecs, tvecs;
   // One focal length (square pixels, fy / fx held at 1), k1 k2 p1 p2, no k3:
   // the camera model's parameters.
-  const double rms =
-      cv::calibrateCamera(object, found.corners, out.image_size, K, dist, rvecs, tvecs, sd_in,
-                          sd_ex, per_view, cv::CALIB_FIX_K3 | cv::CALIB_FIX_ASPECT_RATIO);
+  const auto fit = [&](int extra_flags) {
+    K = cv::Mat::eye(3, 3, CV_64F);
+    dist = cv::Mat();
+    return cv::calibrateCamera(object, found.corners, out.image_size, K, dist, rvecs, tvecs, sd_in,
+                               sd_ex, per_view,
+                               cv::CALIB_FIX_K3 | cv::CALIB_FIX_ASPECT_RATIO | extra_flags);
+  };
+  double rms = fit(0);
   if (!std::isfinite(rms)) return fail("the calibration did not converge");
+  // k2 only where the pictures measure it: a narrow field (a long lens) leaves
+  // k2 r^4 below the corners' noise, and an unmeasurable k2 drags k1 with it.
+  if (!(std::abs(dist.at<double>(1)) > 2 * sd_in.at<double>(5))) {
+    const double k2 = dist.at<double>(1), sk2 = sd_in.at<double>(5);
+    rms = fit(cv::CALIB_FIX_K2);
+    if (!std::isfinite(rms)) return fail("the calibration did not converge");
+    out.k2_fitted = false;
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "k2 held at 0: these pictures do not measure it (fitted %.3g +- %.3g); tilt "
+                  "the board more and fill the corners to measure it",
+                  k2, sk2);
+    out.notes.push_back(buf);
+  }
   PinholeCamera& c = out.camera;
   c.focal_px = K.at<double>(1, 1);
   c.principal_u_px = K.at<double>(0, 2);

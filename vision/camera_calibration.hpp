@@ -46,12 +46,15 @@ struct CameraCalibration {
   double rms_px = 0.0;              ///< reprojection error over every corner used
   std::vector<double> view_rms_px;  ///< per picture given; NaN where left out
   bool has_plane = false;           ///< a plane picture was given and used
+  /// k2 was fitted; false: held at 0 (sigma.k2 = 0) because the pictures do
+  /// not measure it (fitted, it was within 2 sigma of 0; a note says so).
+  bool k2_fitted = true;
   /// Metres per pixel at the collision plane on the optical axis (distance /
   /// focal length); 0 without a plane picture.
   double plane_pixel_size_m = 0.0;
   double plane_tilt_deg = 0.0;     ///< the plane picture's board against the image plane
   int images_used = 0;             ///< pictures in which the board was found
-  std::vector<std::string> notes;  ///< pictures left out and why
+  std::vector<std::string> notes;  ///< pictures left out and why; k2 held
 };
 
 /// Calibrates from `images` (8- or 16-bit grey; at least kMinCalibrationViews
@@ -59,8 +62,8 @@ struct CameraCalibration {
 /// `images`, or -1 for none) shows the board lying in the collision plane.
 /// `names` (optional, one per image) name the pictures in notes and errors.
 /// Fits f (square pixels), the principal point and k1 k2 p1 p2 (k3 held at
-/// 0, as the camera model). Errors name what is missing: too few boards
-/// found (and how many are needed), the plane picture's board not found, a
+/// 0, as the camera model; k2 too when the pictures do not measure it). Errors name what is
+/// missing: too few boards found (and how many are needed), the plane picture's board not found, a
 /// fit that does not converge.
 Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
                                           const ChessboardSpec& board, int plane_image = 0,
