@@ -71,8 +71,7 @@ Found findBoards(const std::vector<cv::Mat>& images, const ChessboardSpec& board
 // Metres per ideal pixel of the plane picture's board, with its standard
 // uncertainty: a similarity (scale, rotation, shift) fitted from the board's
 // corners (metres) to their undistorted pixels, by least squares in complex
-// numbers; the scale's variance is the residual variance over the corners'
-// spread. The uncertainty of k1 and k2 adds what it does to the scale over
+// numbers. The uncertainty of k1 and k2 adds what it does to the scale over
 // the board's field.
 std::pair<double, double> planeScale(const std::vector<cv::Point2f>& corners,
                                      const ChessboardSpec& board, const PinholeCamera& c,
@@ -109,9 +108,17 @@ std::pair<double, double> planeScale(const std::vector<cv::Point2f>& corners,
     if (res < best_res) best_res = res, scale = std::abs(a), spread = den;
   }
   const double sigma_px = std::sqrt(best_res / std::max<double>(1, 2.0 * n - 4));
-  const double rel_fit = sigma_px / std::sqrt(spread) / scale;
+  // The residuals are mostly the corner finder's bias on a sampled image
+  // (and a board not quite flat), alike for neighbouring corners, not
+  // independent noise: they may stretch the whole board. So the scale's
+  // uncertainty is the residual over the corners' RMS distance from their
+  // centroid (what a coherent stretch of that size does), not that over
+  // sqrt(n) times it (what independent noise would do). Conservative:
+  // bench/calibration_bench finds the errors a few times smaller.
+  const double spread_px = scale * std::sqrt(spread / static_cast<double>(n));
+  const double rel_corners = sigma_px / spread_px;
   const double rel_lens = std::hypot(s.k1 * r2_mean, s.k2 * r4_mean);
-  return {1.0 / scale, std::hypot(rel_fit, rel_lens) / scale};
+  return {1.0 / scale, std::hypot(rel_corners, rel_lens) / scale};
 }
 
 }  // namespace

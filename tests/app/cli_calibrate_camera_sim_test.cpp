@@ -68,7 +68,8 @@ TEST(CliCalibrateCamera, RecoversTheSimulatedLensAndTheAnalysisUsesIt) {
   EXPECT_LT(j["rms_px"].get<double>(), 0.5);
   // Bounds on the uncertainties for this narrow field (a 50 mm lens, 14
   // degrees across): f to 1 %, k1 to 0.05, p1 p2 to 0.005, the plane's
-  // scale to 0.1 % and its distance to 1 %.
+  // scale to 0.3 % (its uncertainty allows for a coherent corner bias, see
+  // vision/camera_calibration.cpp) and its distance to 1 %.
   expectWithin("focal_px", j["focal_px"], j["focal_px_sigma"], kFocalPx, 0.01 * kFocalPx);
   expectWithin("focal_length_mm", j["focal_length_mm"], j["focal_length_mm_sigma"], 50.0, 0.5);
   expectWithin("k1", j["distortion"][0], j["distortion_sigma"][0], kK1, 0.05);
@@ -82,7 +83,7 @@ TEST(CliCalibrateCamera, RecoversTheSimulatedLensAndTheAnalysisUsesIt) {
   expectWithin("p1", j["distortion"][2], j["distortion_sigma"][2], kP1, 0.005);
   expectWithin("p2", j["distortion"][3], j["distortion_sigma"][3], kP2, 0.005);
   expectWithin("plane_pixel_size_m", j["plane_pixel_size_m"], j["plane_pixel_size_m_sigma"],
-               kPlanePixelM, 1e-3 * kPlanePixelM);
+               kPlanePixelM, 3e-3 * kPlanePixelM);
   expectWithin("plane_distance_m", j["plane_distance_m"], j["plane_distance_m_sigma"], kDistanceM,
                0.01 * kDistanceM);
 
