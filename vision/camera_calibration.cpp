@@ -1,5 +1,6 @@
 #include "vision/camera_calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -68,6 +69,38 @@ Found findBoards(const std::vector<cv::Mat>& images, const ChessboardSpec& board
   return f;
 }
 
+// Leaves out the boards whose reprojection error is more than 3 times the
+// median and above 0.5 px (a corner found on the wrong feature), never the
+// plane picture's; returns how many.
+int dropMisfits(Found& f, const cv::Mat& per_view, const std::vector<std::string>& names,
+                std::vector<std::string>& notes) {
+  std::vector<double> e(per_view.begin<double>(), per_view.end<double>());
+  std::vector<double> sorted = e;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double limit = std::max(0.5, 3 * sorted[sorted.size() / 2]);
+  Found kept;
+  int dropped = 0;
+  for (std::size_t k = 0; k < f.corners.size(); ++k) {
+    const int i = f.image[k];
+    if (e[k] > limit && static_cast<int>(k) != f.plane_slot) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.2f px, over %.2f px", e[k], limit);
+      notes.push_back(
+          (i < static_cast<int>(names.size()) ? names[i] : "picture " + std::to_string(i)) +
+          ": the board fits the lens badly (reprojection error " + buf +
+          "; a corner found on the wrong feature?): left out");
+      ++dropped;
+      continue;
+    }
+    if (static_cast<int>(k) == f.plane_slot)
+      kept.plane_slot = static_cast<int>(kept.corners.size());
+    kept.corners.push_back(f.corners[k]);
+    kept.image.push_back(i);
+  }
+  if (dropped > 0) f = std::move(kept);
+  return dropped;
+}
+
 // Metres per ideal pixel of the plane picture's board, with its standard
 // uncertainty: a similarity (scale, rotation, shift) fitted from the board's
 // corners (metres) to their undistorted pixels, by least squares in complex
@@ -133,7 +166,7 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
   if (board.inner_corners.width < 3 || board.inner_corners.height < 3 || !(board.square_m > 0))
     return fail("the chessboard needs at least 3 x 3 inner corners and a square size > 0");
   CameraCalibration out;
-  const Found found = findBoards(images, board, plane_image, names, out);
+  Found found = findBoards(images, board, plane_image, names, out);
   if (plane_image >= 0 && found.plane_slot < 0)
     return fail("the chessboard was not found in the plane picture (" +
                 (plane_image < static_cast<int>(names.size())
@@ -162,6 +195,17 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
   };
   double rms = fit(0);
   if (!std::isfinite(rms)) return fail("the calibration did not converge");
+  // A board found with a corner on the wrong feature fits several times worse
+  // than the rest: leave it out and fit again.
+  if (dropMisfits(found, per_view, names, out.notes) > 0) {
+    if (static_cast<int>(found.corners.size()) < kMinCalibrationViews)
+      return fail("only " + std::to_string(found.corners.size()) +
+                  " pictures fit the lens; at least " + std::to_string(kMinCalibrationViews) +
+                  " are needed (see the pictures left out)");
+    object.resize(found.corners.size());
+    rms = fit(0);
+    if (!std::isfinite(rms)) return fail("the calibration did not converge");
+  }
   // k2 only where the pictures measure it: a narrow field (a long lens) leaves
   // k2 r^4 below the corners' noise, and an unmeasurable k2 drags k1 with it.
   if (!(std::abs(dist.at<double>(1)) > 2 * sd_in.at<double>(5))) {
