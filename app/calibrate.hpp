@@ -63,10 +63,11 @@ struct TargetViews {
   vision::ChessboardSpec board;    ///< as drawn
 };
 
-/// Draws `views` chessboard pictures in varied poses (tilted up to 25
+/// Draws `views` chessboard pictures in varied poses (tilted up to 40
 /// degrees, shifted towards the corners, nearer and farther) and one lying
 /// in the collision plane, through the profile's simulated camera (its lens,
-/// sensor and noise; vision::Renderer::renderChessboard), as PNG files
+/// sensor and noise; vision::Renderer::renderChessboard, at least 8 x 8
+/// rays a pixel), as PNG files
 /// (16-bit for Mono12/Mono16) in `dir` (created). `board.square_m` <= 0:
 /// chosen so the board fills about 3/4 of the field. Errors: not a simulated
 /// camera with a [camera.imaging] lens, a board that does not fit the field,
