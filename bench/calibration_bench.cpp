@@ -10,6 +10,8 @@
 //   build/bench/calibration_bench [--runs N] [--profile FILE] [--views V] [--square-mm S]
 //
 // Figures and the command used go in docs/benchmarks.md ("Camera calibration").
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -71,8 +73,9 @@ int main(int argc, char** argv) {
       scale{"plane scale (m/px)"};
   double rms_sum = 0;
   int k2_held = 0;
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / "collide-calibration-bench").string();
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("collide-calibration-bench-" + std::to_string(getpid())))
+                              .string();
   for (int seed = 1; seed <= runs; ++seed) {
     auto text = app::setProfileValue(base->text, "simulation", "seed", std::to_string(seed));
     if (!text) return std::fprintf(stderr, "%s\n", text.error().message.c_str()), 2;
