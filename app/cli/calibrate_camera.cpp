@@ -29,7 +29,7 @@ struct Options {
   std::optional<double> pitch_um;
   std::string render_dir;
   std::string rig;
-  int views = 12;
+  int views = 16;
 };
 
 int fail(const std::string& message, int code = kExitBadInput) {
@@ -60,6 +60,11 @@ int calibrate(const Options& o, const cv::Size& corners) {
   if (o.images.empty() && o.plane.empty())
     return fail("name the chessboard pictures (at least " +
                 std::to_string(collide::vision::kMinCalibrationViews) + ")");
+  for (const auto& f : o.images)
+    if (std::error_code ec; !std::filesystem::is_regular_file(f, ec))
+      return fail(f + ": no such picture file; check the path");
+  if (std::error_code ec; !o.plane.empty() && !std::filesystem::is_regular_file(o.plane, ec))
+    return fail("--plane " + o.plane + ": no such picture file; check the path");
   collide::app::CalibrationInput in{o.images, o.plane, {corners, o.square_mm * 1e-3}};
   // The profile to write into is read (and checked) before the work.
   std::optional<collide::hw::RigProfile> profile;
@@ -119,9 +124,10 @@ void setupCalibrateCamera(CLI::App& sub, std::function<int()>& run) {
       "(--plane). Prints f, the principal point and distortion k1 k2 p1 p2 with their standard "
       "uncertainties, the reprojection error and the pixel scale at the collision plane.\n"
       "Example (simulated camera):\n"
-      "  collide calibrate-camera --render-targets targets --rig config/sim-lab.toml\n"
+      "  collide calibrate-camera --render-targets targets --rig config/sim-lab.toml "
+      "--square-mm 8.5\n"
       "  collide calibrate-camera targets/view-*.png --plane targets/plane.png --board 9x6 "
-      "--square-mm 9 --profile my-lab.toml");
+      "--square-mm 8.5 --profile my-lab.toml");
   run = [o] {
     auto corners = collide::app::parseBoardSize(o->board);
     if (!corners) return fail(corners.error().message);

@@ -175,6 +175,9 @@ TEST(CliCalibrateCamera, TooFewBoardsSaysHowManyAreNeeded) {
   run = runCollide("calibrate-camera " + q(profile) + " --square-mm 8.5", scratch);
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("lab.toml: not a picture"), std::string::npos) << run.err;
+  run = runCollide("calibrate-camera " + q(targets + "/view-99.png") + " --square-mm 8.5", scratch);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("view-99.png: no such picture file"), std::string::npos) << run.err;
   run = runCollide(
       "calibrate-camera " + q(targets + "/view-01.png") + " --board 9by6 --square-mm 8", scratch);
   EXPECT_EQ(run.exit_code, 2);
