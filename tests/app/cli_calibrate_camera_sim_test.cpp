@@ -103,8 +103,10 @@ TEST(CliCalibrateCamera, RecoversTheSimulatedLensAndTheAnalysisUsesIt) {
   run = runCollide("campaign --rig " + q(profile) + " --shots 1 --out " + q(out), scratch);
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   std::optional<hw::Shot> shot;
+  std::string shot_path;
   for (const auto& e : std::filesystem::directory_iterator(out))
     if (e.path().extension() == ".h5") {
+      shot_path = e.path().string();
       auto s = app::readShot(e.path().string());
       ASSERT_TRUE(s.ok()) << s.error().message;
       shot = std::move(*s);
@@ -148,6 +150,25 @@ TEST(CliCalibrateCamera, RecoversTheSimulatedLensAndTheAnalysisUsesIt) {
             std::abs(e_true_lens.value - e_truth) + e_true_lens.sigma)
       << "e " << e_cal.value << " (calibration) " << e_true_lens.value << " (true lens), truth "
       << e_truth;
+
+  // 5. The same frames as footage recorded elsewhere, through the profile's
+  // calibration (--profile): e as the shot's own analysis through it.
+  const std::string png = scratch.file("png");
+  ASSERT_EQ(runCollide("export " + q(shot_path) + " --png " + q(png), scratch).exit_code, 0);
+  const std::string footage_json = scratch.file("footage.json");
+  const std::string footage = "analyze --frames " + q(png) + " --fps " +
+                              std::to_string(shot->camera.fps) + " --diameter-mm 25.4";
+  run = runCollide(footage + " --profile " + q(profile) + " --json " + q(footage_json), scratch);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const auto results = nlohmann::json::parse(readAll(footage_json));
+  ASSERT_TRUE(results["e"].is_number()) << results.dump();
+  EXPECT_LT(std::abs(results["e"].get<double>() - e_cal.value), e_cal.sigma)
+      << results["e"] << " vs " << e_cal.value;
+  // A profile without the table is named.
+  const std::string lab = std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml";
+  run = runCollide(footage + " --profile " + q(lab), scratch);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("has no [camera.calibration]"), std::string::npos) << run.err;
 }
 
 TEST(CliCalibrateCamera, TooFewBoardsSaysHowManyAreNeeded) {
