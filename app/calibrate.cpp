@@ -101,8 +101,8 @@ std::string calibrationTable(const CalibrationRun& run, std::optional<double> pi
   char line[200];
   const auto row = [&](const char* what, const std::string& value, const std::string& sigma,
                        const char* unit) {
-    std::snprintf(line, sizeof line, "  %-34s %14s  +- %-12s %s\n", what, value.c_str(),
-                  sigma.c_str(), unit);
+    std::snprintf(line, sizeof line, "  %-34s %14s  %2s %-12s %s\n", what, value.c_str(),
+                  sigma.empty() ? "" : "+-", sigma.c_str(), unit);
     o << line;
   };
   std::snprintf(line, sizeof line, "\n  %-34s %14s  %-15s %s\n", "quantity", "value",
