@@ -27,10 +27,14 @@ vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
   s.origin_u_px = shot.scene.origin_u_px;
   s.origin_v_px = shot.scene.origin_v_px;
   s.fps = shot.burst.fps > 0 ? shot.burst.fps : shot.camera.fps;
-  // The lens the shot was filmed through, when its profile says (a simulated
-  // camera's perspective imaging): centres through it, not one pixel size.
+  // The lens the shot was filmed through, when its profile says: the
+  // camera's calibration ([camera.calibration]) first, else a simulated
+  // camera's perspective imaging. Centres through it, not one pixel size.
   if (auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (recorded profile)")) {
-    if (auto lens = hw::simulatedLens(*profile); lens && *lens) s.camera = **lens;
+    if (profile->camera_calibration)
+      s.camera = profile->camera_calibration->lens(profile->geometry);
+    else if (auto lens = hw::simulatedLens(*profile); lens && *lens)
+      s.camera = **lens;
     // The alignment the profile states ([analysis]): priors for the out-of-plane parts.
     s.line_of_centres_z_sigma =
         std::sin(profile->analysis.line_of_centres_tilt_deg * std::numbers::pi / 180.0);

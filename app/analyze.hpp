@@ -16,7 +16,9 @@
 namespace collide::app {
 
 /// The analysis settings a recorded shot implies: its scene (pixel size,
-/// diameters, masses, world origin) and frame rate.
+/// diameters, masses, world origin), frame rate and lens: the recorded
+/// profile's [camera.calibration] when it has one, else its simulated
+/// camera's perspective lens, else none (one pixel size).
 vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot);
 
 /// What happened to one shot file.

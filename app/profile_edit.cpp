@@ -90,6 +90,55 @@ Result<std::string> setProfileValue(const std::string& text, const std::string& 
   return out;
 }
 
+Result<std::string> setProfileTable(
+    const std::string& text, const std::string& section,
+    const std::vector<std::pair<std::string, std::string>>& entries) {
+  std::vector<std::string> ls = lines(text);
+  const auto header = [](const std::string& line) {
+    const std::string t = trim(line);
+    return !t.empty() && t[0] == '[';
+  };
+  const auto isTable = [&](const std::string& line, const std::string& name) {
+    return trim(line).rfind("[" + name + "]", 0) == 0;
+  };
+  std::vector<std::string> body{"[" + section + "]"};
+  for (const auto& [key, value] : entries) body.push_back(key + " = " + value);
+  std::size_t start = ls.size();
+  for (std::size_t i = 0; i < ls.size(); ++i)
+    if (isTable(ls[i], section)) start = i;
+  if (start < ls.size()) {
+    std::size_t end = start + 1;
+    while (end < ls.size() && !header(ls[end])) ++end;
+    // Keep the blank lines and comments that lead into the next table.
+    while (end > start + 1 && (trim(ls[end - 1]).empty() || trim(ls[end - 1])[0] == '#')) --end;
+    ls.erase(ls.begin() + static_cast<std::ptrdiff_t>(start),
+             ls.begin() + static_cast<std::ptrdiff_t>(end));
+    ls.insert(ls.begin() + static_cast<std::ptrdiff_t>(start), body.begin(), body.end());
+  } else {
+    const std::size_t dot = section.rfind('.');
+    std::size_t at = ls.size();
+    if (dot != std::string::npos) {
+      const std::string parent = section.substr(0, dot);
+      std::size_t p = ls.size();
+      for (std::size_t i = 0; i < ls.size(); ++i)
+        if (isTable(ls[i], parent)) p = i;
+      if (p == ls.size())
+        return fail("the rig profile has no [" + parent + "] table to add [" + section + "] to");
+      // After the parent's last sub-table: up to the first header that is
+      // neither [parent] nor [parent.*].
+      at = p + 1;
+      while (at < ls.size() && (!header(ls[at]) || trim(ls[at]).rfind("[" + parent + ".", 0) == 0))
+        ++at;
+      while (at > p + 1 && (trim(ls[at - 1]).empty() || trim(ls[at - 1])[0] == '#')) --at;
+    }
+    body.insert(body.begin(), "");
+    ls.insert(ls.begin() + static_cast<std::ptrdiff_t>(at), body.begin(), body.end());
+  }
+  std::string out;
+  for (const auto& l : ls) out += l + "\n";
+  return out;
+}
+
 std::string tomlNumberArray(const std::array<double, 4>& v) {
   char buf[200];
   std::snprintf(buf, sizeof buf, "[%.17g, %.17g, %.17g, %.17g]", v[0], v[1], v[2], v[3]);

@@ -4,6 +4,8 @@
 // burst settings and calibration dialog; the profile stays a file users edit.
 #include <array>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "analysis/result.hpp"
 
@@ -16,6 +18,16 @@ namespace collide::app {
 /// `[[array]]` entries). Errors: no such section.
 Result<std::string> setProfileValue(const std::string& text, const std::string& section,
                                     const std::string& key, const std::string& toml_value);
+
+/// `text` with table `[section]` (a sub-table such as "camera.calibration")
+/// holding exactly `entries` (key, TOML literal), in that order: an existing
+/// table's lines (up to the next table header) are replaced whole; a missing
+/// one is added after its parent's tables ([camera], [camera.*]), or at the
+/// end when there is no parent. Every other line stays as it was. Errors:
+/// the parent table is missing.
+Result<std::string> setProfileTable(
+    const std::string& text, const std::string& section,
+    const std::vector<std::pair<std::string, std::string>>& entries);
 
 /// A TOML array of numbers written so that they read back exactly ("%.17g").
 std::string tomlNumberArray(const std::array<double, 4>& values);

@@ -202,7 +202,13 @@ CameraInfo CameraSim::info() const {
           settings_.max_gain_db};
 }
 
-Status CameraSim::onConfigure(const CameraConfig& config) {
+namespace {
+
+// What the simulated camera renders with for `config` (region, format,
+// exposure, gain) and the profile's geometry and imaging.
+Result<vision::RenderSettings> renderSettings(const CameraSimSettings& settings,
+                                              const CameraConfig& config, const RigProfile& profile,
+                                              const std::string& device) {
   vision::RenderSettings rs;
   rs.width = config.width;
   rs.height = config.height;
@@ -214,20 +220,37 @@ Status CameraSim::onConfigure(const CameraConfig& config) {
   rs.rim_level = std::min(1.0, rs.rim_level * gain);
   rs.dot_level = std::min(1.0, rs.dot_level * gain);
   rs.background_level = std::min(1.0, rs.background_level * gain);
-  rs.noise_grey = settings_.noise_grey * gain;
-  rs.noise_seed = world_->profile().simulation.seed;
-  if (settings_.imaging) {
-    const GeometryProfile& g = world_->profile().geometry;
-    vision::Imaging im = settings_.imaging->imaging;
-    im.optics = settings_.imaging->optics(config.width, config.height,
-                                          {g.origin_u_px, g.origin_v_px}, g.pixel_size_m);
+  rs.noise_grey = settings.noise_grey * gain;
+  rs.noise_seed = profile.simulation.seed;
+  if (settings.imaging) {
+    const GeometryProfile& g = profile.geometry;
+    vision::Imaging im = settings.imaging->imaging;
+    im.optics = settings.imaging->optics(config.width, config.height,
+                                         {g.origin_u_px, g.origin_v_px}, g.pixel_size_m);
     im.sensor.gain = gain;
     if (im.sensor.adc_bits > vision::bitDepth(config.format))
-      return fail("camera \"" + device_ +
+      return fail("camera \"" + device +
                   "\": imaging.adc_bits = " + std::to_string(im.sensor.adc_bits) +
                   " does not fit " + vision::toString(config.format) + " pixels");
     rs.imaging = im;
   }
+  return rs;
+}
+
+}  // namespace
+
+Result<vision::RenderSettings> simulatedRenderSettings(const RigProfile& profile) {
+  if (profile.camera.backend != "sim")
+    return fail(profile.source + ": camera.backend is \"" + profile.camera.backend +
+                "\", not \"sim\": only the simulated camera renders pictures");
+  SettingsReader r = profile.camera.backendSettings();
+  COLLIDE_ASSIGN_OR_RETURN(const CameraSimSettings settings, CameraSimSettings::read(r));
+  return renderSettings(settings, profile.camera_config, profile, profile.camera.device);
+}
+
+Status CameraSim::onConfigure(const CameraConfig& config) {
+  COLLIDE_ASSIGN_OR_RETURN(const vision::RenderSettings rs,
+                           renderSettings(settings_, config, world_->profile(), device_));
   renderer_.emplace(rs);
   config_ = config;
   return Ok{};

@@ -75,6 +75,12 @@ struct CameraSimSettings {
 /// Errors: the camera's settings do not parse.
 Result<std::optional<PinholeCamera>> simulatedLens(const RigProfile& profile);
 
+/// What a profile's simulated camera renders with (camera.roi, format,
+/// exposure, gain, [camera.imaging] with its lens placed by [geometry]), e.g.
+/// to draw calibration targets through its optics. Errors: not a simulated
+/// camera, or its settings do not parse.
+Result<vision::RenderSettings> simulatedRenderSettings(const RigProfile& profile);
+
 class CameraSim final : public Camera {
  public:
   CameraSim(std::shared_ptr<SimWorld> world, CameraSimSettings settings,

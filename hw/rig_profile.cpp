@@ -191,6 +191,8 @@ constexpr double kMaxFps = 2e7;
 /// burst spans minutes and its timing overflows nothing but helps no one.
 constexpr double kMinFps = 1.0;
 
+Status parseCameraCalibration(const SettingsTable& t, SettingsReader& r, RigProfile& p);
+
 Status parseCamera(const SettingsTable& t, RigProfile& p) {
   SettingsReader r(t);
   COLLIDE_ASSIGN_OR_RETURN(p.camera, deviceHead(t, r));
@@ -213,7 +215,82 @@ Status parseCamera(const SettingsTable& t, RigProfile& p) {
     return r.invalid("exposure_us", "must be at most one frame period (" + num(1e6 / c.fps) +
                                         " us at " + num(c.fps) + " frames/s)");
   COLLIDE_ASSIGN_OR_RETURN(c.gain_db, r.number("gain_db", 0.0, {.ge = 0.0}));
+  COLLIDE_RETURN_IF_ERROR(parseCameraCalibration(t, r, p));
   return checkBackendKnown<Camera>(p.camera);
+}
+
+// [camera.calibration] (keys "calibration.*" of the [camera] table).
+Status parseCameraCalibration(const SettingsTable& t, SettingsReader& r, RigProfile& p) {
+  static const std::vector<std::string> kKeys = {"image_px",
+                                                 "focal_px",
+                                                 "focal_px_sigma",
+                                                 "principal_px",
+                                                 "principal_px_sigma",
+                                                 "distortion",
+                                                 "distortion_sigma",
+                                                 "plane_distance_m",
+                                                 "plane_distance_m_sigma",
+                                                 "plane_pixel_size_m",
+                                                 "plane_pixel_size_m_sigma",
+                                                 "rms_px",
+                                                 "views"};
+  bool any = false;
+  for (const auto& [key, value] : t.values) {
+    if (key.rfind("calibration.", 0) != 0) continue;
+    any = true;
+    const std::string field = key.substr(12);
+    if (std::find(kKeys.begin(), kKeys.end(), field) == kKeys.end())
+      return r.invalid(key, "not a field of [camera.calibration] (config/sim.toml lists them)");
+    p.camera.role_keys.push_back(key);
+  }
+  if (!any) return Ok{};
+  CameraCalibrationProfile c;
+  const std::string k = "calibration.";
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> size,
+                           r.numbers(k + "image_px", 2, std::nullopt, {.ge = 1.0}));
+  COLLIDE_ASSIGN_OR_RETURN(c.image_px[0], wholePixel(r, k + "image_px", size[0], 1));
+  COLLIDE_ASSIGN_OR_RETURN(c.image_px[1], wholePixel(r, k + "image_px", size[1], 1));
+  if (c.image_px[0] != p.camera_config.width || c.image_px[1] != p.camera_config.height)
+    return r.invalid(k + "image_px", "the calibration's pictures were " +
+                                         std::to_string(c.image_px[0]) + " x " +
+                                         std::to_string(c.image_px[1]) + " px but camera.roi is " +
+                                         std::to_string(p.camera_config.width) + " x " +
+                                         std::to_string(p.camera_config.height) +
+                                         ": calibrate again with this region");
+  COLLIDE_ASSIGN_OR_RETURN(c.focal_px, r.number(k + "focal_px", std::nullopt, {.gt = 0.0}));
+  COLLIDE_ASSIGN_OR_RETURN(c.focal_px_sigma,
+                           r.number(k + "focal_px_sigma", std::nullopt, {.ge = 0.0}));
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> pp, r.numbers(k + "principal_px", 2));
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> pps,
+                           r.numbers(k + "principal_px_sigma", 2, std::nullopt, {.ge = 0.0}));
+  c.principal_px = {pp[0], pp[1]};
+  c.principal_px_sigma = {pps[0], pps[1]};
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> d,
+                           r.numbers(k + "distortion", 4, std::nullopt, {.ge = -10.0, .le = 10.0}));
+  COLLIDE_ASSIGN_OR_RETURN(const std::vector<double> ds,
+                           r.numbers(k + "distortion_sigma", 4, std::nullopt, {.ge = 0.0}));
+  std::copy(d.begin(), d.end(), c.distortion.begin());
+  std::copy(ds.begin(), ds.end(), c.distortion_sigma.begin());
+  const auto optionalPair = [&](const std::string& key, std::optional<double>& value,
+                                std::optional<double>& sigma) -> Status {
+    if (t.has(k + key) != t.has(k + key + "_sigma"))
+      return r.invalid(k + key + (t.has(k + key) ? "_sigma" : ""),
+                       "give " + key + " and " + key + "_sigma together");
+    if (!t.has(k + key)) return Ok{};
+    COLLIDE_ASSIGN_OR_RETURN(value, r.number(k + key, std::nullopt, {.gt = 0.0}));
+    COLLIDE_ASSIGN_OR_RETURN(sigma, r.number(k + key + "_sigma", std::nullopt, {.ge = 0.0}));
+    return Ok{};
+  };
+  COLLIDE_RETURN_IF_ERROR(
+      optionalPair("plane_distance_m", c.plane_distance_m, c.plane_distance_m_sigma));
+  COLLIDE_RETURN_IF_ERROR(
+      optionalPair("plane_pixel_size_m", c.plane_pixel_size_m, c.plane_pixel_size_m_sigma));
+  COLLIDE_ASSIGN_OR_RETURN(c.rms_px, r.number(k + "rms_px", 0.0, {.ge = 0.0}));
+  COLLIDE_ASSIGN_OR_RETURN(const std::int64_t views,
+                           r.integer(k + "views", 0, {.ge = 0, .le = 100000}));
+  c.views = static_cast<int>(views);
+  p.camera_calibration = c;
+  return Ok{};
 }
 
 Status parseRegulator(const SettingsTable& t, RigProfile& p, double& min_kPa, double& max_kPa) {
@@ -426,6 +503,20 @@ Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
 }
 
 }  // namespace
+
+PinholeCamera CameraCalibrationProfile::lens(const GeometryProfile& g) const {
+  PinholeCamera c;
+  c.focal_px = focal_px;
+  c.principal_u_px = principal_px[0];
+  c.principal_v_px = principal_px[1];
+  c.k1 = distortion[0], c.k2 = distortion[1], c.p1 = distortion[2], c.p2 = distortion[3];
+  const double d = plane_distance_m.value_or(g.pixel_size_m * focal_px);
+  c.centre_m = Vec3(0, 0, d);
+  // Shift the optical centre so that the world origin appears at origin_px.
+  const Vec3 origin = c.onPlane(g.origin_u_px, g.origin_v_px);
+  c.centre_m = Vec3(-origin.x(), -origin.y(), d);
+  return c;
+}
 
 SettingsReader DeviceProfile::backendSettings() const {
   SettingsReader r(table);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "analysis/calibration.hpp"
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/types.hpp"
 #include "hw/camera.hpp"
@@ -54,6 +55,30 @@ struct GeometryProfile {
   double origin_u_px = 0.0;   ///< image pixel (u right, v down) of the world origin
   double origin_v_px = 0.0;
   std::optional<Vec3> meet_point_m;  ///< where the spheres should meet; none: image centre
+};
+
+/// [camera.calibration]: the camera's lens as `collide calibrate-camera`
+/// measured it from chessboard pictures (vision/camera_calibration.hpp), each
+/// value with its standard uncertainty (_sigma). OpenCV's distortion model
+/// (analysis/camera_model.hpp), square pixels.
+struct CameraCalibrationProfile {
+  std::array<int, 2> image_px{0, 0};  ///< size of the pictures: camera.roi's
+  double focal_px = 0, focal_px_sigma = 0;
+  std::array<double, 2> principal_px{0, 0}, principal_px_sigma{0, 0};
+  std::array<double, 4> distortion{0, 0, 0, 0};  ///< k1, k2, p1, p2
+  std::array<double, 4> distortion_sigma{0, 0, 0, 0};
+  /// Optical centre to the collision plane along the axis, from a picture of
+  /// the board lying in it; none: not measured (geometry.pixel_size_m x
+  /// focal_px stands in).
+  std::optional<double> plane_distance_m, plane_distance_m_sigma;
+  /// Metres per pixel at the collision plane on the axis (distance / focal).
+  std::optional<double> plane_pixel_size_m, plane_pixel_size_m_sigma;
+  double rms_px = 0;  ///< reprojection error of the fit
+  int views = 0;      ///< pictures the fit used
+
+  /// The lens as the analysis' camera model, placed as geometry says: the
+  /// world origin (on the collision plane) at geometry.origin_px.
+  PinholeCamera lens(const GeometryProfile& geometry) const;
 };
 
 struct SpheresProfile {
@@ -142,6 +167,8 @@ struct RigProfile {
   /// The pulse limit from safety.max_valve_pulse_us.
   ValveConfig valve_config;
   CameraConfig camera_config;  ///< ROI, format, fps, exposure, gain from [camera]
+  /// [camera.calibration], when the camera has been calibrated.
+  std::optional<CameraCalibrationProfile> camera_calibration;
   BurstProfile burst;
   GeometryProfile geometry;
   std::array<LauncherProfile, 2> launchers;

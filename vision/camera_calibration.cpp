@@ -1,11 +1,17 @@
 #include "vision/camera_calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <complex>
+#include <cstdio>
+#include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace collide::vision {
 namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 cv::Mat to8bit(const cv::Mat& image) {
   if (image.depth() == CV_8U) return image;
@@ -25,76 +31,235 @@ std::vector<cv::Point3f> boardPoints(const ChessboardSpec& b) {
   return p;
 }
 
-}  // namespace
-
-Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
-                                          const ChessboardSpec& board, int plane_image) {
-  if (images.empty()) return fail("no pictures to calibrate from");
-  if (plane_image < 0 || plane_image >= static_cast<int>(images.size()))
-    return fail("the plane picture's index " + std::to_string(plane_image) + " is not among the " +
-                std::to_string(images.size()) + " pictures");
-  if (board.inner_corners.width < 3 || board.inner_corners.height < 3 || !(board.square_m > 0))
-    return fail("the chessboard needs at least 3 x 3 inner corners and a square size > 0");
-  CameraCalibration out;
-  std::vector<std::vector<cv::Point2f>> found;
-  std::vector<std::vector<cv::Point3f>> object;
+// The boards found: corners per used picture and which picture each came from.
+struct Found {
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<int> image;  // index into the pictures given
   int plane_slot = -1;
+};
+
+Found findBoards(const std::vector<cv::Mat>& images, const ChessboardSpec& board, int plane_image,
+                 const std::vector<std::string>& names, CameraCalibration& out) {
+  Found f;
   const cv::Size size = images.front().size();
   for (std::size_t i = 0; i < images.size(); ++i) {
+    const std::string name = i < names.size() ? names[i] : "picture " + std::to_string(i);
     if (images[i].size() != size) {
-      out.notes.push_back("picture " + std::to_string(i) + ": a different size, left out");
+      out.notes.push_back(name + ": " + std::to_string(images[i].cols) + " x " +
+                          std::to_string(images[i].rows) + " px, not the first picture's " +
+                          std::to_string(size.width) + " x " + std::to_string(size.height) +
+                          ": left out");
       continue;
     }
     const cv::Mat grey = to8bit(images[i]);
     std::vector<cv::Point2f> corners;
     if (!cv::findChessboardCorners(grey, board.inner_corners, corners,
                                    cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)) {
-      out.notes.push_back("picture " + std::to_string(i) + ": no " +
-                          std::to_string(board.inner_corners.width) + " x " +
-                          std::to_string(board.inner_corners.height) + " chessboard found");
+      out.notes.push_back(name + ": no " + std::to_string(board.inner_corners.width) + " x " +
+                          std::to_string(board.inner_corners.height) +
+                          " chessboard (inner corners) found: left out");
       continue;
     }
     cv::cornerSubPix(grey, corners, cv::Size(5, 5), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
-    if (static_cast<int>(i) == plane_image) plane_slot = static_cast<int>(found.size());
-    found.push_back(corners);
-    object.push_back(boardPoints(board));
+    if (static_cast<int>(i) == plane_image) f.plane_slot = static_cast<int>(f.corners.size());
+    f.corners.push_back(corners);
+    f.image.push_back(static_cast<int>(i));
   }
-  if (plane_slot < 0)
+  return f;
+}
+
+// Leaves out the boards whose reprojection error is more than 3 times the
+// median and above 0.5 px (a corner found on the wrong feature), never the
+// plane picture's; returns how many.
+int dropMisfits(Found& f, const cv::Mat& per_view, const std::vector<std::string>& names,
+                std::vector<std::string>& notes) {
+  std::vector<double> e(per_view.begin<double>(), per_view.end<double>());
+  std::vector<double> sorted = e;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double limit = std::max(0.5, 3 * sorted[sorted.size() / 2]);
+  Found kept;
+  int dropped = 0;
+  for (std::size_t k = 0; k < f.corners.size(); ++k) {
+    const int i = f.image[k];
+    if (e[k] > limit && static_cast<int>(k) != f.plane_slot) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%.2f px, over %.2f px", e[k], limit);
+      notes.push_back(
+          (i < static_cast<int>(names.size()) ? names[i] : "picture " + std::to_string(i)) +
+          ": the board fits the lens badly (reprojection error " + buf +
+          "; a corner found on the wrong feature?): left out");
+      ++dropped;
+      continue;
+    }
+    if (static_cast<int>(k) == f.plane_slot)
+      kept.plane_slot = static_cast<int>(kept.corners.size());
+    kept.corners.push_back(f.corners[k]);
+    kept.image.push_back(i);
+  }
+  if (dropped > 0) f = std::move(kept);
+  return dropped;
+}
+
+// Metres per ideal pixel of the plane picture's board, with its standard
+// uncertainty: a similarity (scale, rotation, shift) fitted from the board's
+// corners (metres) to their undistorted pixels, by least squares in complex
+// numbers. The uncertainty of k1 and k2 adds what it does to the scale over
+// the board's field.
+std::pair<double, double> planeScale(const std::vector<cv::Point2f>& corners,
+                                     const ChessboardSpec& board, const PinholeCamera& c,
+                                     const CalibrationSigma& s) {
+  const std::vector<cv::Point3f> q3 = boardPoints(board);
+  const std::size_t n = q3.size();
+  std::vector<std::complex<double>> p(n), q(n);
+  std::complex<double> pm, qm;
+  double r2_mean = 0, r4_mean = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d xy = c.normalised(corners[i].x, corners[i].y);
+    r2_mean += xy.squaredNorm() / n;
+    r4_mean += xy.squaredNorm() * xy.squaredNorm() / n;
+    p[i] = {c.focal_px * xy.x(), c.focal_px * xy.y()};
+    q[i] = {q3[i].x, q3[i].y};
+    pm += p[i] / static_cast<double>(n);
+    qm += q[i] / static_cast<double>(n);
+  }
+  double best_res = std::numeric_limits<double>::infinity(), scale = 0, spread = 0;
+  for (const bool mirror : {false, true}) {  // the board seen from either side
+    std::complex<double> num, a;
+    double den = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::complex<double> dq = mirror ? std::conj(q[i] - qm) : q[i] - qm;
+      num += (p[i] - pm) * std::conj(dq);
+      den += std::norm(dq);
+    }
+    a = num / den;
+    double res = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::complex<double> dq = mirror ? std::conj(q[i] - qm) : q[i] - qm;
+      res += std::norm(p[i] - pm - a * dq);
+    }
+    if (res < best_res) best_res = res, scale = std::abs(a), spread = den;
+  }
+  const double sigma_px = std::sqrt(best_res / std::max<double>(1, 2.0 * n - 4));
+  // The residuals are mostly the corner finder's bias on a sampled image
+  // (and a board not quite flat), alike for neighbouring corners, not
+  // independent noise: they may stretch the whole board. So the scale's
+  // uncertainty is the residual over the corners' RMS distance from their
+  // centroid (what a coherent stretch of that size does), not that over
+  // sqrt(n) times it (what independent noise would do). Conservative:
+  // bench/calibration_bench finds the errors a few times smaller.
+  const double spread_px = scale * std::sqrt(spread / static_cast<double>(n));
+  const double rel_corners = sigma_px / spread_px;
+  const double rel_lens = std::hypot(s.k1 * r2_mean, s.k2 * r4_mean);
+  return {1.0 / scale, std::hypot(rel_corners, rel_lens) / scale};
+}
+
+}  // namespace
+
+Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
+                                          const ChessboardSpec& board, int plane_image,
+                                          const std::vector<std::string>& names) {
+  if (images.empty()) return fail("no pictures to calibrate from");
+  if (plane_image < -1 || plane_image >= static_cast<int>(images.size()))
+    return fail("the plane picture's index " + std::to_string(plane_image) + " is not among the " +
+                std::to_string(images.size()) + " pictures");
+  if (board.inner_corners.width < 3 || board.inner_corners.height < 3 || !(board.square_m > 0))
+    return fail("the chessboard needs at least 3 x 3 inner corners and a square size > 0");
+  CameraCalibration out;
+  Found found = findBoards(images, board, plane_image, names, out);
+  if (plane_image >= 0 && found.plane_slot < 0)
     return fail("the chessboard was not found in the plane picture (" +
-                std::to_string(plane_image) +
-                "): without it the collision plane's distance is "
-                "unknown; show the whole board lying in the collision plane");
-  if (found.size() < 3)
-    return fail("the chessboard was found in " + std::to_string(found.size()) + " of " +
-                std::to_string(images.size()) +
-                " pictures; at least 3 in varied poses (tilted, near the corners) are needed");
-  cv::Mat K, dist;
+                (plane_image < static_cast<int>(names.size())
+                     ? names[plane_image]
+                     : "picture " + std::to_string(plane_image)) +
+                "): without it the collision plane's distance is unknown; show the whole board "
+                "lying in the collision plane");
+  if (static_cast<int>(found.corners.size()) < kMinCalibrationViews)
+    return fail("the chessboard was found in " + std::to_string(found.corners.size()) + " of " +
+                std::to_string(images.size()) + " pictures; at least " +
+                std::to_string(kMinCalibrationViews) +
+                " in varied poses (tilted, near the corners) are needed, 10 or more for a good "
+                "fit");
+  out.image_size = images.front().size();
+  std::vector<std::vector<cv::Point3f>> object(found.corners.size(), boardPoints(board));
+  cv::Mat K, dist, sd_in, sd_ex, per_view;
   std::vector<cv::Mat> rvecs, tvecs;
-  // k1, k2, p1, p2 (the model's), no k3.
-  const double rms =
-      cv::calibrateCamera(object, found, size, K, dist, rvecs, tvecs, cv::CALIB_FIX_K3);
+  // One focal length (square pixels, fy / fx held at 1), k1 k2 p1 p2, no k3:
+  // the camera model's parameters.
+  const auto fit = [&](int extra_flags) {
+    K = cv::Mat::eye(3, 3, CV_64F);
+    dist = cv::Mat();
+    return cv::calibrateCamera(object, found.corners, out.image_size, K, dist, rvecs, tvecs, sd_in,
+                               sd_ex, per_view,
+                               cv::CALIB_FIX_K3 | cv::CALIB_FIX_ASPECT_RATIO | extra_flags);
+  };
+  double rms = fit(0);
   if (!std::isfinite(rms)) return fail("the calibration did not converge");
-  const double fx = K.at<double>(0, 0), fy = K.at<double>(1, 1);
+  // A board found with a corner on the wrong feature fits several times worse
+  // than the rest: leave it out and fit again.
+  if (dropMisfits(found, per_view, names, out.notes) > 0) {
+    if (static_cast<int>(found.corners.size()) < kMinCalibrationViews)
+      return fail("only " + std::to_string(found.corners.size()) +
+                  " pictures fit the lens; at least " + std::to_string(kMinCalibrationViews) +
+                  " are needed (see the pictures left out)");
+    object.resize(found.corners.size());
+    rms = fit(0);
+    if (!std::isfinite(rms)) return fail("the calibration did not converge");
+  }
+  // k2 only where the pictures measure it: a narrow field (a long lens) leaves
+  // k2 r^4 below the corners' noise, and an unmeasurable k2 drags k1 with it.
+  if (!(std::abs(dist.at<double>(1)) > 2 * sd_in.at<double>(5))) {
+    const double k2 = dist.at<double>(1), sk2 = sd_in.at<double>(5);
+    rms = fit(cv::CALIB_FIX_K2);
+    if (!std::isfinite(rms)) return fail("the calibration did not converge");
+    out.k2_fitted = false;
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "k2 held at 0: these pictures do not measure it (fitted %.3g +- %.3g); tilt "
+                  "the board more and fill the corners to measure it",
+                  k2, sk2);
+    out.notes.push_back(buf);
+  }
   PinholeCamera& c = out.camera;
-  c.focal_px = 0.5 * (fx + fy);
+  c.focal_px = K.at<double>(1, 1);
   c.principal_u_px = K.at<double>(0, 2);
   c.principal_v_px = K.at<double>(1, 2);
   c.k1 = dist.at<double>(0), c.k2 = dist.at<double>(1);
   c.p1 = dist.at<double>(2), c.p2 = dist.at<double>(3);
+  c.centre_m = Vec3::Zero();
+  const auto sd = [&](int i) { return sd_in.at<double>(i); };
+  CalibrationSigma& s = out.sigma;
+  s.focal_px = std::max(sd(0), sd(1));  // fx follows fy: one free focal length
+  s.principal_u_px = sd(2), s.principal_v_px = sd(3);
+  s.k1 = sd(4), s.k2 = sd(5), s.p1 = sd(6), s.p2 = sd(7);
+  out.focal_aspect = K.at<double>(0, 0) / K.at<double>(1, 1);
+  out.rms_px = rms;
+  out.images_used = static_cast<int>(found.corners.size());
+  out.view_rms_px.assign(images.size(), std::nan(""));
+  for (std::size_t k = 0; k < found.image.size(); ++k)
+    out.view_rms_px[found.image[k]] = per_view.at<double>(static_cast<int>(k));
+  if (found.plane_slot < 0) return out;
+
   // The plane picture: the board's normal in camera axes and its distance.
+  const int slot = found.plane_slot;
   cv::Mat R;
-  cv::Rodrigues(rvecs[plane_slot], R);
-  const cv::Mat& t = tvecs[plane_slot];
+  cv::Rodrigues(rvecs[slot], R);
+  const cv::Mat& t = tvecs[slot];
   const double n[3] = {R.at<double>(0, 2), R.at<double>(1, 2), R.at<double>(2, 2)};
-  out.plane_tilt_deg = std::acos(std::min(1.0, std::abs(n[2]))) * 180.0 / 3.14159265358979323846;
+  out.plane_tilt_deg = std::acos(std::min(1.0, std::abs(n[2]))) * 180.0 / kPi;
   // Where the optical axis meets the board's plane n . X = n . t.
   const double distance =
       (n[0] * t.at<double>(0) + n[1] * t.at<double>(1) + n[2] * t.at<double>(2)) / n[2];
   c.centre_m = Vec3(0, 0, distance);
-  out.focal_aspect = fy / fx;
-  out.rms_px = rms;
-  out.images_used = static_cast<int>(found.size());
+  out.has_plane = true;
+  out.plane_pixel_size_m = distance / c.focal_px;
+  // The distance alone is as uncertain as the focal length (the board's image
+  // size fixes their ratio): tz's uncertainty from the joint fit (extrinsics
+  // are rvec, tvec per view).
+  s.plane_distance_m = sd_ex.at<double>(6 * slot + 5);
+  const auto [size_m, size_sigma_m] = planeScale(found.corners[slot], board, c, s);
+  (void)size_m;  // the same scale as distance / focal for a board facing the camera
+  s.plane_pixel_size_m = size_sigma_m;
   return out;
 }
 

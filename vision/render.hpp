@@ -72,6 +72,22 @@ struct RenderSettings {
   std::optional<Imaging> imaging;
 };
 
+/// A flat chessboard (a camera calibration target) somewhere in the world:
+/// squares of side square_m, alternately dark and light, with the inner
+/// corners (where four squares meet) at origin_m + (i x_axis + j y_axis)
+/// square_m, i < inner_cols, j < inner_rows; one square of border beyond the
+/// outer corners and a light margin of 0.6 squares round it (as printed
+/// boards). Lit as a matte surface by the imaging's lamp: level = albedo
+/// (ambient + (1 - ambient) |n.l|).
+struct ChessboardTarget {
+  Vec3 origin_m = Vec3::Zero();  ///< the first inner corner, world frame
+  Vec3 x_axis = Vec3::UnitX();   ///< unit, world: along a row of corners
+  Vec3 y_axis = -Vec3::UnitY();  ///< unit, world, normal to x_axis: down a column
+  int inner_cols = 9, inner_rows = 6;
+  double square_m = 0.01;
+  double dark_albedo = 0.05, light_albedo = 0.85;
+};
+
 class Renderer {
  public:
   /// Throws std::invalid_argument for width/height <= 0 or negative exposure,
@@ -90,6 +106,12 @@ class Renderer {
   /// (the phase of mains flicker; used only with imaging).
   cv::Mat render(const std::vector<SphereView>& spheres, std::uint64_t frame_index,
                  double time_s = 0.0) const;
+  /// A picture of `board` through the imaging's lens and sensor (noise,
+  /// vignetting, fixed patterns, bit depth; no spheres, no blur, flicker at
+  /// t = 0): each sample's ray meets the board's plane and the square it
+  /// lands in sets the level; elsewhere the backdrop. Throws
+  /// std::invalid_argument without RenderSettings::imaging (a bug).
+  cv::Mat renderChessboard(const ChessboardTarget& board, std::uint64_t frame_index) const;
 
  private:
   struct ImagingTables;  // render_raycast.cpp

@@ -583,3 +583,67 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
 }
 
 }  // namespace collide::vision
+
+namespace collide::vision {
+namespace {
+
+// Light from the board along `ray`: its square's level, or the backdrop.
+double boardLevel(const Imaging& im, const ChessboardTarget& b, const Vec3& normal, double lit,
+                  const Ray& ray) {
+  const double along = ray.dir.dot(normal);
+  if (std::abs(along) < 1e-12) return im.lighting.backdrop_level;
+  const double t = (b.origin_m - ray.origin).dot(normal) / along;
+  if (!(t > 0)) return im.lighting.backdrop_level;
+  const Vec3 p = ray.origin + t * ray.dir - b.origin_m;
+  const double a = p.dot(b.x_axis) / b.square_m, c = p.dot(b.y_axis) / b.square_m;
+  if (!(a > -1.6 && a < b.inner_cols + 0.6 && c > -1.6 && c < b.inner_rows + 0.6))
+    return im.lighting.backdrop_level;
+  double albedo = b.light_albedo;  // the margin
+  if (a > -1 && a < b.inner_cols && c > -1 && c < b.inner_rows)
+    albedo = (static_cast<long>(std::floor(a) + std::floor(c)) % 2 == 0) ? b.dark_albedo
+                                                                         : b.light_albedo;
+  return albedo * lit;
+}
+
+}  // namespace
+
+cv::Mat Renderer::renderChessboard(const ChessboardTarget& board, std::uint64_t frame_index) const {
+  if (!settings_.imaging || !imaging_)
+    throw std::invalid_argument("Renderer::renderChessboard needs RenderSettings::imaging");
+  const RenderSettings& st = settings_;
+  const Imaging& im = *st.imaging;
+  const ImagingTables& tab = *imaging_;
+  const Vec3 normal = board.x_axis.cross(board.y_axis).normalized();
+  const Lighting& l = im.lighting;
+  const double lit =
+      l.ambient + (1 - l.ambient) * std::abs(normal.dot(l.lamp_direction.normalized()));
+  const Sensor& se = im.sensor;
+  const double flicker =
+      se.flicker_hz > 0 ? 1.0 + se.flicker_amplitude * sinc(se.flicker_hz * st.exposure_s) : 1.0;
+  const int ss = im.samples_per_pixel;
+  cv::Mat image(st.height, st.width, cvType(st.format));
+  std::vector<float> light(static_cast<std::size_t>(st.width));
+  std::uint64_t rng = st.noise_seed ^ (frame_index * 0xd1b54a32d192ed03ULL) ^ 0x6a09e667f3bcc909ULL;
+  splitmix64(rng);
+  for (int v = 0; v < st.height; ++v) {
+    for (int u = 0; u < st.width; ++u) {
+      double sum = 0;
+      for (int j = 0; j < ss; ++j)
+        for (int i = 0; i < ss; ++i)
+          sum += boardLevel(im, board, normal, lit,
+                            rayAt(st, tab.ray_xy, u, v, (i + 0.5) / ss, (j + 0.5) / ss));
+      light[u] = static_cast<float>(sum / (ss * ss));
+    }
+    const float* g1 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
+    const float* g2 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
+    if (st.format == PixelFormat::Mono8)
+      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
+                image.ptr<std::uint8_t>(v));
+    else
+      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
+                image.ptr<std::uint16_t>(v));
+  }
+  return image;
+}
+
+}  // namespace collide::vision

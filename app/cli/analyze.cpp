@@ -20,6 +20,7 @@
 #include "app/manifest.hpp"
 #include "app/report/results_json.hpp"
 #include "app/store/atomic_file.hpp"
+#include "hw/rig_profile.hpp"
 #include "vision/footage.hpp"
 #include "vision/frame_io.hpp"
 
@@ -48,6 +49,7 @@ struct Options {
   std::string manifest;
   std::optional<long> index;
   std::optional<long> chunk;
+  std::string profile;  // --frames: a rig profile whose [camera.calibration] gives the lens
 };
 
 // "A:B", "A:" or ":B" (frame ids, may be negative); false if malformed.
@@ -211,6 +213,30 @@ int analyzeFootage(const Options& given) {
   settings.diameter_m = {o.diameter_mm * 1e-3,
                          (o.diameter2_mm > 0 ? o.diameter2_mm : o.diameter_mm) * 1e-3};
   settings.fps = burst->fps;
+  if (!o.profile.empty()) {  // the lens the camera was calibrated with (collide calibrate-camera)
+    auto profile = collide::hw::loadRigProfile(o.profile);
+    if (!profile || !profile->camera_calibration) {
+      std::cerr << "collide analyze: --profile "
+                << (profile ? o.profile +
+                                  " has no [camera.calibration]: run collide "
+                                  "calibrate-camera ... --profile " +
+                                  o.profile
+                            : profile.error().message)
+                << "\n";
+      return kExitBadInput;
+    }
+    const auto& cal = *profile->camera_calibration;
+    if (!burst->frames.empty() && (burst->frames[0].image.cols != cal.image_px[0] ||
+                                   burst->frames[0].image.rows != cal.image_px[1])) {
+      std::cerr << "collide analyze: --profile " << o.profile << ": calibrated on "
+                << cal.image_px[0] << " x " << cal.image_px[1]
+                << " px pictures, but the frames are " << burst->frames[0].image.cols << " x "
+                << burst->frames[0].image.rows
+                << " px: calibrate with pictures of the footage's size\n";
+      return kExitBadInput;
+    }
+    settings.camera = cal.lens(profile->geometry);
+  }
   collide::cli::ProgressBar bar("frames", static_cast<int>(burst->frames.size()));
   if (isatty(fileno(stderr))) settings.progress = [&](int done, int) { bar.update(done); };
   auto analysis = collide::vision::analyzeBurst(*burst, settings);
@@ -372,6 +398,9 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
                  "says; default all)");
   sub.add_option("--diameter-mm", o->diameter_mm, "Sphere diameter, mm (sets the pixel scale)");
   sub.add_option("--diameter2-mm", o->diameter2_mm, "Second sphere's diameter, mm, if different");
+  sub.add_option("--profile", o->profile,
+                 "With --frames: a rig profile whose [camera.calibration] (collide "
+                 "calibrate-camera) is the lens the footage was filmed through");
   sub.add_option("--json", o->json_out, "Write the results JSON here (default: stdout)");
   sub.add_option("--gravity-dir", o->gravity_dir,
                  "Gravity in the image: down (default), up, left, right, or U,V");

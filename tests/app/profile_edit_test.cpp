@@ -94,3 +94,39 @@ TEST(ProfileEdit, WriteIntoAMissingFolderFailsNamingTheFile) {
   ASSERT_FALSE(s);
   EXPECT_NE(s.error().message.find("/nonexistent-collide-dir/rig.toml"), std::string::npos);
 }
+
+TEST(ProfileEdit, TableIsAddedAfterItsParentsTablesAndReplacedWhole) {
+  const std::string text =
+      "name = \"x\"\n\n[camera]\nbackend = \"sim\"  # the camera\n\n[camera.imaging]\n"
+      "ambient = 0.1\n\n# the burst\n[burst]\npre_trigger_frames = 1\n";
+  auto added =
+      setProfileTable(text, "camera.calibration", {{"focal_px", "2500"}, {"rms_px", "0.2"}});
+  ASSERT_TRUE(added.ok()) << added.error().message;
+  EXPECT_EQ(*added,
+            "name = \"x\"\n\n[camera]\nbackend = \"sim\"  # the camera\n\n[camera.imaging]\n"
+            "ambient = 0.1\n\n[camera.calibration]\nfocal_px = 2500\nrms_px = 0.2\n\n"
+            "# the burst\n[burst]\npre_trigger_frames = 1\n");
+  // Again with other keys: the old ones go, nothing else moves.
+  auto replaced = setProfileTable(*added, "camera.calibration", {{"focal_px", "2400"}});
+  ASSERT_TRUE(replaced.ok());
+  EXPECT_EQ(*replaced,
+            "name = \"x\"\n\n[camera]\nbackend = \"sim\"  # the camera\n\n[camera.imaging]\n"
+            "ambient = 0.1\n\n[camera.calibration]\nfocal_px = 2400\n\n"
+            "# the burst\n[burst]\npre_trigger_frames = 1\n");
+  auto missing = setProfileTable("[burst]\n", "camera.calibration", {{"focal_px", "1"}});
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("no [camera] table"), std::string::npos);
+  // The real profile still parses with the table added at its end.
+  auto sim = setProfileTable(simText(), "camera.calibration",
+                             {{"image_px", "[640, 480]"},
+                              {"focal_px", "2500"},
+                              {"focal_px_sigma", "5"},
+                              {"principal_px", "[320, 240]"},
+                              {"principal_px_sigma", "[1, 1]"},
+                              {"distortion", "[0, 0, 0, 0]"},
+                              {"distortion_sigma", "[0, 0, 0, 0]"}});
+  ASSERT_TRUE(sim.ok());
+  auto parsed = hw::parseRigProfile(*sim, "sim.toml + calibration");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  EXPECT_TRUE(parsed->camera_calibration.has_value());
+}
