@@ -134,12 +134,19 @@ Status scaleFromRig(const TrackOptions& o, TrackResult& r) {
   auto profile = hw::loadRigProfile(o.rig);
   if (!profile) return profile.error();
   if (!(r.diameter_m > 0)) r.diameter_m = profile->spheres.diameter_m[0];
-  // (A camera calibrated with chessboard pictures, the profile's
-  // [camera.calibration] of issue 11, is to take precedence here.)
-  auto lens = hw::simulatedLens(*profile);
-  if (!lens) return fail(o.rig + ": " + lens.error().message);
   r.pixel_size_m = profile->geometry.pixel_size_m;
   r.pixel_size_from = "profile";
+  // A camera calibrated with chessboard pictures ([camera.calibration])
+  // first, else a simulated camera's lens (as app::analysisSettingsFor).
+  if (profile->camera_calibration) {
+    r.camera = profile->camera_calibration->lens(profile->geometry);
+    r.pixel_size_from = "camera";
+    if (!(r.pixel_size_m > 0)) return fail(o.rig + ": the profile gives no geometry.pixel_size_m");
+    if (!(r.diameter_m > 0)) return fail(o.rig + ": the profile gives no sphere diameter");
+    return Ok{};
+  }
+  auto lens = hw::simulatedLens(*profile);
+  if (!lens) return fail(o.rig + ": " + lens.error().message);
   if (*lens) {
     r.camera = **lens;
     r.pixel_size_from = "camera";
