@@ -278,6 +278,37 @@ Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
   return m;
 }
 
+Result<WaltonMeasurement> measureWallCollision(const Sphere& before, const Sphere& after,
+                                               const Wall& wall) {
+  if (auto st = validateSphere(before, "spheres[0]"); !st) return st.error();
+  if (auto st = checkFinite(after.velocity_m_s, "after.spheres[0]", "velocity_m_s"); !st)
+    return st.error();
+  if (auto st = checkFinite(after.spin_rad_s, "after.spheres[0]", "spin_rad_s"); !st)
+    return st.error();
+  if (auto st = checkFinite(wall.point_m, "wall", "point_m"); !st) return st.error();
+  if (!wall.normal.allFinite() || wall.normal.squaredNorm() == 0)
+    return fail("wall.normal: must be three finite numbers, not all zero");
+  Vec3 n = wall.normal.normalized();
+  if ((before.position_m - wall.point_m).dot(n) < 0) n = -n;  // from the wall to the sphere
+  const Body b_before = bodyOf(before), wall_body;
+  Body b_after = b_before;
+  b_after.velocity_m_s = after.velocity_m_s;
+  b_after.spin_rad_s = after.spin_rad_s;
+  WaltonMeasurement m;
+  m.before = kinematicsAlong(n, b_before, wall_body);
+  if (auto st = checkApproaching(m.before, "spheres[0]"); !st) return st.error();
+  m.after = kinematicsAlong(n, b_after, wall_body);
+  const PairResponse pair(b_before, wall_body);
+  m.kappa = pair.kappa;
+  m.e = -m.after.v_n_m_s / m.before.v_n_m_s;
+  m.beta = betaFrom(m.before, m.after.v_c_m_s);
+  m.impulse_N_s = before.mass_kg * (after.velocity_m_s - before.velocity_m_s);
+  m.beta_from_impulse =
+      betaFrom(m.before, m.before.v_c_m_s + pair.contactVelocityChange(n, m.impulse_N_s));
+  m.f = impulseRatio(n, m.impulse_N_s);
+  return m;
+}
+
 Result<OutOfPlaneVelocity> outOfPlaneVelocity(const std::array<Sphere, 2>& before,
                                               const std::array<Sphere, 2>& after) {
   auto shot = readShot(before, after);

@@ -116,6 +116,19 @@ struct WaltonMeasurement {
 Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
                                            const std::array<Sphere, 2>& after);
 
+/// Inverse operator against a fixed wall (Walton's infinite-mass limit: the
+/// wall neither moves nor spins). `before` and `after` are the sphere just
+/// before and just after the impact (mass, diameter, velocity, spin; the
+/// position, from `before`, only decides which side of the wall it is on).
+/// n is the wall's unit normal towards the sphere; the impulse is
+/// m (v' - v); e, beta, beta_from_impulse, f and gamma as for two spheres,
+/// with kappa = 2/5 for a homogeneous sphere. The two-sphere measureCollision
+/// tends to this as the second sphere's mass and inertia grow without bound.
+/// Errors: invalid sphere ("spheres[0]", "after.spheres[0]"), bad wall
+/// ("wall.point_m", "wall.normal"), not approaching (v_n >= 0).
+Result<WaltonMeasurement> measureWallCollision(const Sphere& before, const Sphere& after,
+                                               const Wall& wall);
+
 /// Appendix B: the out-of-plane (z) velocities after impact, when only the
 /// in-plane velocities but all spin components were measured.
 struct OutOfPlaneVelocity {
