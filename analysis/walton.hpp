@@ -129,6 +129,17 @@ Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
 Result<WaltonMeasurement> measureWallCollision(const Sphere& before, const Sphere& after,
                                                const Wall& wall);
 
+/// Appendix B for a wall: the sphere's out-of-plane (z) velocity after the
+/// impact, v_z' = v_z + dP_z / m, when the in-plane velocities and all spin
+/// components were measured. The tangential impulse follows from the spin
+/// change alone, dP_t = (2 I / sigma) n x d omega (eq. A.2 with the wall's
+/// side absent); its z part is dP_z (plus n_z dP_n, from the in-plane impulse,
+/// when the normal leans out of the image). Reads position (side), mass,
+/// diameter, velocity and spin from `before`, velocity (x, y) and spin from
+/// `after`. Errors: as measureWallCollision's validation; a normal within 0.1
+/// of the z axis ("wall.normal": the impulse is then mostly along z).
+Result<double> wallOutOfPlaneVelocity(const Sphere& before, const Sphere& after, const Wall& wall);
+
 /// Appendix B: the out-of-plane (z) velocities after impact, when only the
 /// in-plane velocities but all spin components were measured.
 struct OutOfPlaneVelocity {

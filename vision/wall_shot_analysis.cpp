@@ -177,6 +177,7 @@ void propagate(WallShotAnalysis& a, const WallAnalysisSettings& s, const SpinSid
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
+  const bool spins_known = sb.known && sa.known;
   std::vector<double> e, beta, gamma, f, vn, vs, bi;
   for (int k = 0; k < s.monte_carlo_draws; ++k) {
     Sphere b = a.sphere_before, af = a.sphere_after;
@@ -191,6 +192,9 @@ void propagate(WallShotAnalysis& a, const WallAnalysisSettings& s, const SpinSid
     const double th = a.wall_angle_sigma_rad * unit(rng);
     w.normal = Vec3(std::cos(th) * w.normal.x() - std::sin(th) * w.normal.y(),
                     std::sin(th) * w.normal.x() + std::cos(th) * w.normal.y(), 0.0);
+    if (spins_known) {
+      if (auto vz = wallOutOfPlaneVelocity(b, af, w)) af.velocity_m_s.z() = *vz;
+    }
     auto m = measureWallCollision(b, af, w);
     if (!m) continue;
     e.push_back(m->e);
@@ -330,6 +334,12 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.sphere_after = b;
   a.sphere_after.velocity_m_s = fa->velocityAt_m_s(*ts).value;
   a.sphere_after.spin_rad_s = sa.spin;
+  // The out-of-plane velocity the impact gave (not seen in the image) from
+  // the spin change (appendix B): needs both spins.
+  if (sb.known && sa.known) {
+    if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
+      a.sphere_after.velocity_m_s.z() = *vz;
+  }
   auto m = measureWallCollision(b, a.sphere_after, a.wall);
   if (!m) return fail("wall inverse: " + m.error().message);
   a.measured = *m;

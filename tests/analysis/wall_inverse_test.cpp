@@ -88,6 +88,30 @@ TEST(WallInverse, TwoSphereInverseTendsToTheWallAsTheSecondMassGrows) {
   EXPECT_NEAR(pair->before.gamma_rad, wall_meas->before.gamma_rad, 1e-9);
 }
 
+TEST(WallInverse, OutOfPlaneVelocityAfterComesBackFromTheSpinChange) {
+  const Material m{0.9, 0.3, 0.4};
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0.0, 30.0);
+  for (int k = 0; k < 50; ++k) {
+    // Normals in the image plane and leaning out of it by up to ~0.3.
+    const Vec3 n(std::cos(0.3 * k), std::sin(0.3 * k), 0.3 * std::sin(0.7 * k));
+    Sphere s = incoming(n, 10.0 + k, Vec3(g(rng), g(rng), g(rng)));
+    s.velocity_m_s.z() += 0.1 * std::cos(0.5 * k);
+    const Wall wall{Vec3::Zero(), n};
+    auto hit = collideWithWall(s, wall, m);
+    ASSERT_TRUE(hit);
+    Sphere seen = hit->after;
+    seen.velocity_m_s.z() = 12.0;  // not measured: must not be read
+    auto vz = wallOutOfPlaneVelocity(s, seen, wall);
+    ASSERT_TRUE(vz) << vz.error().message;
+    EXPECT_NEAR(*vz, hit->after.velocity_m_s.z(), 1e-12);
+  }
+  Sphere s = incoming(Vec3::UnitZ(), 20.0, Vec3::Zero());
+  auto bad = wallOutOfPlaneVelocity(s, s, Wall{Vec3::Zero(), Vec3::UnitZ()});
+  ASSERT_FALSE(bad);
+  EXPECT_THAT(bad.error().message, HasSubstr("wall.normal"));
+}
+
 TEST(WallInverse, RefusesARecedingSphereAndABadWall) {
   Sphere s = incoming(Vec3::UnitY(), 30.0, Vec3::Zero());
   Sphere away = s;

@@ -107,6 +107,11 @@ TEST(WallCampaignSim, ShotsAnalysedAsWallShotsMatchTheTruthAndTheFitsGiveTheMate
     const auto& c = results->collision;
     EXPECT_NEAR(c.e.value, m->e, 0.005) << file;
     EXPECT_NEAR(c.beta.value, m->beta, 0.03) << file << " gamma " << c.gamma_deg.value;
+    std::printf(
+        "gamma %.2f deg: e %.4f (truth %.4f, sigma %.4f)  beta %.4f (truth %.4f, sigma %.4f) vs "
+        "%.3f spin %.1f\n",
+        c.gamma_deg.value, c.e.value, m->e, c.e.sigma, c.beta.value, m->beta, c.beta.sigma,
+        m->before.v_s_m_s, truth.before.spin_rad_s.norm());
     EXPECT_NEAR(c.gamma_deg.value, m->before.gamma_rad * 180.0 / M_PI, 0.5) << file;
     worst_e = std::max(worst_e, std::abs(c.e.value - m->e));
     worst_beta = std::max(worst_beta, std::abs(c.beta.value - m->beta));
