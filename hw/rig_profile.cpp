@@ -329,8 +329,8 @@ Status parseWall(const SettingsTable& t, RigProfile& p) {
                      "launcher 1's exit_m must lie more than a sphere radius in front of the "
                      "plate's face (it is " +
                          num(height_m) + " m along the normal): flip the normal or move point_m");
-  if (!(l.direction.dot(w.normal) < 0))
-    return r.invalid("normal", "launcher 1's direction must point towards the plate");
+  // Whether the sphere reaches the plate (gravity bends grazing shots onto
+  // it) is the launch plan's question, not the profile's.
   COLLIDE_ASSIGN_OR_RETURN(p.wall_level, r.number("level", 0.0, {.ge = 0.0, .le = 1.0}));
   COLLIDE_RETURN_IF_ERROR(r.finish("[wall]"));
   p.wall = w;
