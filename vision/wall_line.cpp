@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -33,18 +34,23 @@ cv::Mat medianImage(const Burst& burst) {
   return out;
 }
 
-std::optional<WallLine> houghLine(const cv::Mat& median) {
+// The strongest straight edge and the strong edges parallel to it (a plate
+// shows its face and its back), strongest first.
+std::vector<WallLine> houghLines(const cv::Mat& median) {
   cv::Mat img8, edges;
   cv::normalize(median, img8, 0, 255, cv::NORM_MINMAX, CV_8U);
   cv::Canny(img8, edges, 20, 60);
   std::vector<cv::Vec2f> lines;
   cv::HoughLines(edges, lines, 1, CV_PI / 720, std::max(30, median.cols / 8));
-  if (lines.empty()) return std::nullopt;
-  const float rho = lines[0][0], theta = lines[0][1];  // strongest first
-  WallLine l;
-  l.normal = {std::cos(theta), std::sin(theta)};
-  l.point_px = rho * l.normal;
-  return l;
+  std::vector<WallLine> out;
+  for (std::size_t i = 0; i < std::min<std::size_t>(lines.size(), 30); ++i) {
+    if (std::abs(lines[i][1] - lines[0][1]) > CV_PI / 90) continue;
+    WallLine l;
+    l.normal = {std::cos(lines[i][1]), std::sin(lines[i][1])};
+    l.point_px = lines[i][0] * l.normal;
+    out.push_back(l);
+  }
+  return out;
 }
 
 float bilinear(const cv::Mat& img, double u, double v) {
@@ -93,10 +99,26 @@ std::vector<Eigen::Vector2d> edgePoints(const cv::Mat& img, const WallLine& l) {
 
 }  // namespace
 
-Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess) {
+Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess,
+                                 std::optional<Eigen::Vector2d> sphere_px) {
   const cv::Mat median = medianImage(burst);
   if (median.empty()) return fail("no good frames to find the wall in");
-  if (!guess) guess = houghLine(median);
+  if (!guess) {
+    // Of the candidate edges with enough edge points under them, the one
+    // nearest the sphere (or the strongest).
+    double best = std::numeric_limits<double>::infinity();
+    for (const WallLine& l : houghLines(median)) {
+      int near = 0;
+      for (const auto& p : edgePoints(median, l))
+        near += std::abs(l.distancePx(p.x(), p.y())) < 3.0;
+      if (near < 10) continue;
+      const double d = sphere_px ? std::abs(l.distancePx(sphere_px->x(), sphere_px->y())) : 0.0;
+      if (d < best) {
+        best = d;
+        guess = l;
+      }
+    }
+  }
   if (!guess)
     return fail("no straight edge found for the wall: give its line (--wall-line u1,v1,u2,v2)");
   WallLine line = *guess;

@@ -22,7 +22,11 @@ struct WallLineFit {
   int points = 0;  ///< edge points kept
 };
 
+/// Without a guess, the strongest straight edge; of the edges parallel to it
+/// (a plate shows its face and its back), the one nearest `sphere_px` (a
+/// sphere centre: the face is the edge the sphere flies at) when given.
 /// Errors: no good frames; no straight edge found; too few edge points (< 10).
-Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess = std::nullopt);
+Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess = std::nullopt,
+                                 std::optional<Eigen::Vector2d> sphere_px = std::nullopt);
 
 }  // namespace collide::vision

@@ -225,12 +225,19 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     return fail("wall line: the two points must differ (give --wall-line u1,v1,u2,v2)");
   WallShotAnalysis a;
   a.pixel_size_m = s.pixel_size_m;
+  bool dark = false;
+  const std::vector<Sample> samples = detectSphere(burst, s, dark, a.notes);
+  if (samples.size() < 8)
+    return fail("the sphere was found in only " + std::to_string(samples.size()) +
+                " frames (8 needed): check the diameter, pixel size and lighting");
   if (s.wall_line && !s.refine_wall_line) {
     a.wall_line = *s.wall_line;
     a.wall_angle_sigma_rad = s.wall_angle_sigma_rad;
     a.wall_offset_sigma_px = s.wall_offset_sigma_px;
   } else {
-    auto found = findWallLine(burst, s.wall_line);
+    auto found =
+        findWallLine(burst, s.wall_line,
+                     Eigen::Vector2d(samples.front().m.circle.u, samples.front().m.circle.v));
     if (!found) return fail("wall: " + found.error().message);
     a.wall_line = found->line;
     a.wall_found_in_image = true;
@@ -247,11 +254,6 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       }
     }
   }
-  bool dark = false;
-  const std::vector<Sample> samples = detectSphere(burst, s, dark, a.notes);
-  if (samples.size() < 8)
-    return fail("the sphere was found in only " + std::to_string(samples.size()) +
-                " frames (8 needed): check the diameter, pixel size and lighting");
   a.wall = worldWall(s, a.wall_line, samples.front().centre_m);
   const double R = 0.5 * s.diameter_m;
   // The impact lies next to the sample nearest the face.
