@@ -27,10 +27,11 @@ struct Sample {
 
 // The sphere in each good frame: the detection nearest the expected radius
 // (within 30 %), outlines cut by the frame's edge left out.
-std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings& s, bool& dark,
-                                 std::vector<std::string>& notes) {
+std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings& s, double px_m,
+                                 bool& dark, std::vector<std::string>& notes) {
   const SphereDetector detector;
-  const double r_px = 0.5 * s.diameter_m / s.pixel_size_m;
+  // Unknown scale (footage): any round blob, the largest in each frame.
+  const double r_px = s.pixel_size_m > 0 ? 0.5 * s.diameter_m / s.pixel_size_m : 0.0;
   const int max_value = maxValue(burst.format);
   std::vector<Sample> out;
   int dark_frames = 0, cut = 0;
@@ -40,9 +41,11 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
     const FrameSpheres found = detector.detect(f.image, max_value);
     const SphereMeasurement* best = nullptr;
     for (const SphereMeasurement& m : found.spheres) {
-      if (std::abs(m.circle.radius - r_px) > 0.3 * r_px) continue;
-      if (!best || std::abs(m.circle.radius - r_px) < std::abs(best->circle.radius - r_px))
-        best = &m;
+      if (r_px > 0 && std::abs(m.circle.radius - r_px) > 0.3 * r_px) continue;
+      const bool better = !best || (r_px > 0 ? std::abs(m.circle.radius - r_px) <
+                                                   std::abs(best->circle.radius - r_px)
+                                             : m.circle.radius > best->circle.radius);
+      if (better) best = &m;
     }
     if (!best) continue;
     if (best->cut_by_border) {
@@ -53,9 +56,9 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
     Sample smp;
     smp.frame = i;
     smp.t_s = static_cast<double>(f.id) / s.fps;
-    smp.centre_m = Vec3((best->circle.u - s.origin_u_px) * s.pixel_size_m,
-                        -(best->circle.v - s.origin_v_px) * s.pixel_size_m, 0.0);
-    smp.sigma_m = std::max({best->circle.sigma_u, best->circle.sigma_v, 1e-3}) * s.pixel_size_m;
+    smp.centre_m = Vec3((best->circle.u - s.origin_u_px) * px_m,
+                        -(best->circle.v - s.origin_v_px) * px_m, 0.0);
+    smp.sigma_m = std::max({best->circle.sigma_u, best->circle.sigma_v, 1e-3}) * px_m;
     smp.m = *best;
     out.push_back(smp);
   }
@@ -66,8 +69,8 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
   return out;
 }
 
-Wall worldWall(const WallAnalysisSettings& s, const WallLine& line, const Vec3& sphere_m) {
-  const double px = s.pixel_size_m;
+Wall worldWall(const WallAnalysisSettings& s, double px, const WallLine& line,
+               const Vec3& sphere_m) {
   Wall w;
   w.point_m = Vec3((line.point_px.x() - s.origin_u_px) * px,
                    -(line.point_px.y() - s.origin_v_px) * px, 0.0);
@@ -172,14 +175,14 @@ double stddev(const std::vector<double>& x) {
 
 // Monte Carlo: velocities from the fits' per-axis sigmas at contact, spins
 // from their covariances, the face turned and shifted by its sigmas.
-void propagate(WallShotAnalysis& a, const WallAnalysisSettings& s, const SpinSide& sb,
-               const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma) {
+void propagate(WallShotAnalysis& a, double px_m, int draws, const SpinSide& sb, const SpinSide& sa,
+               const Vec3& vb_sigma, const Vec3& va_sigma) {
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
   const bool spins_known = sb.known && sa.known;
   std::vector<double> e, beta, gamma, f, vn, vs, bi;
-  for (int k = 0; k < s.monte_carlo_draws; ++k) {
+  for (int k = 0; k < draws; ++k) {
     Sphere b = a.sphere_before, af = a.sphere_after;
     for (int ax = 0; ax < 2; ++ax) {
       b.velocity_m_s(ax) += vb_sigma(ax) * unit(rng);
@@ -188,7 +191,7 @@ void propagate(WallShotAnalysis& a, const WallAnalysisSettings& s, const SpinSid
     b.spin_rad_s += Lb * Vec3(unit(rng), unit(rng), unit(rng));
     af.spin_rad_s += La * Vec3(unit(rng), unit(rng), unit(rng));
     Wall w = a.wall;
-    w.point_m += a.wall_offset_sigma_px * s.pixel_size_m * unit(rng) * w.normal;
+    w.point_m += a.wall_offset_sigma_px * px_m * unit(rng) * w.normal;
     const double th = a.wall_angle_sigma_rad * unit(rng);
     w.normal = Vec3(std::cos(th) * w.normal.x() - std::sin(th) * w.normal.y(),
                     std::sin(th) * w.normal.x() + std::cos(th) * w.normal.y(), 0.0);
@@ -217,7 +220,7 @@ void propagate(WallShotAnalysis& a, const WallAnalysisSettings& s, const SpinSid
 }  // namespace
 
 Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysisSettings& s) {
-  if (!(s.pixel_size_m > 0)) return fail("pixel_size_m: must be > 0 (metres per pixel)");
+  if (!(s.pixel_size_m >= 0)) return fail("pixel_size_m: must be >= 0 (0: from the sphere)");
   if (!(s.fps > 0)) return fail("fps: the frame rate must be > 0");
   if (!(s.diameter_m > 0) || !(s.mass_kg > 0))
     return fail("diameter_m and mass_kg: must be > 0 (the sphere's)");
@@ -226,7 +229,19 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   WallShotAnalysis a;
   a.pixel_size_m = s.pixel_size_m;
   bool dark = false;
-  const std::vector<Sample> samples = detectSphere(burst, s, dark, a.notes);
+  double px_m = s.pixel_size_m;
+  if (!(px_m > 0)) {
+    // The scale from the sphere itself: its median radius and diameter_m.
+    std::vector<Sample> raw = detectSphere(burst, s, 1.0, dark, a.notes);
+    std::vector<double> r;
+    for (const Sample& smp : raw) r.push_back(smp.m.circle.radius);
+    if (r.empty()) return fail("no sphere found in any frame: check the polarity and lighting");
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    px_m = s.diameter_m / (2.0 * r[r.size() / 2]);
+    a.notes.clear();
+  }
+  a.pixel_size_m = px_m;
+  const std::vector<Sample> samples = detectSphere(burst, s, px_m, dark, a.notes);
   if (samples.size() < 8)
     return fail("the sphere was found in only " + std::to_string(samples.size()) +
                 " frames (8 needed): check the diameter, pixel size and lighting");
@@ -254,7 +269,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       }
     }
   }
-  a.wall = worldWall(s, a.wall_line, samples.front().centre_m);
+  a.wall = worldWall(s, px_m, a.wall_line, samples.front().centre_m);
   const double R = 0.5 * s.diameter_m;
   // The impact lies next to the sample nearest the face.
   std::size_t k = 0;
@@ -345,7 +360,8 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   auto m = measureWallCollision(b, a.sphere_after, a.wall);
   if (!m) return fail("wall inverse: " + m.error().message);
   a.measured = *m;
-  propagate(a, s, sb, sa, fb->velocityAt_m_s(*tc).sigma, fa->velocityAt_m_s(*ts).sigma);
+  propagate(a, px_m, s.monte_carlo_draws, sb, sa, fb->velocityAt_m_s(*tc).sigma,
+            fa->velocityAt_m_s(*ts).sigma);
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;
