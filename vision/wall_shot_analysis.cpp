@@ -175,8 +175,8 @@ double stddev(const std::vector<double>& x) {
 
 // Monte Carlo: velocities from the fits' per-axis sigmas at contact, spins
 // from their covariances, the face turned and shifted by its sigmas.
-void propagate(WallShotAnalysis& a, double px_m, int draws, const SpinSide& sb, const SpinSide& sa,
-               const Vec3& vb_sigma, const Vec3& va_sigma) {
+void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, const SpinSide& sb,
+               const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma) {
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
@@ -188,6 +188,11 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, const SpinSide& sb, 
       b.velocity_m_s(ax) += vb_sigma(ax) * unit(rng);
       af.velocity_m_s(ax) += va_sigma(ax) * unit(rng);
     }
+    // The unseen z velocity before the impact; after it, the same shift
+    // (recomputed from the spins below when both are known).
+    const double dz = z_sigma_m_s * unit(rng);
+    b.velocity_m_s.z() += dz;
+    af.velocity_m_s.z() += dz;
     b.spin_rad_s += Lb * Vec3(unit(rng), unit(rng), unit(rng));
     af.spin_rad_s += La * Vec3(unit(rng), unit(rng), unit(rng));
     Wall w = a.wall;
@@ -360,8 +365,8 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   auto m = measureWallCollision(b, a.sphere_after, a.wall);
   if (!m) return fail("wall inverse: " + m.error().message);
   a.measured = *m;
-  propagate(a, px_m, s.monte_carlo_draws, sb, sa, fb->velocityAt_m_s(*tc).sigma,
-            fa->velocityAt_m_s(*ts).sigma);
+  propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
+            sa, fb->velocityAt_m_s(*tc).sigma, fa->velocityAt_m_s(*ts).sigma);
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;

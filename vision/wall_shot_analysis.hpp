@@ -37,6 +37,10 @@ struct WallAnalysisSettings {
   bool refine_wall_line = true;
   /// Standard uncertainty of a given (not refined) line's angle (rad) and offset (px).
   double wall_angle_sigma_rad = 1e-3, wall_offset_sigma_px = 0.5;
+  /// Standard deviation of the sphere's velocity out of the image plane before
+  /// impact, as a fraction of its speed (launch misalignment): taken as 0 in
+  /// the values, it widens the uncertainties (as AnalysisSettings' field).
+  double out_of_plane_speed_fraction = 0.005;
   int monte_carlo_draws = 400;
 };
 
