@@ -51,13 +51,81 @@ Status validateSetup(const FlightSetup& setup) {
       return fail("launch_time_s" + idx + ": must be finite");
   }
   if (!setup.gravity_m_s2.allFinite()) return fail("gravity_m_s2: must be three finite numbers");
+  if (setup.wall) {
+    if (!setup.wall->point_m.allFinite()) return fail("wall.point_m: must be three finite numbers");
+    if (!setup.wall->normal.allFinite() || setup.wall->normal.squaredNorm() == 0)
+      return fail("wall.normal: must be three finite numbers, not all zero");
+  }
   return validateMaterial(setup.material);
+}
+
+// The first instant s >= 0 after `from` at which the sphere's centre is one
+// radius from the wall while approaching it: the height above the plane is
+// h(s) = h0 + w s + g_n s^2 / 2 (n towards the sphere's side). NaN: never.
+double wallContactAfter(const SphereState& from, double radius_m, const Wall& wall,
+                        const Vec3& g_m_s2, Vec3& n_out) {
+  Vec3 n = wall.normal.normalized();
+  double h0 = (from.position_m - wall.point_m).dot(n);
+  if (h0 < 0) {
+    n = -n;
+    h0 = -h0;
+  }
+  n_out = n;
+  const double c = h0 - radius_m, b = from.velocity_m_s.dot(n), a = 0.5 * g_m_s2.dot(n);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (c <= 0) return b < 0 ? 0.0 : nan;  // launched touching the wall
+  double root = nan;
+  if (a == 0) {
+    if (b < 0) root = -c / b;
+  } else {
+    const double disc = b * b - 4 * a * c;
+    if (disc < 0) return nan;
+    const double q = -0.5 * (b + std::copysign(std::sqrt(disc), b));
+    for (const double r : {q / a, q == 0 ? nan : c / q})
+      if (r >= 0 && (std::isnan(root) || r < root)) root = r;
+  }
+  return root;
 }
 
 }  // namespace
 
+Result<Flight> Flight::createWithWall(const FlightSetup& setup) {
+  Flight f;
+  f.setup_ = setup;
+  f.material_used_ = setup.material;
+  f.t_collision_ = std::numeric_limits<double>::quiet_NaN();
+  const Wall& wall = *setup.wall;
+  const SphereState start = launchState(setup, 0);
+  Vec3 n;
+  const double s =
+      wallContactAfter(start, setup.spheres[0].radius_m(), wall, setup.gravity_m_s2, n);
+  if (std::isnan(s)) return f;  // never reaches the wall
+  f.before_[0] = propagate(start, s, setup.gravity_m_s2);
+  f.before_[1] = launchState(setup, 1);
+  const Sphere s1 = withState(setup.spheres[0], f.before_[0]);
+  const double v_n = s1.velocity_m_s.dot(n);
+  if (!(v_n < 0)) return f;
+  if (setup.restitution_of_vn) {
+    const double e = setup.restitution_of_vn(std::abs(v_n));
+    if (!(e >= 0 && e <= 1))
+      return fail("restitution_of_vn: gave e = " + formatNumber(e) +
+                  " at |v_n| = " + formatNumber(std::abs(v_n)) + " m/s; e must be in [0, 1]");
+    f.material_used_.e = e;
+  }
+  // The contact point on the plane under the centre: the wall as found.
+  auto hit = collideWithWall(s1, wall, f.material_used_);
+  if (!hit) return hit.error();
+  f.after_ = f.before_;
+  f.after_[0].velocity_m_s = hit->after.velocity_m_s;
+  f.after_[0].spin_rad_s = hit->after.spin_rad_s;
+  f.collides_ = true;
+  f.t_collision_ = setup.launch_time_s[0] + s;
+  return f;
+}
+
 Result<Flight> Flight::create(const FlightSetup& setup) {
   if (auto st = validateSetup(setup); !st) return st.error();
+  if (setup.wall) return createWithWall(setup);
   Flight f;
   f.setup_ = setup;
   f.material_used_ = setup.material;
@@ -121,7 +189,7 @@ std::array<SphereState, 2> Flight::at(double t_s) const {
       out[i] = launchState(setup_, i);
       out[i].velocity_m_s.setZero();
       out[i].spin_rad_s.setZero();
-    } else if (collides_ && t_s >= t_collision_) {
+    } else if (collides_ && t_s >= t_collision_ && !(setup_.wall && i == 1)) {
       out[i] = propagate(after_[i], t_s - t_collision_, setup_.gravity_m_s2);
     } else {
       out[i] = propagate(launchState(setup_, i), t_s - t_launch, setup_.gravity_m_s2);

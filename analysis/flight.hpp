@@ -4,9 +4,11 @@
 // free flight again. Exact (closed form), no time stepping.
 #include <array>
 #include <functional>
+#include <optional>
 
 #include "analysis/result.hpp"
 #include "analysis/types.hpp"
+#include "analysis/walton.hpp"
 
 namespace collide {
 
@@ -31,10 +33,15 @@ struct FlightSetup {
   /// Optional: normal restitution as a function of |v_n| (m/s); empty -> material.e.
   std::function<double(double)> restitution_of_vn;
   Vec3 gravity_m_s2 = kGravity_m_s2;
+  /// A fixed wall (infinite mass): when set, sphere 1 (index 0) strikes it
+  /// through collideWithWall and sphere 2 takes no part in any collision
+  /// (keep it in its tube with a launch time no shot reaches).
+  std::optional<Wall> wall;
 };
 
 /// Closed-form trajectories of both spheres, with the first collision (if any,
-/// after both are launched) resolved through Walton's operator.
+/// after both are launched) resolved through Walton's operator; with a wall,
+/// sphere 1's first contact with the wall instead.
 class Flight {
  public:
   /// Errors: non-positive mass/diameter, non-finite values, spheres overlapping
@@ -54,6 +61,8 @@ class Flight {
   const FlightSetup& setup() const { return setup_; }
 
  private:
+  static Result<Flight> createWithWall(const FlightSetup& setup);
+
   FlightSetup setup_;
   bool collides_ = false;
   double t_collision_ = 0.0;

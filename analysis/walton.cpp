@@ -278,6 +278,59 @@ Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
   return m;
 }
 
+Result<WaltonMeasurement> measureWallCollision(const Sphere& before, const Sphere& after,
+                                               const Wall& wall) {
+  if (auto st = validateSphere(before, "spheres[0]"); !st) return st.error();
+  if (auto st = checkFinite(after.velocity_m_s, "after.spheres[0]", "velocity_m_s"); !st)
+    return st.error();
+  if (auto st = checkFinite(after.spin_rad_s, "after.spheres[0]", "spin_rad_s"); !st)
+    return st.error();
+  if (auto st = checkFinite(wall.point_m, "wall", "point_m"); !st) return st.error();
+  if (!wall.normal.allFinite() || wall.normal.squaredNorm() == 0)
+    return fail("wall.normal: must be three finite numbers, not all zero");
+  Vec3 n = wall.normal.normalized();
+  if ((before.position_m - wall.point_m).dot(n) < 0) n = -n;  // from the wall to the sphere
+  const Body b_before = bodyOf(before), wall_body;
+  Body b_after = b_before;
+  b_after.velocity_m_s = after.velocity_m_s;
+  b_after.spin_rad_s = after.spin_rad_s;
+  WaltonMeasurement m;
+  m.before = kinematicsAlong(n, b_before, wall_body);
+  if (auto st = checkApproaching(m.before, "spheres[0]"); !st) return st.error();
+  m.after = kinematicsAlong(n, b_after, wall_body);
+  const PairResponse pair(b_before, wall_body);
+  m.kappa = pair.kappa;
+  m.e = -m.after.v_n_m_s / m.before.v_n_m_s;
+  m.beta = betaFrom(m.before, m.after.v_c_m_s);
+  m.impulse_N_s = before.mass_kg * (after.velocity_m_s - before.velocity_m_s);
+  m.beta_from_impulse =
+      betaFrom(m.before, m.before.v_c_m_s + pair.contactVelocityChange(n, m.impulse_N_s));
+  m.f = impulseRatio(n, m.impulse_N_s);
+  return m;
+}
+
+Result<double> wallOutOfPlaneVelocity(const Sphere& before, const Sphere& after, const Wall& wall) {
+  if (auto st = validateSphere(before, "spheres[0]"); !st) return st.error();
+  if (auto st = checkFinite(after.spin_rad_s, "after.spheres[0]", "spin_rad_s"); !st)
+    return st.error();
+  if (!wall.normal.allFinite() || wall.normal.squaredNorm() == 0)
+    return fail("wall.normal: must be three finite numbers, not all zero");
+  Vec3 n = wall.normal.normalized();
+  if ((before.position_m - wall.point_m).dot(n) < 0) n = -n;
+  if (std::hypot(n.x(), n.y()) <= 0.1)
+    return fail("wall.normal: within 6 degrees of the camera axis; dP_z cannot be had");
+  const double c = 2.0 * before.inertia_kg_m2() / before.diameter_m;  // 2 I / sigma
+  const Vec3 dP_t = c * n.cross(after.spin_rad_s - before.spin_rad_s);
+  // The normal impulse from the in-plane velocity change along n's in-plane part.
+  const Vec3 dv = after.velocity_m_s - before.velocity_m_s;
+  const double n_xy2 = n.x() * n.x() + n.y() * n.y();
+  const double dP_n = before.mass_kg *
+                      (dv.x() * n.x() + dv.y() * n.y() - dP_t.x() / before.mass_kg * n.x() -
+                       dP_t.y() / before.mass_kg * n.y()) /
+                      n_xy2;
+  return before.velocity_m_s.z() + (dP_t.z() + dP_n * n.z()) / before.mass_kg;
+}
+
 Result<OutOfPlaneVelocity> outOfPlaneVelocity(const std::array<Sphere, 2>& before,
                                               const std::array<Sphere, 2>& after) {
   auto shot = readShot(before, after);

@@ -116,6 +116,30 @@ struct WaltonMeasurement {
 Result<WaltonMeasurement> measureCollision(const std::array<Sphere, 2>& before,
                                            const std::array<Sphere, 2>& after);
 
+/// Inverse operator against a fixed wall (Walton's infinite-mass limit: the
+/// wall neither moves nor spins). `before` and `after` are the sphere just
+/// before and just after the impact (mass, diameter, velocity, spin; the
+/// position, from `before`, only decides which side of the wall it is on).
+/// n is the wall's unit normal towards the sphere; the impulse is
+/// m (v' - v); e, beta, beta_from_impulse, f and gamma as for two spheres,
+/// with kappa = 2/5 for a homogeneous sphere. The two-sphere measureCollision
+/// tends to this as the second sphere's mass and inertia grow without bound.
+/// Errors: invalid sphere ("spheres[0]", "after.spheres[0]"), bad wall
+/// ("wall.point_m", "wall.normal"), not approaching (v_n >= 0).
+Result<WaltonMeasurement> measureWallCollision(const Sphere& before, const Sphere& after,
+                                               const Wall& wall);
+
+/// Appendix B for a wall: the sphere's out-of-plane (z) velocity after the
+/// impact, v_z' = v_z + dP_z / m, when the in-plane velocities and all spin
+/// components were measured. The tangential impulse follows from the spin
+/// change alone, dP_t = (2 I / sigma) n x d omega (eq. A.2 with the wall's
+/// side absent); its z part is dP_z (plus n_z dP_n, from the in-plane impulse,
+/// when the normal leans out of the image). Reads position (side), mass,
+/// diameter, velocity and spin from `before`, velocity (x, y) and spin from
+/// `after`. Errors: as measureWallCollision's validation; a normal within 0.1
+/// of the z axis ("wall.normal": the impulse is then mostly along z).
+Result<double> wallOutOfPlaneVelocity(const Sphere& before, const Sphere& after, const Wall& wall);
+
 /// Appendix B: the out-of-plane (z) velocities after impact, when only the
 /// in-plane velocities but all spin components were measured.
 struct OutOfPlaneVelocity {

@@ -13,6 +13,7 @@
 #include "app/report/results_json.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
+#include "app/wall_analyze.hpp"
 #include "hw/camera_sim.hpp"
 #include "hw/rig_profile.hpp"
 
@@ -66,8 +67,16 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
     out.message = "already analysed";
     return out;
   }
-  auto analysis = vision::analyzeBurst(shot->burst, analysisSettingsFor(*shot));
-  if (analysis) {
+  if (auto wall = analyzeWallShot(*shot)) {  // a sphere-on-wall shot
+    if (*wall) {
+      out.results_json = **wall;
+      out.analysed = true;
+    } else {
+      out.results_json = failedResultsJson(wall->error().message);
+      out.message = wall->error().message;
+    }
+  } else if (auto analysis = vision::analyzeBurst(shot->burst, analysisSettingsFor(*shot));
+             analysis) {
     out.results_json = resultsToJson(*analysis);
     out.analysed = true;
   } else {

@@ -15,6 +15,7 @@
 #include "app/store/save.hpp"
 #include "app/store/shot_id.hpp"
 #include "app/version.hpp"
+#include "app/wall_campaign.hpp"
 #include "hw/launch_plan.hpp"
 #include "hw/sequencer.hpp"
 
@@ -199,7 +200,14 @@ Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
                                                  CampaignReport& report, std::stop_token cancel) {
   const std::string id = makeShotId(wallTimeUnixNs(), index);
   std::array<double, 2> speed = planned.speed_m_s;
-  auto aimed = aimForIncidence(profile, planned.incidence_deg, speed);
+  if (profile.wall) speed[1] = speed[0];  // a wall rig: launcher 2 never fires
+  auto aimed = profile.wall ? aimWallForIncidence(profile, planned.incidence_deg, speed[0])
+                            : aimForIncidence(profile, planned.incidence_deg, speed);
+  if (!aimed && profile.wall) {
+    ++report.failed;
+    report.failures.push_back(id + ": " + aimed.error().message);
+    return std::optional<hw::Shot>();
+  }
   if (!aimed) {
     // The rig cannot fire this one: the planner's nearest shot instead.
     auto replanned = nearestFeasible(profile, planned);

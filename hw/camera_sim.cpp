@@ -335,6 +335,21 @@ std::vector<vision::SphereView> CameraSim::sceneAt(const SimLaunch& launch,
   return views;
 }
 
+std::optional<vision::WallLine> wallInImage(const RigProfile& p) {
+  if (!p.wall) return std::nullopt;
+  // The plate's face where it crosses the collision plane z = 0, through the
+  // geometry's orthographic mapping (world y up, image v down).
+  const double px = p.geometry.pixel_size_m;
+  const Vec3& n = p.wall->normal;
+  const Eigen::Vector2d n_img(n.x(), -n.y());
+  if (!(n_img.norm() > 1e-9)) return std::nullopt;  // the face is the image plane itself
+  vision::WallLine line;
+  line.point_px = {p.geometry.origin_u_px + p.wall->point_m.x() / px,
+                   p.geometry.origin_v_px - p.wall->point_m.y() / px};
+  line.normal = n_img.normalized();
+  return line;
+}
+
 vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const {
   vision::Frame f;
   f.timestamp_ns = exposure_start_ns;
@@ -344,6 +359,14 @@ vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64
   const std::vector<vision::SphereView> views =
       launch ? sceneAt(*launch, mid) : std::vector<vision::SphereView>{};
   f.image = renderer_->render(views, sequence, static_cast<double>(mid) * 1e-9);
+  if (const auto wall = wallInImage(world_->profile())) {
+    vision::WallLook look;
+    look.thickness_px = wall_thickness_px_;
+    look.level = world_->profile().wall_level;
+    look.noise_grey = renderer_->settings().noise_grey;
+    look.noise_seed = world_->profile().simulation.seed * 7919ULL + sequence;
+    vision::drawWall(f.image, vision::maxValue(config_.format), *wall, look);
+  }
   return f;
 }
 

@@ -24,6 +24,7 @@
 #include "hw/settings.hpp"
 #include "hw/sim_world.hpp"
 #include "vision/render.hpp"
+#include "vision/render_wall.hpp"
 
 namespace collide::hw {
 
@@ -80,6 +81,10 @@ Result<std::optional<PinholeCamera>> simulatedLens(const RigProfile& profile);
 /// to draw calibration targets through its optics. Errors: not a simulated
 /// camera, or its settings do not parse.
 Result<vision::RenderSettings> simulatedRenderSettings(const RigProfile& profile);
+/// Where a wall rig's plate face appears in the image (the profile's [wall]
+/// through the orthographic geometry); none without a wall or when the face
+/// is parallel to the image.
+std::optional<vision::WallLine> wallInImage(const RigProfile& profile);
 
 class CameraSim final : public Camera {
  public:
@@ -127,6 +132,7 @@ class CameraSim final : public Camera {
   std::string device_;
   CameraConfig config_;  // a copy for the acquisition thread, set before it starts
   std::optional<vision::Renderer> renderer_;
+  double wall_thickness_px_ = 40.0;  // the plate's band in the image
   std::shared_ptr<Signal> signal_ = std::make_shared<Signal>();
   std::thread thread_;
 };

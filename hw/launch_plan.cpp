@@ -20,7 +20,57 @@ Eigen::Vector2d worldToPixel(const RigProfile& p, const Vec3& w) {
           p.geometry.origin_v_px - w.y() / p.geometry.pixel_size_m};
 }
 
+namespace {
+
+// A wall rig: launcher 1 fires at the plate, launcher 2 stays shut (its valve
+// opens with the first, but the simulated world leaves its sphere in the tube).
+Result<LaunchPlan> planWallLaunch(const RigProfile& p, const std::array<double, 2>& v) {
+  LaunchPlan plan;
+  plan.exit_speed_m_s = v;
+  const LauncherProfile& l = p.launchers[0];
+  if (!(v[0] > 0))
+    return fail("launcher " + l.name + ": exit speed " + num(v[0]) + " m/s must be > 0");
+  FlightSetup setup;
+  setup.material = p.spheres.material;
+  setup.wall = p.wall;
+  for (int i = 0; i < 2; ++i) {
+    Sphere& s = setup.spheres[i];
+    s.mass_kg = p.spheres.mass_kg[i];
+    s.diameter_m = p.spheres.diameter_m[i];
+    s.position_m = p.launchers[i].exit_m;
+  }
+  setup.spheres[0].velocity_m_s = v[0] * l.direction;
+  setup.launch_time_s = {p.calibration.exit_delay_s, 1e6};
+  Result<Flight> flight = Flight::create(setup);
+  if (!flight) return fail("launch plan: " + flight.error().message);
+  if (!flight->collides())
+    return fail("the sphere would miss the wall at " + num(v[0]) +
+                " m/s: check launcher 1's exit_m and direction and the [wall] table");
+  plan.contact_s = flight->collisionTime_s();
+  const SphereState& before = flight->justBefore()[0];
+  Vec3 n = p.wall->normal;
+  if ((before.position_m - p.wall->point_m).dot(n) < 0) n = -n;
+  plan.contact_point_m = before.position_m - 0.5 * p.spheres.diameter_m[0] * n;
+  plan.contact_normal = n;
+  plan.relative_velocity_m_s = before.velocity_m_s;
+  plan.before_contact[0] = setup.spheres[0];
+  plan.before_contact[0].position_m = before.position_m;
+  plan.before_contact[0].velocity_m_s = before.velocity_m_s;
+  plan.before_contact[1] = setup.spheres[1];
+  plan.contact_px = worldToPixel(p, plan.contact_point_m);
+  const double u = plan.contact_px.x(), vpx = plan.contact_px.y();
+  if (u < 0 || vpx < 0 || u > p.camera_config.width - 1 || vpx > p.camera_config.height - 1)
+    return fail("at " + num(v[0]) + " m/s the sphere would strike the wall at pixel (" + num(u) +
+                ", " + num(vpx) + "), outside the " + std::to_string(p.camera_config.width) + "x" +
+                std::to_string(p.camera_config.height) +
+                " image: choose another speed or move the wall");
+  return plan;
+}
+
+}  // namespace
+
 Result<LaunchPlan> planLaunch(const RigProfile& p, const std::array<double, 2>& v) {
+  if (p.wall) return planWallLaunch(p, v);
   LaunchPlan plan;
   plan.exit_speed_m_s = v;
   const Vec3 meet = meetPoint(p);

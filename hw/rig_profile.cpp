@@ -21,9 +21,9 @@ namespace collide::hw {
 
 namespace {
 
-const std::vector<std::string> kSections = {"regulator", "valves",   "camera",     "burst",
-                                            "geometry",  "launcher", "spheres",    "calibration",
-                                            "sequencer", "safety",   "simulation", "analysis"};
+const std::vector<std::string> kSections = {
+    "regulator",   "valves",    "camera", "burst",      "geometry", "launcher", "spheres",
+    "calibration", "sequencer", "safety", "simulation", "analysis", "wall"};
 
 std::string at(const std::string& source, const toml::source_region& where) {
   return source + ":" + std::to_string(where.begin.line);
@@ -389,6 +389,31 @@ Status parseLaunchers(const Document& doc, RigProfile& p) {
   return Ok{};
 }
 
+// [wall]: after the launchers and spheres, which it is checked against.
+Status parseWall(const SettingsTable& t, RigProfile& p) {
+  SettingsReader r(t);
+  Wall w;
+  COLLIDE_ASSIGN_OR_RETURN(w.point_m, vec3(r, "point_m"));
+  COLLIDE_ASSIGN_OR_RETURN(w.normal, vec3(r, "normal"));
+  if (!(w.normal.norm() > 1e-9))
+    return r.invalid("normal",
+                     "must point somewhere (out of the plate's face, towards launcher 1)");
+  w.normal.normalize();
+  const LauncherProfile& l = p.launchers[0];
+  const double height_m = (l.exit_m - w.point_m).dot(w.normal);
+  if (!(height_m > 0.5 * p.spheres.diameter_m[0]))
+    return r.invalid("normal",
+                     "launcher 1's exit_m must lie more than a sphere radius in front of the "
+                     "plate's face (it is " +
+                         num(height_m) + " m along the normal): flip the normal or move point_m");
+  // Whether the sphere reaches the plate (gravity bends grazing shots onto
+  // it) is the launch plan's question, not the profile's.
+  COLLIDE_ASSIGN_OR_RETURN(p.wall_level, r.number("level", 0.0, {.ge = 0.0, .le = 1.0}));
+  COLLIDE_RETURN_IF_ERROR(r.finish("[wall]"));
+  p.wall = w;
+  return Ok{};
+}
+
 Status parseSpheres(const SettingsTable& t, RigProfile& p) {
   SettingsReader r(t);
   SpheresProfile& s = p.spheres;
@@ -574,6 +599,8 @@ Result<RigProfile> parseRigProfile(std::string_view text, const std::string& sou
   // [analysis] is optional: the alignment the user states for their rig.
   if (const auto an = doc.sections.find("analysis"); an != doc.sections.end())
     COLLIDE_RETURN_IF_ERROR(parseAnalysis(an->second, p));
+  if (const auto wall = doc.sections.find("wall"); wall != doc.sections.end())
+    COLLIDE_RETURN_IF_ERROR(parseWall(wall->second, p));
   return p;
 }
 

@@ -17,6 +17,7 @@
 #include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/types.hpp"
+#include "analysis/walton.hpp"
 #include "hw/camera.hpp"
 #include "hw/pressure_regulator.hpp"
 #include "hw/settings.hpp"
@@ -178,6 +179,13 @@ struct RigProfile {
   SafetyProfile safety;
   SimulationProfile simulation;
   AnalysisProfile analysis;
+  /// [wall], optional: a fixed plate in view that launcher 1's sphere strikes
+  /// (a sphere-on-wall rig: launcher 2 is then never fired). point_m is any
+  /// point of the plate's face, normal (unit on load) points out of the face
+  /// towards launcher 1's exit.
+  std::optional<Wall> wall;
+  /// [wall] level: the plate's brightness in simulated frames, fraction of full scale.
+  double wall_level = 0.0;
 };
 
 /// Parses profile `text`; `source_name` names it in messages (a file name).

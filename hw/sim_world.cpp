@@ -116,6 +116,7 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
     shot->epoch_ns = *epoch;
     FlightSetup setup;
     setup.material = profile_.spheres.material;
+    setup.wall = profile_.wall;  // a wall rig: launcher 2 never fires
     setup.restitution_of_vn = restitutionLaw();
     const SimulationProfile& sim = profile_.simulation;
     std::normal_distribution<double> unit(0.0, 1.0);
@@ -139,7 +140,7 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
 
       const auto fired = std::find_if(events.begin(), events.end(),
                                       [&](const ValveEvent& e) { return e.valve == l.valve; });
-      if (fired == events.end()) continue;
+      if (fired == events.end() || (setup.wall && i == 1)) continue;
       const auto line = lines_.find(l.regulator_channel);
       const double p_kPa = source                 ? measured_kPa.at(l.regulator_channel)
                            : line == lines_.end() ? 0.0

@@ -19,10 +19,12 @@
 #include "app/cli/progress.hpp"
 #include "app/manifest.hpp"
 #include "app/report/results_json.hpp"
+#include "app/report/wall_results_json.hpp"
 #include "app/store/atomic_file.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/footage.hpp"
 #include "vision/frame_io.hpp"
+#include "vision/wall_shot_analysis.hpp"
 
 namespace {
 
@@ -45,7 +47,9 @@ struct Options {
   std::string json_out;
   std::string gravity_dir = "down";
   std::string polarity = "auto";
-  std::string range;  // "FIRST:LAST" frame ids of a camera file
+  std::string wall_line;  // "u1,v1,u2,v2": a sphere-on-wall shot, the plate's face
+  bool wall = false;      // a sphere-on-wall shot, the face found in the frames
+  std::string range;      // "FIRST:LAST" frame ids of a camera file
   std::string manifest;
   std::optional<long> index;
   std::optional<long> chunk;
@@ -130,6 +134,42 @@ int writeJson(const std::string& text, const std::string& out) {
     return kExitFailure;
   }
   return kExitOk;
+}
+
+// One sphere against a plate (--wall or --wall-line): vision/wall_shot_analysis.
+int analyzeWallFootage(const Options& o, const collide::vision::Burst& burst, double pixel_m) {
+  collide::vision::WallAnalysisSettings ws;
+  ws.pixel_size_m = pixel_m;  // 0: from the sphere's radius and --diameter-mm
+  ws.diameter_m = o.diameter_mm * 1e-3;
+  ws.mass_kg = 1.0;  // e, beta, f and gamma do not depend on it
+  ws.fps = burst.fps;
+  if (!o.wall_line.empty()) {
+    double u1, v1, u2, v2;
+    char c1, c2, c3;
+    std::istringstream in(o.wall_line);
+    if (!(in >> u1 >> c1 >> v1 >> c2 >> u2 >> c3 >> v2) || c1 != ',' || c2 != ',' || c3 != ',' ||
+        (u1 == u2 && v1 == v2)) {
+      std::cerr << "collide analyze: --wall-line '" << o.wall_line
+                << "': give two distinct pixels on the plate's face as u1,v1,u2,v2\n";
+      return kExitBadInput;
+    }
+    collide::vision::WallLine line;
+    line.point_px = {u1, v1};
+    line.normal = Eigen::Vector2d(v2 - v1, -(u2 - u1)).normalized();
+    ws.wall_line = line;
+    ws.refine_wall_line = false;  // the user's line, as given
+  }
+  auto analysis = collide::vision::analyzeWallBurst(burst, ws);
+  if (!analysis) {
+    std::cerr << "collide analyze: " << o.frames << ": " << analysis.error().message << "\n";
+    return kExitFailure;
+  }
+  const std::string text = collide::app::wallResultsToJson(*analysis);
+  if (!o.json_out.empty() && o.json_out != "-") {
+    auto r = collide::app::parseResultsJson(text);
+    if (r) std::cout << o.frames << " (wall): " << summaryLine(*r) << "\n";
+  }
+  return writeJson(text, o.json_out);
 }
 
 int analyzeFootage(const Options& given) {
@@ -237,6 +277,7 @@ int analyzeFootage(const Options& given) {
     }
     settings.camera = cal.lens(profile->geometry);
   }
+  if (o.wall || !o.wall_line.empty()) return analyzeWallFootage(o, *burst, file_pixel_size_m);
   collide::cli::ProgressBar bar("frames", static_cast<int>(burst->frames.size()));
   if (isatty(fileno(stderr))) settings.progress = [&](int done, int) { bar.update(done); };
   auto analysis = collide::vision::analyzeBurst(*burst, settings);
@@ -406,6 +447,12 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
                  "Gravity in the image: down (default), up, left, right, or U,V");
   sub.add_option("--polarity", o->polarity,
                  std::string("With --frames: ") + collide::cli::kPolarityHelp);
+  sub.add_flag("--wall", o->wall,
+               "With --frames: one sphere striking a plate, whose face is found in the frames "
+               "(results with \"target\": \"wall\", docs/results-format.md)");
+  sub.add_option("--wall-line", o->wall_line,
+                 "With --frames: one sphere striking a plate whose face passes through pixels "
+                 "u1,v1,u2,v2 (image axes: u right, v down)");
   sub.footer(
       "Shot files: the results are stored in each file and its catalog row; a shot that\n"
       "cannot be analysed keeps its frames and gets results saying why. Ctrl-C stops after\n"

@@ -1,0 +1,33 @@
+#include "app/wall_analyze.hpp"
+
+#include "app/report/wall_results_json.hpp"
+#include "hw/camera_sim.hpp"
+#include "hw/rig_profile.hpp"
+
+namespace collide::app {
+
+std::optional<vision::WallAnalysisSettings> wallAnalysisSettingsFor(const hw::Shot& shot) {
+  auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (recorded profile)");
+  if (!profile || !profile->wall) return std::nullopt;
+  const auto line = hw::wallInImage(*profile);
+  if (!line) return std::nullopt;
+  vision::WallAnalysisSettings s;
+  s.pixel_size_m = shot.scene.pixel_size_m;
+  s.diameter_m = shot.scene.diameter_m[0];
+  s.mass_kg = shot.scene.mass_kg[0];
+  s.origin_u_px = shot.scene.origin_u_px;
+  s.origin_v_px = shot.scene.origin_v_px;
+  s.fps = shot.burst.fps > 0 ? shot.burst.fps : shot.camera.fps;
+  s.wall_line = *line;
+  return s;
+}
+
+std::optional<Result<std::string>> analyzeWallShot(const hw::Shot& shot) {
+  const auto settings = wallAnalysisSettingsFor(shot);
+  if (!settings) return std::nullopt;
+  auto a = vision::analyzeWallBurst(shot.burst, *settings);
+  if (!a) return Result<std::string>(a.error());
+  return Result<std::string>(wallResultsToJson(*a));
+}
+
+}  // namespace collide::app

@@ -1,0 +1,381 @@
+#include "vision/wall_shot_analysis.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "vision/dot_detector.hpp"
+#include "vision/shot_spins.hpp"
+#include "vision/sphere_detector.hpp"
+#include "vision/spin_fit.hpp"
+#include "vision/wall_line.hpp"
+
+namespace collide::vision {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct Sample {
+  std::size_t frame = 0;  // index into burst.frames
+  double t_s = 0;
+  Vec3 centre_m = Vec3::Zero();
+  double sigma_m = 0;
+  SphereMeasurement m;
+};
+
+// The sphere in each good frame: the detection nearest the expected radius
+// (within 30 %), outlines cut by the frame's edge left out.
+std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings& s, double px_m,
+                                 bool& dark, std::vector<std::string>& notes) {
+  const SphereDetector detector;
+  // Unknown scale (footage): any round blob, the largest in each frame.
+  const double r_px = s.pixel_size_m > 0 ? 0.5 * s.diameter_m / s.pixel_size_m : 0.0;
+  const int max_value = maxValue(burst.format);
+  std::vector<Sample> out;
+  int dark_frames = 0, cut = 0;
+  for (std::size_t i = 0; i < burst.frames.size(); ++i) {
+    const Frame& f = burst.frames[i];
+    if (!f.good()) continue;
+    const FrameSpheres found = detector.detect(f.image, max_value);
+    const SphereMeasurement* best = nullptr;
+    for (const SphereMeasurement& m : found.spheres) {
+      if (r_px > 0 && std::abs(m.circle.radius - r_px) > 0.3 * r_px) continue;
+      const bool better = !best || (r_px > 0 ? std::abs(m.circle.radius - r_px) <
+                                                   std::abs(best->circle.radius - r_px)
+                                             : m.circle.radius > best->circle.radius);
+      if (better) best = &m;
+    }
+    if (!best) continue;
+    if (best->cut_by_border) {
+      ++cut;
+      continue;
+    }
+    dark_frames += found.dark_spheres ? 1 : 0;
+    Sample smp;
+    smp.frame = i;
+    smp.t_s = static_cast<double>(f.id) / s.fps;
+    smp.centre_m = Vec3((best->circle.u - s.origin_u_px) * px_m,
+                        -(best->circle.v - s.origin_v_px) * px_m, 0.0);
+    smp.sigma_m = std::max({best->circle.sigma_u, best->circle.sigma_v, 1e-3}) * px_m;
+    smp.m = *best;
+    out.push_back(smp);
+  }
+  dark = 2 * dark_frames > static_cast<int>(out.size());
+  if (cut > 0)
+    notes.push_back(std::to_string(cut) +
+                    " frames with the sphere cut by the frame's edge left out");
+  return out;
+}
+
+Wall worldWall(const WallAnalysisSettings& s, double px, const WallLine& line,
+               const Vec3& sphere_m) {
+  Wall w;
+  w.point_m = Vec3((line.point_px.x() - s.origin_u_px) * px,
+                   -(line.point_px.y() - s.origin_v_px) * px, 0.0);
+  w.normal = Vec3(line.normal.x(), -line.normal.y(), 0.0).normalized();
+  if ((sphere_m - w.point_m).dot(w.normal) < 0) w.normal = -w.normal;
+  return w;
+}
+
+Result<TrajectoryFit> fitSide(const std::vector<Sample>& samples, double t_ref_s) {
+  Eigen::VectorXd t(samples.size()), w(samples.size());
+  Eigen::MatrixXd p(samples.size(), 2);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    t(i) = samples[i].t_s;
+    p(i, 0) = samples[i].centre_m.x();
+    p(i, 1) = samples[i].centre_m.y();
+    w(i) = 1.0 / (samples[i].sigma_m * samples[i].sigma_m);
+  }
+  TrajectoryOptions o;
+  o.fixed_acceleration_m_s2 = kGravity_m_s2;
+  // Relative weights: the residuals set the scale (detector sigmas can be optimistic).
+  return fitTrajectory(t, p, Weights::relative(w), t_ref_s, o);
+}
+
+// Height of the fitted outline above the face, h(t) = (r(t) - P) . n - R, as
+// a quadratic in (t - t_ref); the root wanted: the first one after the data
+// start where h falls (kBefore), or the last one before the data end where it
+// rises (kAfter).
+std::optional<double> faceInstant(const TrajectoryFit& fit, const Wall& wall, double radius_m,
+                                  bool before) {
+  double h[3];
+  for (int k = 0; k < 3; ++k)
+    h[k] = fit.coefficients(0)(k) * wall.normal.x() + fit.coefficients(1)(k) * wall.normal.y();
+  h[0] -= wall.point_m.dot(wall.normal) + radius_m;
+  std::vector<double> roots;
+  if (std::abs(h[2]) < 1e-15) {
+    if (h[1] != 0) roots.push_back(-h[0] / h[1]);
+  } else {
+    const double disc = h[1] * h[1] - 4 * h[2] * h[0];
+    if (disc < 0) return std::nullopt;
+    const double q = -0.5 * (h[1] + std::copysign(std::sqrt(disc), h[1]));
+    roots.push_back(q / h[2]);
+    if (q != 0) roots.push_back(h[0] / q);
+  }
+  std::optional<double> best;
+  for (const double r : roots) {
+    const double slope = h[1] + 2 * h[2] * r;
+    const double t = fit.tRef_s() + r;
+    if (before && slope < 0 && t >= fit.tFirst_s() && (!best || t < *best)) best = t;
+    if (!before && slope > 0 && t <= fit.tLast_s() && (!best || t > *best)) best = t;
+  }
+  return best;
+}
+
+struct SpinSide {
+  bool known = false;
+  Vec3 spin = Vec3::Zero();
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
+  std::string why;
+};
+
+SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_med_px) {
+  const int max_value = maxValue(burst.format);
+  std::vector<SpinFrame> frames;
+  for (const Sample& smp : side) {
+    SphereMeasurement m = smp.m;
+    m.circle.radius = r_med_px;
+    const DotFrame dots = findDots(burst.frames[smp.frame].image, m, max_value);
+    if (dots.dots.empty()) continue;
+    SpinFrame f;
+    f.t_s = smp.t_s;
+    for (const Dot& d : dots.dots) {
+      f.dots.push_back(d.on_sphere);
+      f.weights.push_back(d.weight);
+    }
+    f.centre_sigma = 1.2 * std::max(m.circle.sigma_u, m.circle.sigma_v) / r_med_px;
+    frames.push_back(std::move(f));
+  }
+  SpinSide out;
+  auto spin = fitSpin(frames);
+  if (!spin) {
+    out.why = spin.error().message;
+    return out;
+  }
+  out.known = true;
+  out.spin = spin->spin_rad_s;
+  out.cov = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
+  return out;
+}
+
+double stddev(const std::vector<double>& x) {
+  std::vector<double> v;
+  for (double a : x)
+    if (std::isfinite(a)) v.push_back(a);
+  if (v.size() < 2) return kNaN;
+  double mean = 0;
+  for (double a : v) mean += a;
+  mean /= v.size();
+  double ss = 0;
+  for (double a : v) ss += (a - mean) * (a - mean);
+  return std::sqrt(ss / (v.size() - 1));
+}
+
+// Monte Carlo: velocities from the fits' per-axis sigmas at contact, spins
+// from their covariances, the face turned and shifted by its sigmas.
+void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, const SpinSide& sb,
+               const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma) {
+  std::mt19937_64 rng(12345);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
+  const bool spins_known = sb.known && sa.known;
+  std::vector<double> e, beta, gamma, f, vn, vs, bi;
+  for (int k = 0; k < draws; ++k) {
+    Sphere b = a.sphere_before, af = a.sphere_after;
+    for (int ax = 0; ax < 2; ++ax) {
+      b.velocity_m_s(ax) += vb_sigma(ax) * unit(rng);
+      af.velocity_m_s(ax) += va_sigma(ax) * unit(rng);
+    }
+    // The unseen z velocity before the impact; after it, the same shift
+    // (recomputed from the spins below when both are known).
+    const double dz = z_sigma_m_s * unit(rng);
+    b.velocity_m_s.z() += dz;
+    af.velocity_m_s.z() += dz;
+    b.spin_rad_s += Lb * Vec3(unit(rng), unit(rng), unit(rng));
+    af.spin_rad_s += La * Vec3(unit(rng), unit(rng), unit(rng));
+    Wall w = a.wall;
+    w.point_m += a.wall_offset_sigma_px * px_m * unit(rng) * w.normal;
+    const double th = a.wall_angle_sigma_rad * unit(rng);
+    w.normal = Vec3(std::cos(th) * w.normal.x() - std::sin(th) * w.normal.y(),
+                    std::sin(th) * w.normal.x() + std::cos(th) * w.normal.y(), 0.0);
+    if (spins_known) {
+      if (auto vz = wallOutOfPlaneVelocity(b, af, w)) af.velocity_m_s.z() = *vz;
+    }
+    auto m = measureWallCollision(b, af, w);
+    if (!m) continue;
+    e.push_back(m->e);
+    beta.push_back(m->beta);
+    gamma.push_back(m->before.gamma_rad);
+    f.push_back(m->f);
+    vn.push_back(m->before.v_n_m_s);
+    vs.push_back(m->before.v_s_m_s);
+    bi.push_back(m->beta_from_impulse);
+  }
+  a.e_sigma = stddev(e);
+  a.beta_sigma = stddev(beta);
+  a.gamma_sigma_rad = stddev(gamma);
+  a.f_sigma = stddev(f);
+  a.vn_sigma_m_s = stddev(vn);
+  a.vs_sigma_m_s = stddev(vs);
+  a.beta_from_impulse_sigma = stddev(bi);
+}
+
+}  // namespace
+
+Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysisSettings& s) {
+  if (!(s.pixel_size_m >= 0)) return fail("pixel_size_m: must be >= 0 (0: from the sphere)");
+  if (!(s.fps > 0)) return fail("fps: the frame rate must be > 0");
+  if (!(s.diameter_m > 0) || !(s.mass_kg > 0))
+    return fail("diameter_m and mass_kg: must be > 0 (the sphere's)");
+  if (s.wall_line && !(s.wall_line->normal.norm() > 0))
+    return fail("wall line: the two points must differ (give --wall-line u1,v1,u2,v2)");
+  WallShotAnalysis a;
+  a.pixel_size_m = s.pixel_size_m;
+  bool dark = false;
+  double px_m = s.pixel_size_m;
+  if (!(px_m > 0)) {
+    // The scale from the sphere itself: its median radius and diameter_m.
+    std::vector<Sample> raw = detectSphere(burst, s, 1.0, dark, a.notes);
+    std::vector<double> r;
+    for (const Sample& smp : raw) r.push_back(smp.m.circle.radius);
+    if (r.empty()) return fail("no sphere found in any frame: check the polarity and lighting");
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    px_m = s.diameter_m / (2.0 * r[r.size() / 2]);
+    a.notes.clear();
+  }
+  a.pixel_size_m = px_m;
+  const std::vector<Sample> samples = detectSphere(burst, s, px_m, dark, a.notes);
+  if (samples.size() < 8)
+    return fail("the sphere was found in only " + std::to_string(samples.size()) +
+                " frames (8 needed): check the diameter, pixel size and lighting");
+  if (s.wall_line && !s.refine_wall_line) {
+    a.wall_line = *s.wall_line;
+    a.wall_angle_sigma_rad = s.wall_angle_sigma_rad;
+    a.wall_offset_sigma_px = s.wall_offset_sigma_px;
+  } else {
+    auto found =
+        findWallLine(burst, s.wall_line,
+                     Eigen::Vector2d(samples.front().m.circle.u, samples.front().m.circle.v));
+    if (!found) return fail("wall: " + found.error().message);
+    a.wall_line = found->line;
+    a.wall_found_in_image = true;
+    a.wall_angle_sigma_rad = found->angle_sigma_rad;
+    a.wall_offset_sigma_px = found->offset_sigma_px;
+    if (s.wall_line) {
+      const double moved =
+          std::abs(s.wall_line->distancePx(found->line.point_px.x(), found->line.point_px.y()) /
+                   s.wall_line->normal.norm());
+      if (moved > 2.0) {
+        a.quality_flags.push_back("wall_line_moved");
+        a.notes.push_back("the wall's edge in the frames lies " + std::to_string(moved) +
+                          " px from the line given: check the profile's [wall] or --wall-line");
+      }
+    }
+  }
+  a.wall = worldWall(s, px_m, a.wall_line, samples.front().centre_m);
+  const double R = 0.5 * s.diameter_m;
+  // The impact lies next to the sample nearest the face.
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if ((samples[i].centre_m - a.wall.point_m).dot(a.wall.normal) <
+        (samples[k].centre_m - a.wall.point_m).dot(a.wall.normal))
+      k = i;
+  std::vector<Sample> before(samples.begin(), samples.begin() + k);
+  std::vector<Sample> after(samples.begin() + k + 1, samples.end());
+  if (before.size() < 4 || after.size() < 4)
+    return fail("only " + std::to_string(before.size()) + " frames before and " +
+                std::to_string(after.size()) +
+                " after the impact show the sphere (4 needed on each side): does the burst "
+                "hold the impact, and is the wall line right?");
+  auto fb = fitSide(before, before.back().t_s);
+  auto fa = fitSide(after, after.front().t_s);
+  if (!fb) return fail("pre-impact fit: " + fb.error().message);
+  if (!fa) return fail("post-impact fit: " + fa.error().message);
+  // The nearest sample joins the side whose extrapolation it agrees with.
+  {
+    const Sample& n = samples[k];
+    const double db = (fb->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
+    const double da = (fa->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
+    if (db <= da) {
+      before.push_back(n);
+      fb = fitSide(before, n.t_s);
+    } else {
+      after.insert(after.begin(), n);
+      fa = fitSide(after, n.t_s);
+    }
+    if (!fb || !fa) return fail("refit with the frame nearest the wall failed");
+  }
+  a.frames_used_before = static_cast<int>(before.size());
+  a.frames_used_after = static_cast<int>(after.size());
+  if (before.size() < 5) a.quality_flags.push_back("few_frames_before");
+  if (after.size() < 5) a.quality_flags.push_back("few_frames_after");
+  const auto tc = faceInstant(*fb, a.wall, R, true);
+  const auto ts = faceInstant(*fa, a.wall, R, false);
+  if (!tc || !ts)
+    return fail(
+        "the fitted flight never reaches the wall line one radius from it: check the "
+        "wall line and the pixel size");
+  a.t_contact_s = *tc;
+  a.t_separation_s = *ts;
+  a.before = *fb;
+  a.after = *fa;
+
+  // Spins from the dots (front light only: a silhouette shows none).
+  std::vector<double> radii;
+  for (const Sample& smp : samples) radii.push_back(smp.m.circle.radius);
+  std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+  const double r_med = radii[radii.size() / 2];
+  SpinSide sb, sa;
+  if (dark) {
+    sb.why = sa.why = "backlit: a silhouette shows no dots";
+  } else {
+    sb = spinOf(burst, before, r_med);
+    sa = spinOf(burst, after, r_med);
+  }
+  a.spin_before_known = sb.known;
+  a.spin_after_known = sa.known;
+  a.spin_sigma_before = sb.known ? Vec3(sb.cov.diagonal().cwiseSqrt()) : Vec3::Constant(kNaN);
+  a.spin_sigma_after = sa.known ? Vec3(sa.cov.diagonal().cwiseSqrt()) : Vec3::Constant(kNaN);
+  if (!sb.known) {
+    a.quality_flags.push_back("no_spin_before");
+    a.notes.push_back("spin before the impact unknown (" + sb.why + "): beta and f not measured");
+  }
+  if (!sa.known) {
+    a.quality_flags.push_back("no_spin_after");
+    a.notes.push_back("spin after the impact unknown (" + sa.why + "): beta not measured");
+  }
+
+  Sphere& b = a.sphere_before;
+  b.mass_kg = s.mass_kg;
+  b.diameter_m = s.diameter_m;
+  b.position_m = fb->positionAt_m(*tc).value;
+  b.velocity_m_s = fb->velocityAt_m_s(*tc).value;
+  b.spin_rad_s = sb.spin;
+  a.sphere_after = b;
+  a.sphere_after.velocity_m_s = fa->velocityAt_m_s(*ts).value;
+  a.sphere_after.spin_rad_s = sa.spin;
+  // The out-of-plane velocity the impact gave (not seen in the image) from
+  // the spin change (appendix B): needs both spins.
+  if (sb.known && sa.known) {
+    if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
+      a.sphere_after.velocity_m_s.z() = *vz;
+  }
+  auto m = measureWallCollision(b, a.sphere_after, a.wall);
+  if (!m) return fail("wall inverse: " + m.error().message);
+  a.measured = *m;
+  propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
+            sa, fb->velocityAt_m_s(*tc).sigma, fa->velocityAt_m_s(*ts).sigma);
+  // A spin not measured gives no beta or f: reported as unavailable, not guessed.
+  if (!sb.known || !sa.known) {
+    a.measured.beta = kNaN;
+    a.beta_sigma = kNaN;
+  }
+  if (!sb.known) {
+    a.measured.beta_from_impulse = kNaN;
+  }
+  return a;
+}
+
+}  // namespace collide::vision

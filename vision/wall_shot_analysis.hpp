@@ -1,0 +1,72 @@
+#pragma once
+// Sphere-on-wall shots (issue 13 item 5): one sphere strikes a fixed plate
+// whose face is a straight line in the image. Per frame the sphere
+// (SphereDetector, either polarity); its centres before and after the impact
+// fitted as free flight (gravity fixed, analysis/trajectory.hpp); the contact
+// instants where each fit's outline reaches the face (centre one radius from
+// it); the spins from the dots on each side (vision/spin_fit.hpp) when the
+// sphere is front-lit; and Walton's inverse in the infinite-mass limit
+// (analysis/walton.hpp measureWallCollision): e, beta, gamma with standard
+// uncertainties from a Monte Carlo over the fits' and spins' covariances and
+// the face line's. World frame: x right, y up (image u right, v down); the
+// plate is taken perpendicular to the image plane.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/result.hpp"
+#include "analysis/trajectory.hpp"
+#include "analysis/walton.hpp"
+#include "vision/frame.hpp"
+#include "vision/render_wall.hpp"
+
+namespace collide::vision {
+
+struct WallAnalysisSettings {
+  double pixel_size_m = 0;  ///< object-plane metres per pixel, > 0
+  double diameter_m = 0.0254;
+  double mass_kg = 0.00978;
+  double origin_u_px = 0, origin_v_px = 0;  ///< image pixel of the world origin
+  double fps = 0;                           ///< t = frame id / fps
+  /// The plate's face in the image (from the rig profile or --wall-line); the
+  /// normal's sign does not matter (the sphere's side is taken). None: found
+  /// in the frames (vision/wall_line.hpp).
+  std::optional<WallLine> wall_line;
+  /// With a wall_line: refine it on the frames' edge (true) or take it as
+  /// exact (false, e.g. a line the user measured).
+  bool refine_wall_line = true;
+  /// Standard uncertainty of a given (not refined) line's angle (rad) and offset (px).
+  double wall_angle_sigma_rad = 1e-3, wall_offset_sigma_px = 0.5;
+  /// Standard deviation of the sphere's velocity out of the image plane before
+  /// impact, as a fraction of its speed (launch misalignment): taken as 0 in
+  /// the values, it widens the uncertainties (as AnalysisSettings' field).
+  double out_of_plane_speed_fraction = 0.005;
+  int monte_carlo_draws = 400;
+};
+
+struct WallShotAnalysis {
+  double pixel_size_m = 0;
+  int frames_used_before = 0, frames_used_after = 0;
+  std::optional<TrajectoryFit> before, after;  ///< world metres, t = id / fps
+  double t_contact_s = 0;                      ///< the pre-impact fit reaches the face
+  double t_separation_s = 0;                   ///< the post-impact fit leaves it
+  Wall wall;                                   ///< world frame, normal towards the sphere
+  WallLine wall_line;                          ///< the face line used, image pixels
+  bool wall_found_in_image = false;            ///< refined on (or found in) the frames' edge
+  double wall_angle_sigma_rad = 0, wall_offset_sigma_px = 0;
+  Sphere sphere_before, sphere_after;  ///< at contact: velocity, spin (position: before)
+  bool spin_before_known = false, spin_after_known = false;
+  Vec3 spin_sigma_before = Vec3::Zero(), spin_sigma_after = Vec3::Zero();
+  WaltonMeasurement measured;
+  double e_sigma = 0, beta_sigma = 0, gamma_sigma_rad = 0, f_sigma = 0;
+  double vn_sigma_m_s = 0, vs_sigma_m_s = 0, beta_from_impulse_sigma = 0;
+  std::vector<std::string> quality_flags;  ///< as ShotAnalysis; "no_spin_before", ...
+  std::vector<std::string> notes;
+};
+
+/// Analyses one wall burst. Errors (saying what to do): no frame with the
+/// sphere, fewer than 4 usable frames on a side of the impact, the sphere
+/// never nearing the face line, settings out of range.
+Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysisSettings& settings);
+
+}  // namespace collide::vision
