@@ -56,23 +56,6 @@ struct Options {
   std::string profile;  // --frames: a rig profile whose [camera.calibration] gives the lens
 };
 
-// "A:B", "A:" or ":B" (frame ids, may be negative); false if malformed.
-bool parseRange(const std::string& s, collide::vision::FootageRange& out) {
-  const std::size_t colon = s.find(':');
-  if (colon == std::string::npos) return false;
-  auto part = [](const std::string& t, std::optional<std::int64_t>& v) {
-    if (t.empty()) return true;
-    std::size_t used = 0;
-    try {
-      v = std::stoll(t, &used);
-    } catch (const std::exception&) {
-      return false;
-    }
-    return used == t.size();
-  };
-  return part(s.substr(0, colon), out.first_id) && part(s.substr(colon + 1), out.last_id);
-}
-
 std::string pm(const collide::vision::Measured& m, int decimals) {
   if (!std::isfinite(m.value)) return "-";
   char buf[64];
@@ -222,7 +205,7 @@ int analyzeFootage(const Options& given) {
   collide::Result<collide::vision::Burst> burst = collide::fail("no footage");
   if (is_camera_file) {
     collide::vision::FootageRange range;
-    if (!o.range.empty() && !parseRange(o.range, range)) {
+    if (!o.range.empty() && !collide::cli::parseFrameRange(o.range, range)) {
       std::cerr << "collide analyze: --range '" << o.range
                 << "': give FIRST:LAST frame ids (e.g. -200:300, or -200: or :300)\n";
       return kExitBadInput;

@@ -21,7 +21,6 @@
 #include <numbers>
 
 #include "analysis/walton.hpp"
-#include "app/report/campaign_report.hpp"
 #include "app/gui/calibration_dialog.hpp"
 #include "app/gui/campaign_view.hpp"
 #include "app/gui/live_view.hpp"
@@ -29,10 +28,12 @@
 #include "app/gui/replay_view.hpp"
 #include "app/gui/rig_panel.hpp"
 #include "app/gui/shot_browser.hpp"
+#include "app/report/campaign_report.hpp"
 #include "app/rig_setup.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
 #include "gui_test_support.hpp"
+#include "gui_window_support.hpp"
 #include "hw/sequencer.hpp"
 
 using namespace collide;
@@ -40,13 +41,6 @@ using namespace collide::gui;
 using namespace collide::gui::testing;
 
 namespace {
-
-template <class T>
-T* child(QWidget* parent, const char* name) {
-  T* w = parent->findChild<T*>(name);
-  if (!w) throw std::runtime_error(std::string("no widget named ") + name);
-  return w;
-}
 
 // What the simulation did at the collision, computed here from the shot's
 // ground truth alone: both spheres' states at the last frame before contact,
@@ -80,24 +74,6 @@ double shown(QWidget* card, const char* name) {
   return ok ? v : std::nan("");
 }
 
-MainWindowOptions options(const std::string& profile, const std::string& shots) {
-  MainWindowOptions o;
-  o.rig_profile = QString::fromStdString(profile);
-  o.shots_dir = QString::fromStdString(shots);
-  o.restore_settings = false;
-  return o;
-}
-
-bool waitUntilRigRunning(MainWindow& w) {
-  return QTest::qWaitFor(
-      [&] {
-        const RigStatus& s = w.rigPanel()->lastStatus();
-        return w.profile() != nullptr && s.state[0] == "running" && s.state[1] == "running" &&
-               s.state[2] == "running";
-      },
-      20000);
-}
-
 }  // namespace
 
 TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
@@ -105,7 +81,7 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
   const std::string dir = freshDir("fire");
   const std::array<double, 2> speeds{2.2, 2.0};
   const std::string profile = aimedSimProfile(dir, 35.0, speeds);
-  MainWindow w(options(profile, dir + "/shots"));
+  MainWindow w(windowOptions(profile, dir + "/shots"));
   w.resize(1500, 950);
   w.show();
   ASSERT_TRUE(waitUntilRigRunning(w)) << w.messages().join("\n").toStdString();
@@ -203,7 +179,7 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
     ASSERT_EQ(shot.status, hw::ShotStatus::Ok) << shot.failure_reason;
     ASSERT_TRUE(app::saveShot(dir, shot));
   }
-  MainWindow w(options(sourcePath("config/sim.toml"), dir));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir));
   w.resize(1500, 950);
   w.show();
   ShotBrowser* browser = w.shotBrowser();
@@ -271,7 +247,7 @@ TEST(MainWindowGui, OpenAShotFromTheBrowser) {
 TEST(MainWindowGui, RunASmallCampaign) {
   application();
   const std::string dir = freshDir("campaign");
-  MainWindow w(options(sourcePath("config/sim.toml"), dir));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir));
   w.resize(1500, 950);
   w.show();
   ASSERT_TRUE(waitUntilRigRunning(w));

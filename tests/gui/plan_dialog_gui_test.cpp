@@ -6,8 +6,8 @@
 // planned ones).
 #include <gtest/gtest.h>
 
-#include <QLabel>
 #include <QAbstractSpinBox>
+#include <QLabel>
 #include <QLineEdit>
 #include <QPushButton>
 
@@ -15,38 +15,18 @@
 #include "app/gui/plan_dialog.hpp"
 #include "app/gui/rig_panel.hpp"
 #include "gui_test_support.hpp"
+#include "gui_window_support.hpp"
 
 using namespace collide;
 using namespace collide::gui;
 using namespace collide::gui::testing;
 
-namespace {
-
-template <class T>
-T* child(QWidget* parent, const char* name) {
-  T* w = parent->findChild<T*>(name);
-  if (!w) throw std::runtime_error(std::string("no widget named ") + name);
-  return w;
-}
-
-void typeInto(QAbstractSpinBox* box, const QString& text) {
-  QTest::mouseClick(box->findChild<QLineEdit*>(), Qt::LeftButton);
-  QTest::keyClick(box, Qt::Key_A, Qt::ControlModifier);
-  QTest::keyClicks(box, text);
-  QTest::keyClick(box, Qt::Key_Return);
-  QApplication::processEvents();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 TEST(PlanDialogGui, PlansRefusesWithTheNearestAndLoadsTheAimedProfile) {
   application();
   const std::string dir = freshDir("plan");
-  MainWindowOptions o;
-  o.rig_profile = QString::fromStdString(sourcePath("config/sim.toml"));
-  o.shots_dir = QString::fromStdString(dir + "/shots");
-  o.restore_settings = false;
-  MainWindow w(o);
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitFor([&] { return w.profile() != nullptr; }, 20000));

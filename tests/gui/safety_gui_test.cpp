@@ -28,19 +28,13 @@
 #include "app/profile_edit.hpp"
 #include "app/store/save.hpp"
 #include "gui_test_support.hpp"
+#include "gui_window_support.hpp"
 
 using namespace collide;
 using namespace collide::gui;
 using namespace collide::gui::testing;
 
 namespace {
-
-template <class T>
-T* child(QWidget* parent, const char* name) {
-  T* w = parent->findChild<T*>(name);
-  if (!w) throw std::runtime_error(std::string("no widget named ") + name);
-  return w;
-}
 
 struct Edit {
   std::string section, key, value;
@@ -58,24 +52,6 @@ std::string simProfileWith(const std::string& dir, const std::vector<Edit>& edit
   const std::string path = dir + "/rig.toml";
   std::ofstream(path) << text;
   return path;
-}
-
-MainWindowOptions options(const std::string& profile, const std::string& shots) {
-  MainWindowOptions o;
-  o.rig_profile = QString::fromStdString(profile);
-  o.shots_dir = QString::fromStdString(shots);
-  o.restore_settings = false;
-  return o;
-}
-
-bool waitUntilRigRunning(MainWindow& w) {
-  return QTest::qWaitFor(
-      [&] {
-        const RigStatus& s = w.rigPanel()->lastStatus();
-        return w.profile() != nullptr && s.state[0] == "running" && s.state[1] == "running" &&
-               s.state[2] == "running";
-      },
-      20000);
 }
 
 // The centre of `widget` in its window's coordinates.
@@ -98,15 +74,6 @@ void wheel(QWidget* widget, int notches) {
                   Qt::NoButton, Qt::NoModifier, Qt::NoScrollPhase, false);
     QApplication::sendEvent(widget, &e);
   }
-  QApplication::processEvents();
-}
-
-// Types `text` into a spin box as a user would: click into it, select all, type, Enter.
-void typeInto(QAbstractSpinBox* box, const QString& text) {
-  QTest::mouseClick(box->findChild<QLineEdit*>(), Qt::LeftButton);
-  QTest::keyClick(box, Qt::Key_A, Qt::ControlModifier);
-  QTest::keyClicks(box, text);
-  QTest::keyClick(box, Qt::Key_Return);
   QApplication::processEvents();
 }
 
@@ -140,7 +107,7 @@ TEST(SafetyGui, ArmAndFireStayOnScreenAtSmallWindowSizes) {
   const std::string dir = freshDir("on-screen");
   for (const QSize size : {QSize(1370, 626), QSize(1366, 768), QSize(1920, 1080)}) {
     SCOPED_TRACE(size.width());
-    MainWindow w(options(sourcePath("config/sim.toml"), dir + "/shots"));
+    MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
     w.resize(size);
     w.show();
     ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -175,7 +142,7 @@ TEST(SafetyGui, ArmAndFireStayOnScreenAtSmallWindowSizes) {
 TEST(SafetyGui, TheWheelDoesNotMoveSetpointsAndArmedChangesNeedConfirmation) {
   application();
   const std::string dir = freshDir("wheel");
-  MainWindow w(options(sourcePath("config/sim.toml"), dir + "/shots"));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -242,7 +209,7 @@ TEST(SafetyGui, TheWheelDoesNotMoveSetpointsAndArmedChangesNeedConfirmation) {
 TEST(SafetyGui, OutOfRangeTypedValuesAreRefusedWithTheRange) {
   application();
   const std::string dir = freshDir("typed");
-  MainWindow w(options(sourcePath("config/sim.toml"), dir + "/shots"));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -273,7 +240,7 @@ TEST(SafetyGui, OutOfRangeTypedValuesAreRefusedWithTheRange) {
 TEST(SafetyGui, ACampaignWithoutAProfileDoesNotLockTheView) {
   application();
   const std::string dir = freshDir("campaign-no-profile");
-  MainWindow w(options(simProfileWith(dir, {{"camera", "fps", "-5"}}), dir + "/shots"));
+  MainWindow w(windowOptions(simProfileWith(dir, {{"camera", "fps", "-5"}}), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -299,9 +266,9 @@ TEST(SafetyGui, ACampaignWithoutAProfileDoesNotLockTheView) {
 TEST(SafetyGui, ARegulatorThatNeverSettlesIsVentedAfterTheTimeout) {
   application();
   const std::string dir = freshDir("never-settles");
-  MainWindow w(options(simProfileWith(dir, {{"regulator", "fault", "\"never_settles\""},
-                                            {"sequencer", "settle_timeout_s", "1.0"}}),
-                       dir + "/shots"));
+  MainWindow w(windowOptions(simProfileWith(dir, {{"regulator", "fault", "\"never_settles\""},
+                                                  {"sequencer", "settle_timeout_s", "1.0"}}),
+                             dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -332,7 +299,7 @@ TEST(SafetyGui, AnUnusableShotFolderIsRefused) {
   const std::string file = dir + "/not-a-folder";
   std::ofstream(file) << "x";
   {
-    MainWindow w(options(sourcePath("config/sim.toml"), file));
+    MainWindow w(windowOptions(sourcePath("config/sim.toml"), file));
     w.resize(1366, 768);
     w.show();
     ASSERT_TRUE(waitUntilRigRunning(w));
@@ -355,7 +322,7 @@ TEST(SafetyGui, AnUnusableShotFolderIsRefused) {
   }
   {
     const std::string typo = dir + "/shtos/run1";  // its parent does not exist either
-    MainWindow w(options(sourcePath("config/sim.toml"), typo));
+    MainWindow w(windowOptions(sourcePath("config/sim.toml"), typo));
     w.show();
     ASSERT_TRUE(waitUntilRigRunning(w));
     EXPECT_FALSE(std::filesystem::exists(typo)) << "a mistyped folder was created";
@@ -364,7 +331,7 @@ TEST(SafetyGui, AnUnusableShotFolderIsRefused) {
   }
   {
     const std::string fresh = dir + "/new-shots";  // a new folder in an existing one: created, said
-    MainWindow w(options(sourcePath("config/sim.toml"), fresh));
+    MainWindow w(windowOptions(sourcePath("config/sim.toml"), fresh));
     w.resize(1366, 768);
     w.show();
     ASSERT_TRUE(waitUntilRigRunning(w));
@@ -386,7 +353,8 @@ TEST(SafetyGui, ACampaignsMissingShotsAreExplained) {
   application();
   const std::string dir = freshDir("campaign-failures");
   // Every shot fails on the rig: after 3 in a row the campaign stops.
-  MainWindow w(options(simProfileWith(dir, {{"regulator", "fault", "\"error\""}}), dir + "/shots"));
+  MainWindow w(
+      windowOptions(simProfileWith(dir, {{"regulator", "fault", "\"error\""}}), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -417,7 +385,7 @@ TEST(SafetyGui, ACampaignsMissingShotsAreExplained) {
 TEST(SafetyGui, EditedBurstSettingsAreMarkedNotApplied) {
   application();
   const std::string dir = freshDir("burst-pending");
-  MainWindow w(options(sourcePath("config/sim.toml"), dir + "/shots"));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -447,7 +415,7 @@ TEST(SafetyGui, EditedBurstSettingsAreMarkedNotApplied) {
 TEST(SafetyGui, ClosingDuringACampaignAsksFirst) {
   application();
   const std::string dir = freshDir("close-campaign");
-  MainWindow w(options(sourcePath("config/sim.toml"), dir + "/shots"));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));
@@ -479,7 +447,7 @@ TEST(SafetyGui, AShotThatCouldNotBeSavedCanBeSavedElsewhere) {
   application();
   const std::string dir = freshDir("save-elsewhere");
   const std::string shots = dir + "/shots";
-  MainWindow w(options(sourcePath("config/sim.toml"), shots));
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), shots));
   w.resize(1366, 768);
   w.show();
   ASSERT_TRUE(QTest::qWaitForWindowExposed(&w));

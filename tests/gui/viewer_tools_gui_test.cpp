@@ -27,6 +27,7 @@
 #include "app/store/shot_file.hpp"
 #include "app/store/shot_id.hpp"
 #include "gui_test_support.hpp"
+#include "gui_window_support.hpp"
 #include "hw/sequencer.hpp"
 #include "vision/footage.hpp"
 
@@ -293,20 +294,10 @@ TEST(ViewerToolsGui, ReplayKeysStepPlayLoopReverseAndMark) {
 TEST(ViewerToolsGui, FireByKeyOnlyWhenArmedAndSettled) {
   application();
   const std::string dir = freshDir("keys");
-  MainWindowOptions o;
-  o.rig_profile = QString::fromStdString(sourcePath("config/sim.toml"));
-  o.shots_dir = QString::fromStdString(dir + "/shots");
-  o.restore_settings = false;
-  MainWindow w(o);
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   activate(&w);
-  ASSERT_TRUE(QTest::qWaitFor(
-      [&] {
-        const RigStatus& s = w.rigPanel()->lastStatus();
-        return w.profile() != nullptr && s.state[0] == "running" && s.state[1] == "running" &&
-               s.state[2] == "running";
-      },
-      20000));
+  ASSERT_TRUE(waitUntilRigRunning(w));
   auto* fire = w.findChild<QPushButton*>("fire_button");
   ASSERT_TRUE(fire);
   // Not armed: the fire chord does nothing.
@@ -326,11 +317,7 @@ TEST(ViewerToolsGui, FireByKeyOnlyWhenArmedAndSettled) {
 TEST(ViewerToolsGui, VendorFootageOpensInReplayAndCorruptFilesAreNamed) {
   application();
   const std::string dir = freshDir("footage");
-  MainWindowOptions o;
-  o.rig_profile = QString::fromStdString(sourcePath("config/sim.toml"));
-  o.shots_dir = QString::fromStdString(dir + "/shots");
-  o.restore_settings = false;
-  MainWindow w(o);
+  MainWindow w(windowOptions(sourcePath("config/sim.toml"), dir + "/shots"));
   w.resize(1366, 768);
   w.show();
   QString opened, error = "not yet";

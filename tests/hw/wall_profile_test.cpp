@@ -55,6 +55,14 @@ TEST(WallProfile, ErrorsNameTheFieldAndWhatToDo) {
       std::regex_replace(text, std::regex(R"(point_m = \[[^\]]*\])"), ""), "missing.toml");
   ASSERT_FALSE(missing);
   EXPECT_THAT(missing.error().message, HasSubstr("point_m"));
+  // Real valves would still open launcher 2: a wall rig is refused on them.
+  auto real_valves = parseRigProfile(
+      std::regex_replace(text, std::regex(R"(\[valves\]\nbackend = "sim")"),
+                         "[valves]\nbackend = \"gpiod\""),
+      "gpiod-wall.toml");
+  ASSERT_FALSE(real_valves);
+  EXPECT_THAT(real_valves.error().message, HasSubstr("simulated valves only"));
+  EXPECT_THAT(real_valves.error().message, HasSubstr("launcher 2"));
 }
 
 TEST(WallProfile, TheFaceLineInTheImageFollowsTheGeometry) {
