@@ -106,11 +106,12 @@ sanitize_pass() {
   # UB errors. They run, and must pass, in the gcc build above.
   GTEST_FILTER="-SphereDetector.SphereCutByTheBorderIsMeasuredFromItsVisibleArc:SphereDetector.ThesisImagingSmallSpheres:FitSpin.TwoDotsPerFrameStillGiveTheSpin:AnalyzeBurstBadInput.SaturatedFramesAreSkippedAndFlagged" \
     ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L 'unit|sim|peer' \
-    -E 'camera_sim_imaging|cli_imaging_profiles|sequencer_sim'
-  # The three left out fire simulated shots whose camera must render within
+    -E 'camera_sim_imaging|cli_imaging_profiles|sequencer_sim|cli_backlit_footage|cli_calibrate_camera'
+  # The five left out fire simulated shots whose camera must render within
   # the burst's deadline; ray-cast imaging under ASan is too slow for it and
-  # the shots fail on time, not on a sanitizer report (seen 2026-11-24). They
-  # run in the gcc build above. To do: a sim camera deadline that scales.
+  # the shots fail on time ("the burst timed out"), not on a sanitizer report
+  # (seen 2026-11-24, the last two in a fresh clone at febdea6). They run in
+  # the gcc build above. To do: a sim camera deadline that scales.
   say "Fuzz targets, a short run each (./collide.sh fuzz for the long one)"
   ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L fuzz
 }
