@@ -1,6 +1,10 @@
 #include "app/store/h5.hpp"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
@@ -165,6 +169,37 @@ hsize_t elementCount(const std::vector<hsize_t>& dims) {
   return n;
 }
 
+thread_local VlenJournal* active_journal = nullptr;
+
+/// Reads `count` variable-length strings through `read`, or takes them from
+/// the active journal (see VlenJournal): recorded when it records, replayed
+/// (without asking the library) when it replays.
+std::optional<Cause> readVariableStrings(hid_t space, std::size_t count,
+                                         const std::function<herr_t(hid_t, void*)>& read,
+                                         std::vector<std::string>& out) {
+  VlenJournal* journal = active_journal;
+  if (journal && journal->mode == VlenJournal::Mode::Replay) {
+    if (journal->replayed >= journal->reads.size() ||
+        journal->reads[journal->replayed].strings.size() != count)
+      return Cause{"its strings did not read the same way twice (a damaged global heap)"};
+    const auto& recorded = journal->reads[journal->replayed++];
+    if (recorded.failed) return Cause{recorded.cause};
+    out = recorded.strings;
+    return std::nullopt;
+  }
+  Handle mem = stringType();
+  std::vector<char*> ptrs(count, nullptr);
+  if (read(mem.get(), ptrs.data()) < 0) {
+    Cause cause = lastCause();
+    if (journal) journal->reads.push_back({true, cause.text, std::vector<std::string>(count)});
+    return cause;
+  }
+  for (std::size_t i = 0; i < count; ++i) out[i] = ptrs[i] ? ptrs[i] : "";
+  H5Dvlen_reclaim(mem.get(), space, H5P_DEFAULT, ptrs.data());
+  if (journal) journal->reads.push_back({false, {}, out});
+  return std::nullopt;
+}
+
 /// Reads `count` strings stored with `file_type` (variable or fixed length)
 /// through `read(memory_type, buffer)`, which wraps H5Aread or H5Dread.
 /// Returns the cause on failure, taken before closing the memory type (every
@@ -174,14 +209,7 @@ std::optional<Cause> readStringsOfType(hid_t file_type, hid_t space, std::size_t
                                        std::vector<std::string>& out) {
   out.assign(count, {});
   if (count == 0) return std::nullopt;
-  if (H5Tis_variable_str(file_type) > 0) {
-    Handle mem = stringType();
-    std::vector<char*> ptrs(count, nullptr);
-    if (read(mem.get(), ptrs.data()) < 0) return lastCause();
-    for (std::size_t i = 0; i < count; ++i) out[i] = ptrs[i] ? ptrs[i] : "";
-    H5Dvlen_reclaim(mem.get(), space, H5P_DEFAULT, ptrs.data());
-    return std::nullopt;
-  }
+  if (H5Tis_variable_str(file_type) > 0) return readVariableStrings(space, count, read, out);
   // Fixed-length strings (what MATLAB's h5writeatt writes): NUL-padded.
   const std::size_t size = H5Tget_size(file_type);
   Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
@@ -494,5 +522,100 @@ template std::vector<std::uint64_t> Reader::dataset(const std::string&, const st
                                                     std::vector<hsize_t>*);
 template std::vector<std::uint8_t> Reader::dataset(const std::string&, const std::vector<hsize_t>&,
                                                    std::vector<hsize_t>*);
+
+// ---------------------------------------------------------------- VlenJournal
+
+JournalScope::JournalScope(VlenJournal& journal) : previous_(active_journal) {
+  active_journal = &journal;
+}
+
+JournalScope::~JournalScope() {
+  active_journal = previous_;
+}
+
+namespace {
+
+constexpr char kJournalMagic[8] = {'C', 'O', 'L', 'V', 'J', 'N', 'L', '1'};
+
+bool writeAll(int fd, const void* data, std::size_t size) {
+  const char* p = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+bool readAll(int fd, void* data, std::size_t size) {
+  char* p = static_cast<char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::read(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+bool writeText(int fd, const std::string& text) {
+  const std::uint64_t size = text.size();
+  return writeAll(fd, &size, sizeof size) && writeAll(fd, text.data(), text.size());
+}
+
+bool readText(int fd, std::uint64_t left, std::string& text) {
+  std::uint64_t size = 0;
+  if (!readAll(fd, &size, sizeof size) || size > left) return false;
+  text.resize(size);
+  return readAll(fd, text.data(), size);
+}
+
+}  // namespace
+
+bool VlenJournal::save(int fd) const {
+  if (::lseek(fd, 0, SEEK_SET) != 0 || !writeAll(fd, kJournalMagic, sizeof kJournalMagic))
+    return false;
+  const std::uint64_t n = reads.size();
+  if (!writeAll(fd, &n, sizeof n)) return false;
+  for (const Read& r : reads) {
+    const std::uint8_t failed = r.failed ? 1 : 0;
+    const std::uint64_t count = r.strings.size();
+    if (!writeAll(fd, &failed, 1) || !writeText(fd, r.cause) || !writeAll(fd, &count, sizeof count))
+      return false;
+    for (const auto& s : r.strings)
+      if (!writeText(fd, s)) return false;
+  }
+  return true;
+}
+
+std::optional<VlenJournal> VlenJournal::load(int fd) {
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || ::lseek(fd, 0, SEEK_SET) != 0) return std::nullopt;
+  // No size read from the journal may exceed what the journal holds.
+  const auto left = static_cast<std::uint64_t>(st.st_size);
+  char magic[sizeof kJournalMagic] = {};
+  std::uint64_t n = 0;
+  if (!readAll(fd, magic, sizeof magic) || std::memcmp(magic, kJournalMagic, sizeof magic) != 0 ||
+      !readAll(fd, &n, sizeof n) || n > left)
+    return std::nullopt;
+  VlenJournal journal;
+  journal.mode = Mode::Replay;
+  journal.reads.resize(n);
+  for (Read& r : journal.reads) {
+    std::uint8_t failed = 0;
+    std::uint64_t count = 0;
+    if (!readAll(fd, &failed, 1) || !readText(fd, left, r.cause) ||
+        !readAll(fd, &count, sizeof count) || count > left)
+      return std::nullopt;
+    r.failed = failed != 0;
+    r.strings.resize(count);
+    for (auto& s : r.strings)
+      if (!readText(fd, left, s)) return std::nullopt;
+  }
+  return journal;
+}
 
 }  // namespace collide::app::h5

@@ -10,6 +10,7 @@
 #include <hdf5.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,44 @@ Cause lastCause();
 /// high half of a word). A chunk written past the filter pipeline (direct
 /// chunk write) into a dataset with that filter must end in it, little-endian.
 std::uint32_t fletcher32(const void* bytes, std::size_t size);
+
+/// The variable-length strings one read of a file gave, in the order it asked
+/// for them: how a contained read (ReadOptions::contained in shot_file.hpp)
+/// keeps libhdf5's global-heap code out of the reading process. A damaged
+/// global heap can make libhdf5 1.10 copy past its buffers without crashing
+/// the child that reads first; the parent then replays the child's strings
+/// instead of asking the library for them again. Every other read (numbers,
+/// frames, fixed-length strings) does not touch the global heap.
+struct VlenJournal {
+  enum class Mode { Record, Replay };
+  struct Read {
+    bool failed = false;
+    std::string cause;  // when failed: the library's message
+    std::vector<std::string> strings;
+  };
+  Mode mode = Mode::Record;
+  std::vector<Read> reads;
+  std::size_t replayed = 0;
+
+  /// Writes the recorded reads to the file descriptor `fd` (from its start).
+  bool save(int fd) const;
+  /// Reads what save() wrote; empty if `fd` does not hold a whole journal.
+  static std::optional<VlenJournal> load(int fd);
+};
+
+/// While it lives, this thread's variable-length string reads are recorded
+/// in, or replayed from, `journal` (by its mode). The caller holds the HDF5
+/// lock (hdf5Mutex() in shot_file.cpp).
+class JournalScope {
+ public:
+  explicit JournalScope(VlenJournal& journal);
+  ~JournalScope();
+  JournalScope(const JournalScope&) = delete;
+  JournalScope& operator=(const JournalScope&) = delete;
+
+ private:
+  VlenJournal* previous_;
+};
 
 /// Owns one HDF5 id (file, group, dataset, dataspace, datatype, attribute,
 /// property list) and closes it with the matching H5?close.

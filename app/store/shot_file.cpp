@@ -1,5 +1,6 @@
 #include "app/store/shot_file.hpp"
 
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -20,6 +22,15 @@
 #include "app/store/atomic_file.hpp"
 #include "app/store/h5.hpp"
 #include "hw/memory.hpp"
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define COLLIDE_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+#include <sanitizer/common_interface_defs.h>
+#endif
 
 namespace collide::app {
 
@@ -688,23 +699,55 @@ double cpuSeconds(pid_t pid) {
   return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
 }
 
-enum class Probe { Fine, Stalled };
+/// A probing child's exit status when its read finished but handing the
+/// strings over did not (the parent then reads them itself).
+constexpr int kJournalNotSaved = 86;
 
-/// Reads `path` in a forked child and reports whether the child died of a
-/// signal. The caller holds hdf5Mutex(), so no other thread of ours is inside
-/// HDF5 at the fork and the child cannot inherit a held library lock.
+/// How a child's read went: Fine with the variable-length strings it read
+/// (for the parent to replay), or Stalled (see probeInChild).
+struct Probe {
+  bool stalled = false;
+  std::optional<h5::VlenJournal> strings;
+};
+
+/// Reads `path` in a forked child and reports whether the child finished its
+/// read: a child that ends any other way (killed by a signal, or exiting
+/// non-zero as AddressSanitizer makes a process that reads out of bounds)
+/// means the library cannot read the file. The child exits 0 whether its read
+/// gave a shot or an error: the error is the caller's to give, from its own
+/// read, in which the strings come from the child's journal (a damaged global
+/// heap can make libhdf5 copy out of bounds without crashing the child; the
+/// parent then never asks the library for them). The caller holds
+/// hdf5Mutex(), so no other thread of ours is inside HDF5 at the fork and the
+/// child cannot inherit a held library lock.
 /// A child that outlives its time limit while working is reading a file the
 /// library loops on (an error); one that outlives it idle inherited another
 /// thread's lock at the fork (seen under AddressSanitizer with analysis
 /// threads busy): Stalled, not the file's fault.
 Result<Probe> probeInChild(const std::string& path, const ReadOptions& options) {
+  const int journal_fd = ::memfd_create("collide-shot-strings", MFD_CLOEXEC);
+  if (journal_fd < 0) return Probe{};  // read unprotected rather than not at all
+  struct CloseFd {
+    int fd;
+    ~CloseFd() { ::close(fd); }
+  } close_journal{journal_fd};
   const pid_t pid = ::fork();
-  if (pid < 0) return Probe::Fine;  // cannot fork: read unprotected rather than not at all
+  if (pid < 0) return Probe{};  // cannot fork: read unprotected rather than not at all
   if (pid == 0) {
+#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+    // A sanitizer report here is the library's, about this file: the child
+    // just ends (the parent reports it), without the death hook a host such
+    // as libFuzzer installed for its own process.
+    __sanitizer_set_death_callback(nullptr);
+#endif
     ReadOptions inner = options;
     inner.contained = false;
-    const bool ok = readShotLocked(path, inner).ok();
-    ::_exit(ok ? 0 : 1);
+    h5::VlenJournal journal;
+    {
+      h5::JournalScope scope(journal);
+      (void)readShotLocked(path, inner);
+    }
+    ::_exit(journal.save(journal_fd) ? 0 : kJournalNotSaved);
   }
   // libhdf5 can also loop for ever on a damaged global heap: a read that
   // takes far longer than the disk needs for the whole file is stopped.
@@ -722,7 +765,7 @@ Result<Probe> probeInChild(const std::string& path, const ReadOptions& options) 
       ::kill(pid, SIGKILL);
       while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
       }
-      if (std::isfinite(cpu) && cpu < 0.1 * limit_s) return Probe::Stalled;
+      if (std::isfinite(cpu) && cpu < 0.1 * limit_s) return Probe{.stalled = true};
       return fail("shot file " + path + " is corrupt: reading it did not finish within " +
                   std::to_string(static_cast<int>(limit_s)) +
                   " s (the HDF5 library loops on it); restore it from a backup, or move it out "
@@ -731,12 +774,16 @@ Result<Probe> probeInChild(const std::string& path, const ReadOptions& options) 
     std::this_thread::sleep_for(pause);
     pause = std::min(pause * 2, std::chrono::microseconds(20000));
   }
-  if (WIFSIGNALED(status)) {
-    const int sig = WTERMSIG(status);
-    return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" +
-                sigabbrev_np(sig) + "); restore it from a backup, or move it out of the folder");
+  if (WIFEXITED(status) && WEXITSTATUS(status) == kJournalNotSaved)
+    return Probe{};  // the read went through; only handing its strings over failed
+  if (WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0)) {
+    const std::string how = WIFSIGNALED(status)
+                                ? std::string("SIG") + sigabbrev_np(WTERMSIG(status))
+                                : "exit status " + std::to_string(WEXITSTATUS(status));
+    return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" + how +
+                "); restore it from a backup, or move it out of the folder");
   }
-  return Probe::Fine;
+  return Probe{.strings = h5::VlenJournal::load(journal_fd)};
 }
 
 }  // namespace
@@ -748,7 +795,10 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
   for (int attempt = 0; options.contained && attempt < 2; ++attempt) {
     auto probe = probeInChild(path, options);
     if (!probe) return probe.error();
-    if (*probe == Probe::Fine) break;
+    if (probe->stalled) continue;
+    if (!probe->strings) break;
+    h5::JournalScope scope(*probe->strings);
+    return readShotLocked(path, options);
   }
   return readShotLocked(path, options);
 }
