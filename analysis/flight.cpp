@@ -87,6 +87,18 @@ double wallContactAfter(const SphereState& from, double radius_m, const Wall& wa
   return root;
 }
 
+// The material at impact: `material` with e from setup.restitution_of_vn at
+// this normal speed, when the setup gives e as a function of it.
+Status restitutionAt(const FlightSetup& setup, double v_n_m_s, Material& material) {
+  if (!setup.restitution_of_vn) return Ok{};
+  const double e = setup.restitution_of_vn(std::abs(v_n_m_s));
+  if (!(e >= 0 && e <= 1))
+    return fail("restitution_of_vn: gave e = " + formatNumber(e) +
+                " at |v_n| = " + formatNumber(std::abs(v_n_m_s)) + " m/s; e must be in [0, 1]");
+  material.e = e;
+  return Ok{};
+}
+
 }  // namespace
 
 Result<Flight> Flight::createWithWall(const FlightSetup& setup) {
@@ -105,13 +117,7 @@ Result<Flight> Flight::createWithWall(const FlightSetup& setup) {
   const Sphere s1 = withState(setup.spheres[0], f.before_[0]);
   const double v_n = s1.velocity_m_s.dot(n);
   if (!(v_n < 0)) return f;
-  if (setup.restitution_of_vn) {
-    const double e = setup.restitution_of_vn(std::abs(v_n));
-    if (!(e >= 0 && e <= 1))
-      return fail("restitution_of_vn: gave e = " + formatNumber(e) +
-                  " at |v_n| = " + formatNumber(std::abs(v_n)) + " m/s; e must be in [0, 1]");
-    f.material_used_.e = e;
-  }
+  if (auto e = restitutionAt(setup, v_n, f.material_used_); !e) return e.error();
   // The contact point on the plane under the centre: the wall as found.
   auto hit = collideWithWall(s1, wall, f.material_used_);
   if (!hit) return hit.error();
@@ -162,13 +168,7 @@ Result<Flight> Flight::create(const FlightSetup& setup) {
   // A tangent touch (disc = 0) has v_n = 0 at contact: no impulse, no collision.
   const double v_n = contactKinematics(s1, s2).v_n_m_s;
   if (!(v_n < 0)) return f;
-  if (setup.restitution_of_vn) {
-    const double e = setup.restitution_of_vn(std::abs(v_n));
-    if (!(e >= 0 && e <= 1))
-      return fail("restitution_of_vn: gave e = " + formatNumber(e) +
-                  " at |v_n| = " + formatNumber(std::abs(v_n)) + " m/s; e must be in [0, 1]");
-    f.material_used_.e = e;
-  }
+  if (auto e = restitutionAt(setup, v_n, f.material_used_); !e) return e.error();
   auto hit = collideSpheres(s1, s2, f.material_used_);
   if (!hit) return hit.error();
   for (int i = 0; i < 2; ++i) {

@@ -532,6 +532,19 @@ void sensorRow(const RenderSettings& st, const std::vector<float>& gain,
   }
 }
 
+// One row of light through the sensor into `image`'s row `v`: two runs of the
+// noise table at offsets drawn from `rng`, then sensorRow in the format's words.
+void exposeRow(const RenderSettings& st, const std::vector<float>& noise,
+               const std::vector<float>& gain, const std::vector<float>& offset, double flicker,
+               const float* light, int v, std::uint64_t& rng, cv::Mat& image) {
+  const float* g1 = noise.data() + splitmix64(rng) % kNoiseTableSize;
+  const float* g2 = noise.data() + splitmix64(rng) % kNoiseTableSize;
+  if (st.format == PixelFormat::Mono8)
+    sensorRow(st, gain, offset, g1, g2, flicker, light, v, image.ptr<std::uint8_t>(v));
+  else
+    sensorRow(st, gain, offset, g1, g2, flicker, light, v, image.ptr<std::uint16_t>(v));
+}
+
 }  // namespace
 
 cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uint64_t frame_index,
@@ -570,14 +583,7 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
       light[u] =
           static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, nh_min, u, v));
 
-    const float* g1 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
-    const float* g2 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
-    if (st.format == PixelFormat::Mono8)
-      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
-                image.ptr<std::uint8_t>(v));
-    else
-      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
-                image.ptr<std::uint16_t>(v));
+    exposeRow(st, tab.noise, tab.gain, tab.offset, flicker, light.data(), v, rng, image);
   }
   return image;
 }
@@ -634,14 +640,7 @@ cv::Mat Renderer::renderChessboard(const ChessboardTarget& board, std::uint64_t 
                             rayAt(st, tab.ray_xy, u, v, (i + 0.5) / ss, (j + 0.5) / ss));
       light[u] = static_cast<float>(sum / (ss * ss));
     }
-    const float* g1 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
-    const float* g2 = tab.noise.data() + splitmix64(rng) % kNoiseTableSize;
-    if (st.format == PixelFormat::Mono8)
-      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
-                image.ptr<std::uint8_t>(v));
-    else
-      sensorRow(st, tab.gain, tab.offset, g1, g2, flicker, light.data(), v,
-                image.ptr<std::uint16_t>(v));
+    exposeRow(st, tab.noise, tab.gain, tab.offset, flicker, light.data(), v, rng, image);
   }
   return image;
 }

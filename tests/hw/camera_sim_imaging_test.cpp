@@ -164,8 +164,13 @@ TEST(CameraSimImaging, LabProfileShowsAHighlightADarkLimbAndAMisalignedRig) {
         }
       EXPECT_LT(dark / n_dark, 0.5 * lit / n_lit) << "frame " << k;
       // Lambert alone tops out at the albedo (0.8 of full scale): the
-      // highlight adds 0.3 at its peak.
-      EXPECT_GT(brightest, 0.9 * 4095) << "frame " << k;
+      // highlight adds 0.3 at its peak. Checked where vignetting (cos^4 and
+      // 10 % fall-off at the corners) dims the light by 6 % at most and the
+      // lamp's 5 % flicker at its trough still leaves the peak above 0.9:
+      // within 0.6 of the corner distance of the image centre.
+      const double corner = std::hypot(0.5 * image.cols, 0.5 * image.rows);
+      if (cv::norm(c - cv::Point2d(319.5, 239.5)) > 0.6 * corner) continue;
+      EXPECT_GT(brightest, 0.9 * 4095) << "frame " << k << ", sphere at " << c;
       ++checked;
     }
   }
