@@ -753,7 +753,8 @@ Result<Probe> probeInChild(const std::string& path, const ReadOptions& options) 
   // takes far longer than the disk needs for the whole file is stopped.
   std::error_code ec;
   const double size = static_cast<double>(std::filesystem::file_size(path, ec));
-  const double limit_s = 30.0 + (ec ? 0.0 : size / 20e6);  // 20 MB/s: a slow disk
+  const double limit_s = options.time_limit_s > 0 ? options.time_limit_s
+                                                  : 30.0 + (ec ? 0.0 : size / 20e6);  // slow disk
   const auto deadline = std::chrono::steady_clock::now() +
                         std::chrono::milliseconds(static_cast<long long>(limit_s * 1000));
   int status = 0;

@@ -60,6 +60,10 @@ struct ReadOptions {
   /// of ending this process (a folder scan goes on with the other files).
   /// Costs a fork and a second read (from the page cache); on by default.
   bool contained = true;
+  /// How long the contained read may take before the file is called corrupt
+  /// (libhdf5 loops for ever on some damaged heaps), in seconds; 0: 30 s plus
+  /// the file's size at 20 MB/s (a slow disk). Fuzzing sets it short.
+  double time_limit_s = 0;
 };
 
 /// Reads a shot file. Errors (one line naming `path`): no such file, not an
