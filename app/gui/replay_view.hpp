@@ -18,6 +18,7 @@ class QLabel;
 class QCheckBox;
 class QPushButton;
 class QComboBox;
+class QHBoxLayout;
 
 namespace collide::gui {
 
@@ -49,23 +50,39 @@ class ReplayView : public QWidget {
   bool playing() const { return play_timer_.isActive(); }
   /// Display rate while playing, frames per second of screen time.
   double playbackRate() const;
+  /// The same as a fraction of real time: playbackRate() / the recording's
+  /// frames per second (1/40 for 25 frames/s of a 1000 frames/s burst; NaN
+  /// without a shot or frame rate).
+  double playbackRealTimeFraction() const;
   /// First and last frame (positions in the burst) that "Export frames" writes.
   int markIn() const { return mark_in_; }
   int markOut() const { return mark_out_; }
   /// Writes frames markIn()..markOut() as PNG files into `dir` (Mono12 shown
   /// stretched to 16 bits). Returns an error message, or empty on success.
   QString exportMarkedFrames(const QString& dir);
+  /// Writes frames markIn()..markOut() as an AVI video (Motion JPEG, 8-bit
+  /// grey scaled as shown) playing at `playback_fps`. Returns an error message
+  /// (naming the file and what to do; no partial file is left), or empty.
+  QString exportMarkedVideo(const QString& path, double playback_fps);
 
  signals:
   void reanalyseRequested(collide::gui::ShotPtr shot);
 
  private:
+  QHBoxLayout* makeTransportRow();
+  QHBoxLayout* makeDisplayRow();
+  QHBoxLayout* makeExportRow();
+  void addKeys();
   void redraw();
   void togglePlay();
   void playStep();
   void setMark(bool in);
   void updateMarkLabel();
   void chooseExportFolder();
+  void chooseVideoFile();
+  void relabelSpeeds();
+  void showExportResult(const QString& done, const QString& error);
+  vision::Burst markedFrames() const;
 
   ShotPtr shot_;
   AnalysisPtr analysis_;
@@ -83,6 +100,7 @@ class ReplayView : public QWidget {
   QCheckBox* reverse_ = nullptr;
   QCheckBox* crosshair_ = nullptr;
   QLabel* marks_ = nullptr;
+  QLabel* export_status_ = nullptr;
   int mark_in_ = 0, mark_out_ = 0;
   QTimer play_timer_;
 };
