@@ -118,6 +118,7 @@ void RigWorker::loadProfile(const QString& path) {
 }
 
 void RigWorker::burstSettings(int pre, int post, double fps, double exposure_us) {
+  if (refusedWhileArmed(tr("Burst settings"))) return;
   applyProfileEdits({{"burst", "pre_trigger_frames", QString::number(pre)},
                      {"burst", "post_trigger_frames", QString::number(post)},
                      {"camera", "fps", QString::number(fps, 'g', 10)},
@@ -125,12 +126,15 @@ void RigWorker::burstSettings(int pre, int post, double fps, double exposure_us)
                     tr("Burst settings"));
 }
 
+bool RigWorker::refusedWhileArmed(const QString& what) {
+  if (!status_.armed && !status_.busy) return false;
+  emit error(tr("%1 not applied: the rig is %2; disarm first.")
+                 .arg(what, status_.busy ? tr("firing") : tr("armed")));
+  return true;
+}
+
 void RigWorker::cameraSettings(double fps, double exposure_us, double gain_db) {
-  if (status_.armed || status_.busy) {
-    emit error(tr("Camera settings not applied: the rig is %1; disarm first.")
-                   .arg(status_.busy ? tr("firing") : tr("armed")));
-    return;
-  }
+  if (refusedWhileArmed(tr("Camera settings"))) return;
   applyProfileEdits({{"camera", "fps", QString::number(fps, 'g', 10)},
                      {"camera", "exposure_us", QString::number(exposure_us, 'g', 10)},
                      {"camera", "gain_db", QString::number(gain_db, 'g', 10)}},

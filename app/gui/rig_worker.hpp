@@ -63,6 +63,7 @@ class RigWorker : public QObject {
   void requestCampaign(app::CampaignOptions options);
   /// Burst and camera timing: edits the profile's text (so every shot records
   /// the settings it was really taken with) and rebuilds the rig from it.
+  /// Refused with an error while armed or busy.
   void requestBurstSettings(int pre_trigger_frames, int post_trigger_frames, double fps,
                             double exposure_us);
   /// Camera exposure, gain and frame rate, as requestBurstSettings applies
@@ -97,6 +98,9 @@ class RigWorker : public QObject {
   void useProfile(hw::RigProfile profile);
   void burstSettings(int pre, int post, double fps, double exposure_us);
   void cameraSettings(double fps, double exposure_us, double gain_db);
+  /// True (and an error naming `what` emitted) while armed or firing: the
+  /// rig is not rebuilt under pressure.
+  bool refusedWhileArmed(const QString& what);
   struct ProfileEdit {
     const char* section;
     const char* key;

@@ -109,6 +109,11 @@ TEST(LiveCameraSettingsGui, AppliedWhenDisarmedLockedWhenArmed) {
   QTest::qWait(800);  // past the 300 ms that gathers wheel notches
   EXPECT_DOUBLE_EQ(gain->value(), 12.0);
   EXPECT_DOUBLE_EQ(exposure->value(), exposure0 + 1);
+  // Nor through the rig panel's burst settings (frame rate, exposure there too).
+  auto* apply_burst = child<QPushButton>(w.rigPanel(), "apply_burst");
+  EXPECT_FALSE(apply_burst->isEnabled());
+  QTest::mouseClick(apply_burst, Qt::LeftButton);
+  QTest::qWait(300);
   EXPECT_EQ(live->camera(), armed_camera) << "the rig was rebuilt while armed";
   EXPECT_DOUBLE_EQ(live->camera()->config().gain_db, 12.0);
   // A request that bypasses the locked controls is refused by the control thread.
