@@ -11,6 +11,7 @@
 #include <QSlider>
 #include <QSplitter>
 #include <QVBoxLayout>
+#include <QtConcurrent/QtConcurrentRun>
 #include <cmath>
 
 #include "app/gui/video_export_dialog.hpp"
@@ -160,7 +161,12 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   });
   play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
   connect(&play_timer_, &QTimer::timeout, this, &ReplayView::playStep);
+  connect(&video_export_, &QFutureWatcher<QString>::finished, this, &ReplayView::finishVideoExport);
   addKeys();
+}
+
+ReplayView::~ReplayView() {
+  video_export_.waitForFinished();
 }
 
 // First, previous, play, next, last; the frame and the last export's outcome.
@@ -234,7 +240,7 @@ QHBoxLayout* ReplayView::makeExportRow() {
   export_frames->setObjectName("export_frames");
   export_frames->setToolTip(
       tr("Write the frames from the in mark to the out mark (keys I and O) as PNG files"));
-  auto* export_video = new QPushButton(tr("Export video..."));
+  auto* export_video = export_video_ = new QPushButton(tr("Export video..."));
   export_video->setObjectName("export_video");
   export_video->setToolTip(
       tr("Write the frames from the in mark to the out mark (keys I and O) as an AVI video, "
@@ -383,14 +389,31 @@ void ReplayView::chooseVideoFile() {
       new VideoExportDialog(shot_->burst.fps, mark_in_ + 1, mark_out_ + 1, suggested, this);
   dialog->setAttribute(Qt::WA_DeleteOnClose);
   connect(dialog, &QDialog::accepted, this, [this, dialog] {
-    const QString path = dialog->path();
-    showExportResult(tr("wrote frames %1 to %2 to %3 (%4)")
-                         .arg(mark_in_ + 1)
-                         .arg(mark_out_ + 1)
-                         .arg(path, realTimeFraction(dialog->slowDown())),
-                     exportMarkedVideo(path, dialog->playbackFps()));
+    startVideoExport(dialog->path(), dialog->playbackFps(), dialog->slowDown());
   });
   dialog->open();  // window-modal, returns at once
+}
+
+// On a worker thread: a long burst must not freeze the window. The frames
+// share their pixels with the shot (cv::Mat counts its references).
+void ReplayView::startVideoExport(const QString& path, double playback_fps, int slow_down) {
+  if (video_export_.isRunning()) return;
+  video_done_ = tr("wrote frames %1 to %2 to %3 (%4)")
+                    .arg(mark_in_ + 1)
+                    .arg(mark_out_ + 1)
+                    .arg(path, realTimeFraction(slow_down));
+  export_video_->setEnabled(false);
+  showExportResult(tr("writing %1 ...").arg(path), {});
+  video_export_.setFuture(
+      QtConcurrent::run([part = markedFrames(), file = path.toStdString(), playback_fps] {
+        auto written = vision::exportBurstVideo(part, file, {.playback_fps = playback_fps});
+        return written ? QString() : QString::fromStdString(written.error().message);
+      }));
+}
+
+void ReplayView::finishVideoExport() {
+  export_video_->setEnabled(true);
+  showExportResult(video_done_, video_export_.result());
 }
 
 int ReplayView::frameCount() const {

@@ -6,6 +6,7 @@
 // Keys as in a vendor viewer: Left/Right one frame (Shift: 10), Home/End,
 // Space play/pause, I/O mark the first/last frame to export; playback speed,
 // loop and reverse; the image zooms, pans and measures (ImageView).
+#include <QFutureWatcher>
 #include <QTimer>
 #include <QWidget>
 
@@ -35,6 +36,7 @@ class ReplayView : public QWidget {
   Q_OBJECT
  public:
   explicit ReplayView(QWidget* parent = nullptr);
+  ~ReplayView() override;
 
   void setShot(ShotPtr shot);
   void setAnalysis(AnalysisPtr analysis);
@@ -63,6 +65,8 @@ class ReplayView : public QWidget {
   /// Writes frames markIn()..markOut() as an AVI video (Motion JPEG, 8-bit
   /// grey scaled as shown) playing at `playback_fps`. Returns an error message
   /// (naming the file and what to do; no partial file is left), or empty.
+  /// (*Export video...* does the same on a worker thread; its outcome shows
+  /// in the label named "export_status".)
   QString exportMarkedVideo(const QString& path, double playback_fps);
 
  signals:
@@ -80,6 +84,8 @@ class ReplayView : public QWidget {
   void updateMarkLabel();
   void chooseExportFolder();
   void chooseVideoFile();
+  void startVideoExport(const QString& path, double playback_fps, int slow_down);
+  void finishVideoExport();
   void relabelSpeeds();
   void showExportResult(const QString& done, const QString& error);
   vision::Burst markedFrames() const;
@@ -101,6 +107,9 @@ class ReplayView : public QWidget {
   QCheckBox* crosshair_ = nullptr;
   QLabel* marks_ = nullptr;
   QLabel* export_status_ = nullptr;
+  QPushButton* export_video_ = nullptr;
+  QFutureWatcher<QString> video_export_;
+  QString video_done_;  ///< what the running export says when it succeeds
   int mark_in_ = 0, mark_out_ = 0;
   QTimer play_timer_;
 };

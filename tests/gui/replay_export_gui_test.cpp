@@ -89,8 +89,12 @@ int exportThroughDialog(ReplayView& view, const QString& file, int downs) {
   (void)screenshot(dialog, "video_export_dialog");
   auto* buttons = dialog->findChild<QDialogButtonBox*>();
   QTest::mouseClick(buttons->button(QDialogButtonBox::Ok), Qt::LeftButton);
-  QApplication::processEvents();
-  return n;
+  // Written on a worker thread; the status line says when it is done.
+  auto* status = view.findChild<QLabel*>("export_status");
+  const bool done = QTest::qWaitFor(
+      [&] { return status->text().startsWith("wrote") || status->text().startsWith("not"); },
+      20000);
+  return done ? n : -2;
 }
 
 }  // namespace
@@ -116,7 +120,7 @@ TEST(ReplayExportGui, MarkedFramesBecomeAVideoAtAFractionOfRealTime) {
   const std::string dir = freshDir("export-video");
   const std::string file = dir + "/marked";  // the dialog adds .avi
   const int n = exportThroughDialog(view, QString::fromStdString(file), 1);
-  ASSERT_GT(n, 0) << "the export dialog did not open";
+  ASSERT_GT(n, 0) << "the export dialog did not open (-1) or the export did not end (-2)";
   const QString status = view.findChild<QLabel*>("export_status")->text();
   EXPECT_TRUE(status.contains(QString("1/%1x real time").arg(n))) << status.toStdString();
   ASSERT_TRUE(fs::exists(file + ".avi")) << status.toStdString();
