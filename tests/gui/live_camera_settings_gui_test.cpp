@@ -96,6 +96,17 @@ TEST(LiveCameraSettingsGui, AppliedWhenDisarmedLockedWhenArmed) {
       15000))
       << w.messages().join("\n").toStdString();
 
+  // A frame rate whose period is shorter than the exposure is refused by the
+  // profile, said in the message bar, and the field goes back to the camera's.
+  auto* fps = child<QDoubleSpinBox>(live, "live_fps");
+  const CameraPtr before = live->camera();
+  typeInto(fps, "10000");  // 100 us period < 201 us exposure
+  ASSERT_TRUE(QTest::qWaitFor(
+      [&] { return w.messages().join("\n").contains("Camera settings not applied"); }, 5000));
+  EXPECT_TRUE(w.messages().last().contains("exposure_us")) << w.messages().last().toStdString();
+  EXPECT_DOUBLE_EQ(fps->value(), 1000.0);
+  EXPECT_EQ(live->camera(), before);
+
   // Armed: locked. Typing and the wheel change neither the field nor the camera.
   QTest::mouseClick(child<QPushButton>(w.rigPanel(), "arm_button"), Qt::LeftButton);
   ASSERT_TRUE(QTest::qWaitFor([&] { return live->cameraControlsLocked(); }, 10000));
@@ -119,7 +130,8 @@ TEST(LiveCameraSettingsGui, AppliedWhenDisarmedLockedWhenArmed) {
   // A request that bypasses the locked controls is refused by the control thread.
   emit live->cameraSettingsRequested(1000, 100, 3);
   ASSERT_TRUE(QTest::qWaitFor(
-      [&] { return w.messages().join("\n").contains("Camera settings not applied"); }, 5000));
+      [&] { return w.messages().last().contains("Camera settings not applied: the rig is armed"); },
+      5000));
   EXPECT_EQ(live->camera(), armed_camera);
   EXPECT_TRUE(w.rigPanel()->lastStatus().armed);
   EXPECT_TRUE(screenshot(&w, "live_camera_locked"));
