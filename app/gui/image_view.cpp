@@ -9,15 +9,14 @@
 #include <cmath>
 #include <cstring>
 
+#include "vision/video_export.hpp"
+
 namespace collide::gui {
 
 QImage toDisplayImage(const cv::Mat& image, vision::PixelFormat format) {
   if (image.empty()) return {};
-  cv::Mat grey8;
-  if (image.depth() == CV_8U)
-    grey8 = image;
-  else
-    image.convertTo(grey8, CV_8U, 255.0 / vision::maxValue(format));
+  // The scaling video export uses too: what is written is what was seen.
+  const cv::Mat grey8 = vision::displayGrey8(image, format);
   QImage out(grey8.cols, grey8.rows, QImage::Format_Grayscale8);
   for (int r = 0; r < grey8.rows; ++r)
     std::memcpy(out.scanLine(r), grey8.ptr(r), static_cast<std::size_t>(grey8.cols));

@@ -1,10 +1,12 @@
 #include "app/gui/live_view.hpp"
 
 #include <QCheckBox>
+#include <QFormLayout>
 #include <QHBoxLayout>
 #include <QLabel>
 #include <QVBoxLayout>
 #include <QtConcurrent/QtConcurrentRun>
+#include <cmath>
 
 #include "vision/dot_detector.hpp"
 #include "vision/sphere_detector.hpp"
@@ -39,6 +41,7 @@ LiveView::LiveView(QWidget* parent) : QWidget(parent) {
   auto* row = new QHBoxLayout;
   info_ = new QLabel;
   info_->setObjectName("live_info");
+  info_->setWordWrap(true);  // a long line must not widen the window past the screen
   overlays_ = new QCheckBox(tr("detections"));
   overlays_->setChecked(true);
   crosshair_ = new QCheckBox(tr("crosshair"));
@@ -53,12 +56,13 @@ LiveView::LiveView(QWidget* parent) : QWidget(parent) {
   auto* side = new QVBoxLayout;
   outer->addLayout(side);
   auto* settings_title = new QLabel(tr("<b>Camera</b>"));
+  QWidget* controls = makeCameraControls();
   settings_ = new QLabel;
   settings_->setObjectName("live_camera_settings");
   settings_->setTextInteractionFlags(Qt::TextSelectableByMouse);
   settings_->setToolTip(
-      tr("Set in the rig profile's [camera] table (exposure, gain, frame rate "
-         "and region of interest of the burst)"));
+      tr("What the camera runs with. Exposure, gain and frame rate are edited above (not "
+         "while armed); the region of interest in the rig profile's [camera] table"));
   histogram_ = new HistogramView;
   histogram_->setObjectName("live_histogram");
   saturation_ = new QLabel;
@@ -66,8 +70,9 @@ LiveView::LiveView(QWidget* parent) : QWidget(parent) {
   saturation_->setWordWrap(true);
   saturation_->setStyleSheet("color: #c0392b; font-weight: bold;");
   saturation_->setMaximumWidth(240);
-  for (QWidget* w : std::initializer_list<QWidget*>{
-           settings_title, settings_, new QLabel(tr("<b>Histogram</b>")), histogram_, saturation_})
+  for (QWidget* w :
+       std::initializer_list<QWidget*>{settings_title, controls, settings_,
+                                       new QLabel(tr("<b>Histogram</b>")), histogram_, saturation_})
     side->addWidget(w);
   side->addStretch(1);
   connect(&timer_, &QTimer::timeout, this, &LiveView::refresh);
@@ -84,12 +89,116 @@ LiveView::~LiveView() {
   detection_.waitForFinished();
 }
 
+QWidget* LiveView::makeCameraControls() {
+  auto* box = new QWidget;
+  box->setMaximumWidth(240);
+  auto* form = new QFormLayout(box);
+  form->setContentsMargins(0, 0, 0, 0);
+  form->setRowWrapPolicy(QFormLayout::WrapAllRows);  // narrow: labels above the fields
+  auto make = [&](const char* name, const QString& label, const QString& suffix, int decimals) {
+    auto* b = new GuardedDoubleSpinBox;
+    b->setObjectName(name);
+    b->setSuffix(suffix);
+    b->setDecimals(decimals);
+    form->addRow(label, b);
+    connect(b, &QDoubleSpinBox::valueChanged, this, [this] {
+      if (!locked_) apply_timer_->start();
+    });
+    connect(b, &GuardedDoubleSpinBox::refused, this, [this, b](double typed, double lo, double hi) {
+      emit inputRefused(tr("%1%2 refused: allowed %3 to %4%2; the camera keeps %5%2.")
+                            .arg(typed)
+                            .arg(b->suffix())
+                            .arg(lo)
+                            .arg(hi)
+                            .arg(b->value()));
+    });
+    return b;
+  };
+  exposure_ = make("live_exposure_us", tr("exposure"), " us", 1);
+  gain_ = make("live_gain_db", tr("gain"), " dB", 1);
+  fps_ = make("live_fps", tr("frame rate"), " frames/s", 1);
+  controls_note_ = new QLabel;
+  controls_note_->setObjectName("live_camera_note");
+  controls_note_->setWordWrap(true);
+  form->addRow(controls_note_);
+  apply_timer_ = new QTimer(this);
+  apply_timer_->setSingleShot(true);
+  apply_timer_->setInterval(300);
+  connect(apply_timer_, &QTimer::timeout, this, &LiveView::requestCameraSettings);
+  updateCameraControlState();
+  return box;
+}
+
+void LiveView::requestCameraSettings() {
+  if (locked_ || !camera_) return;  // armed meanwhile: nothing is applied
+  const hw::CameraConfig c = camera_->config();
+  if (std::abs(fps_->value() - c.fps) < 0.05 &&
+      std::abs(exposure_->value() - c.exposure_us) < 0.05 &&
+      std::abs(gain_->value() - c.gain_db) < 0.05)
+    return;
+  controls_note_->setText(tr("applying..."));
+  emit cameraSettingsRequested(fps_->value(), exposure_->value(), gain_->value());
+}
+
+// The boxes show what the camera runs with, in the ranges it accepts.
+void LiveView::syncCameraControls() {
+  apply_timer_->stop();
+  for (GuardedDoubleSpinBox* b : {exposure_, gain_, fps_}) b->blockSignals(true);
+  if (camera_) {
+    const hw::CameraInfo& info = camera_info_;
+    const hw::CameraConfig c = camera_->config();
+    fps_->setRangeWithTip(1, std::max(1.0, info.max_fps), tr("Camera frame rate"), tr("frames/s"),
+                          tr("the exposure must fit in one frame period"));
+    exposure_->setRangeWithTip(1, 1e6 / c.fps, tr("Exposure time"), tr("us"),
+                               tr("at most one frame period at %1 frames/s").arg(c.fps));
+    gain_->setRangeWithTip(0, info.max_gain_db, tr("Analogue gain"), tr("dB"));
+    fps_->setValue(c.fps);
+    exposure_->setValue(c.exposure_us);
+    gain_->setValue(c.gain_db);
+  }
+  for (GuardedDoubleSpinBox* b : {exposure_, gain_, fps_}) b->blockSignals(false);
+  updateCameraControlState();
+}
+
+// Enabled only unarmed, and only for what the backend can change; the
+// tooltip of a disabled control says why.
+void LiveView::updateCameraControlState() {
+  const QString backend = QString::fromStdString(camera_info_.backend);
+  const bool replay = backend == "replay";
+  const bool fixed_gain = camera_ && camera_info_.max_gain_db <= 0;
+  QString why = !camera_  ? tr("no camera: open a rig profile")
+                : locked_ ? tr("locked while the rig is armed or firing: disarm to change")
+                : replay  ? tr("a replayed recording: exposure, gain and frame rate were fixed "
+                                "when it was recorded")
+                          : QString();
+  for (GuardedDoubleSpinBox* b : {exposure_, gain_, fps_}) {
+    const bool off = !why.isEmpty() || (b == gain_ && fixed_gain);
+    b->setEnabled(!off);
+    if (off)
+      b->setToolTip(b == gain_ && why.isEmpty()
+                        ? tr("this camera (%1 backend) reports no adjustable gain").arg(backend)
+                        : why);
+  }
+  controls_note_->setText(locked_ ? tr("locked: armed") : QString());
+}
+
+void LiveView::setRigStatus(const RigStatus& status) {
+  const bool locked = status.armed || status.busy;
+  if (locked == locked_) return;
+  locked_ = locked;
+  // Back to what the camera runs with: an edit not yet applied is dropped,
+  // not kept for later; the controls' tooltips say why they are off, or their range.
+  syncCameraControls();
+}
+
 void LiveView::setRefreshRate(double hz) {
   timer_.start(static_cast<int>(1000.0 / hz));
 }
 
 void LiveView::setCamera(CameraPtr camera) {
   camera_ = std::move(camera);
+  // Read once, after the control thread opened the camera (profileLoaded).
+  camera_info_ = camera_ ? camera_->info() : hw::CameraInfo{};
   last_published_ = 0;
   if (!camera_) {
     view_->clear(tr("no camera: open a rig profile"));
@@ -97,6 +206,7 @@ void LiveView::setCamera(CameraPtr camera) {
     saturation_->clear();
   }
   showCameraSettings();
+  syncCameraControls();
 }
 
 QString LiveView::saturationWarning() const {

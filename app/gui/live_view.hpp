@@ -6,19 +6,25 @@
 // thread for the shown frames only, never on the acquisition thread. Beside
 // the image, as in a vendor viewer: the camera's exposure, gain, frame rate,
 // region of interest and format, and the frame's histogram with a saturation
-// warning; a crosshair over the image.
+// warning; a crosshair over the image. Exposure, gain and frame rate are
+// edited beside the image while the rig is not armed (applied through the rig
+// worker: the profile's [camera] table is edited and the rig rebuilt); armed
+// or firing they are locked, and a setting the camera's backend cannot change
+// is disabled with a tooltip saying why.
 #include <QElapsedTimer>
 #include <QFutureWatcher>
 #include <QTimer>
 #include <QWidget>
 #include <functional>
 
+#include "app/gui/guarded_spin_box.hpp"
 #include "app/gui/histogram_view.hpp"
 #include "app/gui/image_view.hpp"
 #include "app/gui/rig_worker.hpp"
 
 class QLabel;
 class QCheckBox;
+class QTimer;
 
 namespace collide::gui {
 
@@ -51,10 +57,27 @@ class LiveView : public QWidget {
   QString saturationWarning() const;
   /// The camera settings shown beside the image.
   QString cameraSettingsText() const;
+  CameraPtr camera() const { return camera_; }
+  /// Locks the camera controls while the rig is armed or firing.
+  void setRigStatus(const RigStatus& status);
+  /// True while the camera controls are locked (armed or firing).
+  bool cameraControlsLocked() const { return locked_; }
+  /// The controls show what the camera runs with again (a refused edit).
+  void revertCameraControls() { syncCameraControls(); }
+
+ signals:
+  /// The user changed exposure, gain or frame rate (not armed): apply them.
+  void cameraSettingsRequested(double fps, double exposure_us, double gain_db);
+  /// A typed value was refused: what, the allowed range, the value kept.
+  void inputRefused(QString message);
 
  private:
   void refresh();
   void showCameraSettings();
+  QWidget* makeCameraControls();
+  void syncCameraControls();
+  void updateCameraControlState();
+  void requestCameraSettings();
 
   CameraPtr camera_;
   Detector detector_;
@@ -65,6 +88,13 @@ class LiveView : public QWidget {
   HistogramView* histogram_ = nullptr;
   QLabel* saturation_ = nullptr;
   QLabel* settings_ = nullptr;
+  GuardedDoubleSpinBox* exposure_ = nullptr;
+  GuardedDoubleSpinBox* gain_ = nullptr;
+  GuardedDoubleSpinBox* fps_ = nullptr;
+  QLabel* controls_note_ = nullptr;
+  QTimer* apply_timer_ = nullptr;  ///< one request for several wheel notches
+  bool locked_ = false;
+  hw::CameraInfo camera_info_;
   QTimer timer_;
   std::uint64_t last_published_ = 0;
   std::uint64_t shown_ = 0;

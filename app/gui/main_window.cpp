@@ -148,6 +148,12 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     statusBar()->showMessage(tr("Rig profile %1 loaded").arg(qs(profile->source)), 5000);
   });
   connect(worker_, &RigWorker::status, rig_panel_, &RigPanel::setStatus);
+  connect(worker_, &RigWorker::status, live_view_, &LiveView::setRigStatus);
+  connect(live_view_, &LiveView::cameraSettingsRequested, this,
+          [this](double fps, double exposure_us, double gain_db) {
+            worker_->requestCameraSettings(fps, exposure_us, gain_db);
+          });
+  connect(live_view_, &LiveView::inputRefused, this, [this](QString m) { showMessage(m); });
   connect(worker_, &RigWorker::error, this, [this](QString m) {
     const MessageTopic topic = m.startsWith(tr("Rig profile not loaded")) ||
                                        m.startsWith(tr("The rig")) || m.startsWith(tr("No rig"))
@@ -158,6 +164,8 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
                                    ? MessageTopic::Arming
                                    : MessageTopic::Other;
     showMessage(m, MessageKind::Error, topic);
+    // Refused camera settings: the Live controls go back to what the camera runs with.
+    if (m.startsWith(tr("Camera settings not applied"))) live_view_->revertCameraControls();
   });
   connect(worker_, &RigWorker::status, this, [this](const RigStatus& s) {
     if (s.armed && s.settled) clearStale(MessageTopic::Arming);

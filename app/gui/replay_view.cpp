@@ -2,6 +2,7 @@
 
 #include <QCheckBox>
 #include <QComboBox>
+#include <QDir>
 #include <QFileDialog>
 #include <QHBoxLayout>
 #include <QLabel>
@@ -10,9 +11,12 @@
 #include <QSlider>
 #include <QSplitter>
 #include <QVBoxLayout>
+#include <QtConcurrent/QtConcurrentRun>
 #include <cmath>
 
+#include "app/gui/video_export_dialog.hpp"
 #include "vision/frame_io.hpp"
+#include "vision/video_export.hpp"
 
 namespace collide::gui {
 namespace {
@@ -133,42 +137,81 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   view_->setObjectName("replay_image");
   view_->clear(tr("no shot: fire one, or open one from the Shots tab"));
   layout->addWidget(view_, 1);
-
   slider_ = new QSlider(Qt::Horizontal);
   slider_->setObjectName("frame_slider");
   slider_->setRange(0, 0);
   layout->addWidget(slider_);
+  layout->addLayout(makeTransportRow());
+  layout->addLayout(makeDisplayRow());
+  layout->addLayout(makeExportRow());
+  splitter->addWidget(left);
+
+  card_ = new ResultCard;
+  splitter->setChildrenCollapsible(false);
+  splitter->addWidget(card_);
+  splitter->setStretchFactor(0, 3);
+  splitter->setStretchFactor(1, 1);
+
+  connect(slider_, &QSlider::valueChanged, this, &ReplayView::showFrame);
+  connect(show_analysis_, &QCheckBox::toggled, this, &ReplayView::redraw);
+  connect(show_truth_, &QCheckBox::toggled, this, &ReplayView::redraw);
+  connect(crosshair_, &QCheckBox::toggled, view_, &ImageView::setCrosshair);
+  connect(speed_, &QComboBox::currentIndexChanged, this, [this] {
+    play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
+  });
+  play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
+  connect(&play_timer_, &QTimer::timeout, this, &ReplayView::playStep);
+  connect(&video_export_, &QFutureWatcher<QString>::finished, this, &ReplayView::finishVideoExport);
+  addKeys();
+}
+
+ReplayView::~ReplayView() {
+  video_export_.waitForFinished();
+}
+
+// First, previous, play, next, last; the frame and the last export's outcome.
+QHBoxLayout* ReplayView::makeTransportRow() {
   auto* row = new QHBoxLayout;
-  auto button = [&](const QString& text, const char* name) {
+  auto button = [&](const QString& text, const char* name, const QString& tip) {
     auto* b = new QPushButton(text);
     b->setObjectName(name);
+    b->setToolTip(tip);
+    b->setMaximumWidth(44);
     row->addWidget(b);
     return b;
   };
-  auto* first = button("|<", "first_frame");
-  auto* prev = button("<", "previous_frame");
-  play_ = button(tr("Play"), "play");
-  auto* next = button(">", "next_frame");
-  auto* last = button(">|", "last_frame");
-  for (auto* b : {first, prev, next, last}) b->setMaximumWidth(44);
+  auto* first = button("|<", "first_frame", tr("First frame (Home)"));
+  auto* prev = button("<", "previous_frame", tr("Previous frame (Left; Shift+Left: 10 back)"));
+  play_ = button(tr("Play"), "play", tr("Play / pause (Space)"));
   play_->setMaximumWidth(70);
-  first->setToolTip(tr("First frame (Home)"));
-  prev->setToolTip(tr("Previous frame (Left; Shift+Left: 10 back)"));
-  play_->setToolTip(tr("Play / pause (Space)"));
-  next->setToolTip(tr("Next frame (Right; Shift+Right: 10 on)"));
-  last->setToolTip(tr("Last frame (End)"));
+  auto* next = button(">", "next_frame", tr("Next frame (Right; Shift+Right: 10 on)"));
+  auto* last = button(">|", "last_frame", tr("Last frame (End)"));
   frame_label_ = new QLabel;
   frame_label_->setObjectName("frame_label");
   row->addWidget(frame_label_, 1);
-  layout->addLayout(row);
+  export_status_ = new QLabel;
+  export_status_->setObjectName("export_status");
+  export_status_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  row->addWidget(export_status_);
+  connect(first, &QPushButton::clicked, this, [this] { showFrame(0); });
+  connect(prev, &QPushButton::clicked, this, [this] { showFrame(index_ - 1); });
+  connect(next, &QPushButton::clicked, this, [this] { showFrame(index_ + 1); });
+  connect(last, &QPushButton::clicked, this, [this] { showFrame(frameCount() - 1); });
+  connect(play_, &QPushButton::clicked, this, &ReplayView::togglePlay);
+  return row;
+}
 
-  // Second row: how to play, what to draw, what to export.
-  auto* tools = new QHBoxLayout;
+// How to play and what to draw.
+QHBoxLayout* ReplayView::makeDisplayRow() {
+  auto* row = new QHBoxLayout;
   speed_ = new QComboBox;
   speed_->setObjectName("playback_speed");
   for (int fps : {2, 5, 10, 25, 50, 100}) speed_->addItem(tr("%1 frames/s").arg(fps), fps);
   speed_->setCurrentIndex(3);
-  speed_->setToolTip(tr("Playback speed: frames shown per second of screen time"));
+  speed_->setSizeAdjustPolicy(QComboBox::AdjustToContents);
+  speed_->setToolTip(
+      tr("Playback speed: frames shown per second of screen time, and what that is as a "
+         "fraction of real time given the recording's frame rate"));
   speed_->setFocusPolicy(Qt::StrongFocus);  // the wheel only once clicked
   loop_ = new QCheckBox(tr("loop"));
   loop_->setObjectName("loop");
@@ -182,48 +225,39 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
   for (QWidget* w :
        std::initializer_list<QWidget*>{new QLabel(tr("play at")), speed_, loop_, reverse_,
                                        show_analysis_, show_truth_, crosshair_})
-    tools->addWidget(w);
-  tools->addStretch(1);
+    row->addWidget(w);
+  row->addStretch(1);
+  return row;
+}
+
+// The marked range, and what to do with it.
+QHBoxLayout* ReplayView::makeExportRow() {
+  auto* row = new QHBoxLayout;
   marks_ = new QLabel;
   marks_->setObjectName("export_marks");
-  tools->addWidget(marks_);
+  row->addWidget(marks_, 1);
   auto* export_frames = new QPushButton(tr("Export frames..."));
   export_frames->setObjectName("export_frames");
   export_frames->setToolTip(
       tr("Write the frames from the in mark to the out mark (keys I and O) as PNG files"));
-  tools->addWidget(export_frames);
+  auto* export_video = export_video_ = new QPushButton(tr("Export video..."));
+  export_video->setObjectName("export_video");
+  export_video->setToolTip(
+      tr("Write the frames from the in mark to the out mark (keys I and O) as an AVI video, "
+         "slowed down to a chosen fraction of real time"));
   reanalyse_ = new QPushButton(tr("Re-run analysis"));
   reanalyse_->setObjectName("reanalyse");
-  tools->addWidget(reanalyse_);
-  layout->addLayout(tools);
-  splitter->addWidget(left);
-
-  card_ = new ResultCard;
-  splitter->setChildrenCollapsible(false);
-  splitter->addWidget(card_);
-  splitter->setStretchFactor(0, 3);
-  splitter->setStretchFactor(1, 1);
-
-  connect(slider_, &QSlider::valueChanged, this, &ReplayView::showFrame);
-  connect(first, &QPushButton::clicked, this, [this] { showFrame(0); });
-  connect(prev, &QPushButton::clicked, this, [this] { showFrame(index_ - 1); });
-  connect(next, &QPushButton::clicked, this, [this] { showFrame(index_ + 1); });
-  connect(last, &QPushButton::clicked, this, [this] { showFrame(frameCount() - 1); });
-  connect(show_analysis_, &QCheckBox::toggled, this, &ReplayView::redraw);
-  connect(show_truth_, &QCheckBox::toggled, this, &ReplayView::redraw);
-  connect(crosshair_, &QCheckBox::toggled, view_, &ImageView::setCrosshair);
+  for (QPushButton* b : {export_frames, export_video, reanalyse_}) row->addWidget(b);
+  connect(export_frames, &QPushButton::clicked, this, &ReplayView::chooseExportFolder);
+  connect(export_video, &QPushButton::clicked, this, &ReplayView::chooseVideoFile);
   connect(reanalyse_, &QPushButton::clicked, this, [this] {
     if (shot_) emit reanalyseRequested(shot_);
   });
-  connect(export_frames, &QPushButton::clicked, this, &ReplayView::chooseExportFolder);
-  connect(speed_, &QComboBox::currentIndexChanged, this, [this] {
-    play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
-  });
-  play_timer_.setInterval(static_cast<int>(std::lround(1000.0 / playbackRate())));
-  connect(&play_timer_, &QTimer::timeout, this, &ReplayView::playStep);
-  connect(play_, &QPushButton::clicked, this, &ReplayView::togglePlay);
+  return row;
+}
 
-  // Keys anywhere in the view (the image, the slider, the buttons).
+// Keys anywhere in the view (the image, the slider, the buttons).
+void ReplayView::addKeys() {
   auto key = [this](QKeySequence k, auto f) {
     auto* s = new QShortcut(k, this);
     s->setContext(Qt::WidgetWithChildrenShortcut);
@@ -242,6 +276,22 @@ ReplayView::ReplayView(QWidget* parent) : QWidget(parent) {
 
 double ReplayView::playbackRate() const {
   return speed_->currentData().toDouble();
+}
+
+double ReplayView::playbackRealTimeFraction() const {
+  if (!shot_ || !(shot_->burst.fps > 0)) return std::nan("");
+  return playbackRate() / shot_->burst.fps;
+}
+
+void ReplayView::relabelSpeeds() {
+  const double recording_fps = shot_ ? shot_->burst.fps : 0.0;
+  for (int k = 0; k < speed_->count(); ++k) {
+    const double fps = speed_->itemData(k).toDouble();
+    speed_->setItemText(
+        k, recording_fps > 0
+               ? tr("%1 frames/s = %2").arg(fps).arg(realTimeFraction(recording_fps / fps))
+               : tr("%1 frames/s").arg(fps));
+  }
 }
 
 void ReplayView::togglePlay() {
@@ -288,14 +338,33 @@ void ReplayView::updateMarkLabel() {
                       .arg(mark_out_ - mark_in_ + 1));
 }
 
-QString ReplayView::exportMarkedFrames(const QString& dir) {
-  if (!shot_ || frameCount() == 0) return tr("no shot to export frames from");
+vision::Burst ReplayView::markedFrames() const {
   vision::Burst part = shot_->burst;  // frames share their pixels (cv::Mat)
   part.frames.assign(shot_->burst.frames.begin() + mark_in_,
                      shot_->burst.frames.begin() + mark_out_ + 1);
-  auto written = vision::exportBurstPng(part, dir.toStdString(), {.stretch_mono12 = true});
+  return part;
+}
+
+QString ReplayView::exportMarkedFrames(const QString& dir) {
+  if (!shot_ || frameCount() == 0) return tr("no shot to export frames from");
+  auto written =
+      vision::exportBurstPng(markedFrames(), dir.toStdString(), {.stretch_mono12 = true});
   if (!written) return QString::fromStdString(written.error().message);
   return {};
+}
+
+QString ReplayView::exportMarkedVideo(const QString& path, double playback_fps) {
+  if (!shot_ || frameCount() == 0) return tr("no shot to export a video from");
+  auto written =
+      vision::exportBurstVideo(markedFrames(), path.toStdString(), {.playback_fps = playback_fps});
+  if (!written) return QString::fromStdString(written.error().message);
+  return {};
+}
+
+void ReplayView::showExportResult(const QString& done, const QString& error) {
+  export_status_->setStyleSheet(error.isEmpty() ? QString() : "color: #c62828;");
+  export_status_->setText(error.isEmpty() ? done : tr("not exported: %1").arg(error));
+  export_status_->setToolTip(export_status_->text());
 }
 
 void ReplayView::chooseExportFolder() {
@@ -303,11 +372,48 @@ void ReplayView::chooseExportFolder() {
   const QString dir = QFileDialog::getExistingDirectory(
       this, tr("Folder for frames %1 to %2").arg(mark_in_ + 1).arg(mark_out_ + 1));
   if (dir.isEmpty()) return;
-  const QString error = exportMarkedFrames(dir);
-  frame_label_->setText(
-      error.isEmpty()
-          ? tr("wrote frames %1 to %2 into %3").arg(mark_in_ + 1).arg(mark_out_ + 1).arg(dir)
-          : tr("frames not exported: %1").arg(error));
+  showExportResult(
+      tr("wrote frames %1 to %2 into %3").arg(mark_in_ + 1).arg(mark_out_ + 1).arg(dir),
+      exportMarkedFrames(dir));
+}
+
+void ReplayView::chooseVideoFile() {
+  if (!shot_ || frameCount() == 0) return;
+  if (!(shot_->burst.fps > 0))
+    return showExportResult({},
+                            tr("shot %1 has no frame rate").arg(QString::fromStdString(shot_->id)));
+  const QString suggested =
+      QDir::home().filePath(QString::fromStdString(shot_->id.empty() ? "shot" : shot_->id) +
+                            QString("_frames%1-%2.avi").arg(mark_in_ + 1).arg(mark_out_ + 1));
+  auto* dialog =
+      new VideoExportDialog(shot_->burst.fps, mark_in_ + 1, mark_out_ + 1, suggested, this);
+  dialog->setAttribute(Qt::WA_DeleteOnClose);
+  connect(dialog, &QDialog::accepted, this, [this, dialog] {
+    startVideoExport(dialog->path(), dialog->playbackFps(), dialog->slowDown());
+  });
+  dialog->open();  // window-modal, returns at once
+}
+
+// On a worker thread: a long burst must not freeze the window. The frames
+// share their pixels with the shot (cv::Mat counts its references).
+void ReplayView::startVideoExport(const QString& path, double playback_fps, int slow_down) {
+  if (video_export_.isRunning()) return;
+  video_done_ = tr("wrote frames %1 to %2 to %3 (%4)")
+                    .arg(mark_in_ + 1)
+                    .arg(mark_out_ + 1)
+                    .arg(path, realTimeFraction(slow_down));
+  export_video_->setEnabled(false);
+  showExportResult(tr("writing %1 ...").arg(path), {});
+  video_export_.setFuture(
+      QtConcurrent::run([part = markedFrames(), file = path.toStdString(), playback_fps] {
+        auto written = vision::exportBurstVideo(part, file, {.playback_fps = playback_fps});
+        return written ? QString() : QString::fromStdString(written.error().message);
+      }));
+}
+
+void ReplayView::finishVideoExport() {
+  export_video_->setEnabled(true);
+  showExportResult(video_done_, video_export_.result());
 }
 
 int ReplayView::frameCount() const {
@@ -320,6 +426,7 @@ void ReplayView::setShot(ShotPtr shot) {
   play_timer_.stop();
   play_->setText(tr("Play"));
   slider_->setRange(0, std::max(0, frameCount() - 1));
+  export_status_->clear();
   if (!shot_ || frameCount() == 0) {
     view_->clear(shot_ ? tr("shot %1 has no frames (%2)")
                              .arg(QString::fromStdString(shot_->id),
@@ -327,8 +434,10 @@ void ReplayView::setShot(ShotPtr shot) {
                        : tr("no shot"));
     frame_label_->clear();
     marks_->clear();
+    relabelSpeeds();
     return;
   }
+  relabelSpeeds();
   show_truth_->setEnabled(shot_->truth.has_value());
   view_->setPixelSize(shot_->scene.pixel_size_m);
   mark_in_ = 0;

@@ -6,6 +6,7 @@
 // Keys as in a vendor viewer: Left/Right one frame (Shift: 10), Home/End,
 // Space play/pause, I/O mark the first/last frame to export; playback speed,
 // loop and reverse; the image zooms, pans and measures (ImageView).
+#include <QFutureWatcher>
 #include <QTimer>
 #include <QWidget>
 
@@ -18,6 +19,7 @@ class QLabel;
 class QCheckBox;
 class QPushButton;
 class QComboBox;
+class QHBoxLayout;
 
 namespace collide::gui {
 
@@ -34,6 +36,7 @@ class ReplayView : public QWidget {
   Q_OBJECT
  public:
   explicit ReplayView(QWidget* parent = nullptr);
+  ~ReplayView() override;
 
   void setShot(ShotPtr shot);
   void setAnalysis(AnalysisPtr analysis);
@@ -49,23 +52,43 @@ class ReplayView : public QWidget {
   bool playing() const { return play_timer_.isActive(); }
   /// Display rate while playing, frames per second of screen time.
   double playbackRate() const;
+  /// The same as a fraction of real time: playbackRate() / the recording's
+  /// frames per second (1/40 for 25 frames/s of a 1000 frames/s burst; NaN
+  /// without a shot or frame rate).
+  double playbackRealTimeFraction() const;
   /// First and last frame (positions in the burst) that "Export frames" writes.
   int markIn() const { return mark_in_; }
   int markOut() const { return mark_out_; }
   /// Writes frames markIn()..markOut() as PNG files into `dir` (Mono12 shown
   /// stretched to 16 bits). Returns an error message, or empty on success.
   QString exportMarkedFrames(const QString& dir);
+  /// Writes frames markIn()..markOut() as an AVI video (Motion JPEG, 8-bit
+  /// grey scaled as shown) playing at `playback_fps`. Returns an error message
+  /// (naming the file and what to do; no partial file is left), or empty.
+  /// (*Export video...* does the same on a worker thread; its outcome shows
+  /// in the label named "export_status".)
+  QString exportMarkedVideo(const QString& path, double playback_fps);
 
  signals:
   void reanalyseRequested(collide::gui::ShotPtr shot);
 
  private:
+  QHBoxLayout* makeTransportRow();
+  QHBoxLayout* makeDisplayRow();
+  QHBoxLayout* makeExportRow();
+  void addKeys();
   void redraw();
   void togglePlay();
   void playStep();
   void setMark(bool in);
   void updateMarkLabel();
   void chooseExportFolder();
+  void chooseVideoFile();
+  void startVideoExport(const QString& path, double playback_fps, int slow_down);
+  void finishVideoExport();
+  void relabelSpeeds();
+  void showExportResult(const QString& done, const QString& error);
+  vision::Burst markedFrames() const;
 
   ShotPtr shot_;
   AnalysisPtr analysis_;
@@ -83,6 +106,10 @@ class ReplayView : public QWidget {
   QCheckBox* reverse_ = nullptr;
   QCheckBox* crosshair_ = nullptr;
   QLabel* marks_ = nullptr;
+  QLabel* export_status_ = nullptr;
+  QPushButton* export_video_ = nullptr;
+  QFutureWatcher<QString> video_export_;
+  QString video_done_;  ///< what the running export says when it succeeds
   int mark_in_ = 0, mark_out_ = 0;
   QTimer play_timer_;
 };

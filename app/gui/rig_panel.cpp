@@ -529,7 +529,11 @@ void RigPanel::updateButtons() {
   fire_->setEnabled(loaded && !busy && status_.armed && status_.settled && !pending_ &&
                     shots_usable_);
   cancel_->setEnabled(busy);
-  apply_burst_->setEnabled(loaded && !busy);
+  // Applying rebuilds the rig (lines vented): not while armed, as Live's camera controls.
+  apply_burst_->setEnabled(loaded && !busy && !status_.armed);
+  apply_burst_->setToolTip(status_.armed ? tr("Disarm first: applying rebuilds the rig")
+                                         : tr("Use these burst and camera settings for the next "
+                                              "shots (the rig is rebuilt, unarmed)"));
   for (int i = 0; i < 2; ++i) {
     speed_[i]->setEnabled(loaded && !busy);
     pressure_[i]->setEnabled(loaded && !busy);

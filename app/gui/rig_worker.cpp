@@ -79,6 +79,12 @@ void RigWorker::requestBurstSettings(int pre, int post, double fps, double expos
       Qt::QueuedConnection);
 }
 
+void RigWorker::requestCameraSettings(double fps, double exposure_us, double gain_db) {
+  QMetaObject::invokeMethod(
+      this, [this, fps, exposure_us, gain_db] { cameraSettings(fps, exposure_us, gain_db); },
+      Qt::QueuedConnection);
+}
+
 void RigWorker::requestCancel() {
   std::lock_guard lock(cancel_mutex_);
   cancel_.request_stop();
@@ -112,31 +118,46 @@ void RigWorker::loadProfile(const QString& path) {
 }
 
 void RigWorker::burstSettings(int pre, int post, double fps, double exposure_us) {
+  if (refusedWhileArmed(tr("Burst settings"))) return;
+  applyProfileEdits({{"burst", "pre_trigger_frames", QString::number(pre)},
+                     {"burst", "post_trigger_frames", QString::number(post)},
+                     {"camera", "fps", QString::number(fps, 'g', 10)},
+                     {"camera", "exposure_us", QString::number(exposure_us, 'g', 10)}},
+                    tr("Burst settings"));
+}
+
+bool RigWorker::refusedWhileArmed(const QString& what) {
+  if (!status_.armed && !status_.busy) return false;
+  emit error(tr("%1 not applied: the rig is %2; disarm first.")
+                 .arg(what, status_.busy ? tr("firing") : tr("armed")));
+  return true;
+}
+
+void RigWorker::cameraSettings(double fps, double exposure_us, double gain_db) {
+  if (refusedWhileArmed(tr("Camera settings"))) return;
+  applyProfileEdits({{"camera", "fps", QString::number(fps, 'g', 10)},
+                     {"camera", "exposure_us", QString::number(exposure_us, 'g', 10)},
+                     {"camera", "gain_db", QString::number(gain_db, 'g', 10)}},
+                    tr("Camera settings"));
+}
+
+void RigWorker::applyProfileEdits(const std::vector<ProfileEdit>& edits, const QString& what) {
   if (!profile_) {
     emit error(tr("No rig: open a rig profile first."));
     return;
   }
   Result<std::string> text = profile_->text;
-  struct Edit {
-    const char* section;
-    const char* key;
-    QString value;
-  };
-  const Edit all[] = {{"burst", "pre_trigger_frames", QString::number(pre)},
-                      {"burst", "post_trigger_frames", QString::number(post)},
-                      {"camera", "fps", QString::number(fps, 'g', 10)},
-                      {"camera", "exposure_us", QString::number(exposure_us, 'g', 10)}};
-  for (const Edit& e : all) {
+  for (const ProfileEdit& e : edits) {
     if (!text) break;
     text = app::setProfileValue(*text, e.section, e.key, e.value.toStdString());
   }
   if (!text) {
-    emit error(tr("Burst settings not applied: %1").arg(qs(text.error().message)));
+    emit error(tr("%1 not applied: %2").arg(what, qs(text.error().message)));
     return;
   }
   Result<hw::RigProfile> edited = hw::parseRigProfile(*text, profile_->source);
   if (!edited) {
-    emit error(tr("Burst settings not applied: %1").arg(qs(edited.error().message)));
+    emit error(tr("%1 not applied: %2").arg(what, qs(edited.error().message)));
     return;
   }
   useProfile(std::move(edited).value());

@@ -15,6 +15,7 @@
 #include <memory>
 #include <mutex>
 #include <stop_token>
+#include <vector>
 
 #include "app/campaign.hpp"
 #include "app/gui/shot_analysis_service.hpp"
@@ -62,8 +63,14 @@ class RigWorker : public QObject {
   void requestCampaign(app::CampaignOptions options);
   /// Burst and camera timing: edits the profile's text (so every shot records
   /// the settings it was really taken with) and rebuilds the rig from it.
+  /// Refused with an error while armed or busy.
   void requestBurstSettings(int pre_trigger_frames, int post_trigger_frames, double fps,
                             double exposure_us);
+  /// Camera exposure, gain and frame rate, as requestBurstSettings applies
+  /// its settings (the profile's [camera] table edited, the rig rebuilt).
+  /// Refused with an error while armed or busy: the rig is not torn down
+  /// under pressure.
+  void requestCameraSettings(double fps, double exposure_us, double gain_db);
   /// Cancels the running shot or campaign (between steps / shots).
   void requestCancel();
 
@@ -90,6 +97,18 @@ class RigWorker : public QObject {
   void loadProfile(const QString& path);
   void useProfile(hw::RigProfile profile);
   void burstSettings(int pre, int post, double fps, double exposure_us);
+  void cameraSettings(double fps, double exposure_us, double gain_db);
+  /// True (and an error naming `what` emitted) while armed or firing: the
+  /// rig is not rebuilt under pressure.
+  bool refusedWhileArmed(const QString& what);
+  struct ProfileEdit {
+    const char* section;
+    const char* key;
+    QString value;
+  };
+  /// The profile's text with these values set, used as the profile from now
+  /// on; `what` names the settings in the error if the edit is refused.
+  void applyProfileEdits(const std::vector<ProfileEdit>& edits, const QString& what);
   void arm(std::array<double, 2> speed_m_s);
   void disarm();
   void fire(std::array<double, 2> speed_m_s, const QString& out_dir);

@@ -377,6 +377,9 @@ TEST(SafetyGui, ACampaignsMissingShotsAreExplained) {
   EXPECT_TRUE(report.contains("in a row failed")) << report.toStdString();
   EXPECT_EQ(w.lastMessageKind(), MainWindow::MessageKind::Warning);
   EXPECT_TRUE(child<QLabel>(view, "campaign_report")->styleSheet().contains("#fff0c2"));
+  // The folder's summary follows the saved (failed) shots: reloaded after the campaign.
+  EXPECT_TRUE(QTest::qWaitFor([&] { return !view->summary().contains("no shot files"); }, 10000))
+      << view->summary().toStdString();
   EXPECT_TRUE(screenshot(&w, "campaign_failures"));
 }
 
