@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "app/footage_shot.hpp"
 #include "hw/camera_sim.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/frame_io.hpp"
@@ -263,21 +264,15 @@ Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m) {
 }
 
 Result<OpenedFootage> openFootage(const TrackOptions& o) {
-  std::error_code ec;
-  if (!fs::exists(o.footage, ec))
-    return fail(o.footage +
-                ": no such file or folder; give a folder of frames, a video or a "
-                "camera file (.mraw/.cihx/.cih, .cine, .b16)");
-  const bool camera_file = vision::isFootageFile(o.footage) && !fs::is_directory(o.footage, ec);
-  if ((o.range.first_id || o.range.last_id) && !camera_file)
-    return fail("--range applies to camera files (.mraw/.cihx/.cih/.cine), not " + o.footage);
-  if (camera_file) return openCameraFile(o);
-  const bool folder = fs::is_directory(o.footage, ec);
-  if (folder && !(o.fps > 0))
-    return fail(o.footage +
-                " is a folder of frames: give the frame rate it was recorded at "
-                "(--fps, frames per second)");
-  return folder ? openFolder(o) : openVideo(o);
+  const bool has_range = o.range.first_id.has_value() || o.range.last_id.has_value();
+  auto kind = footageKind(o.footage, has_range, o.fps > 0);
+  if (!kind) return kind.error();
+  switch (*kind) {
+    case FootageKind::CameraFile: return openCameraFile(o);
+    case FootageKind::Folder: return openFolder(o);
+    case FootageKind::Video: return openVideo(o);
+  }
+  return fail(o.footage + ": unknown kind of footage");
 }
 
 Result<TrackResult> trackFootage(const TrackOptions& o, const OpenedFootage& in,

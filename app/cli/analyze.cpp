@@ -17,6 +17,7 @@
 #include "app/cli/footage_options.hpp"
 #include "app/cli/interrupt.hpp"
 #include "app/cli/progress.hpp"
+#include "app/footage_shot.hpp"
 #include "app/manifest.hpp"
 #include "app/report/results_json.hpp"
 #include "app/report/wall_results_json.hpp"
@@ -189,46 +190,23 @@ int analyzeFootage(const Options& given) {
                  "dark background)\n";
     return kExitBadInput;
   }
-  std::error_code ec;
-  const bool is_camera_file = collide::vision::isFootageFile(o.frames);
-  const bool is_video = !is_camera_file && fs::is_regular_file(o.frames, ec);
-  if (!o.range.empty() && !is_camera_file) {
-    std::cerr << "collide analyze: --range applies to camera files (.mraw/.cihx/.cih/.cine)\n";
+  collide::vision::FootageRange range;
+  if (!o.range.empty() && !collide::cli::parseFrameRange(o.range, range)) {
+    std::cerr << "collide analyze: --range '" << o.range
+              << "': give FIRST:LAST frame ids (e.g. -200:300, or -200: or :300)\n";
     return kExitBadInput;
   }
-  if (!is_video && !is_camera_file && !(o.fps > 0)) {
-    std::cerr << "collide analyze: --fps is required with a folder of frames (frames per "
-                 "second the camera recorded at)\n";
+  auto loaded = collide::app::loadFootageAt(o.frames, o.fps, range);
+  if (!loaded) {
+    std::cerr << "collide analyze: " << loaded.error().message << "\n";
     return kExitBadInput;
   }
-  double file_pixel_size_m = 0;
-  collide::Result<collide::vision::Burst> burst = collide::fail("no footage");
-  if (is_camera_file) {
-    collide::vision::FootageRange range;
-    if (!o.range.empty() && !collide::cli::parseFrameRange(o.range, range)) {
-      std::cerr << "collide analyze: --range '" << o.range
-                << "': give FIRST:LAST frame ids (e.g. -200:300, or -200: or :300)\n";
-      return kExitBadInput;
-    }
-    auto footage = collide::vision::Footage::open(o.frames);
-    if (!footage) {
-      std::cerr << "collide analyze: " << footage.error().message << "\n";
-      return kExitBadInput;
-    }
-    file_pixel_size_m = footage->info().pixel_size_m;
-    burst = collide::vision::loadFootage(*footage, o.fps, range);
-    if (burst)
-      std::cerr << "collide analyze: " << o.frames << ": " << burst->frames.size() << " frames, "
-                << burst->fps << " frames/s" << (o.fps > 0 ? " (--fps)" : " (from the file)")
-                << (file_pixel_size_m > 0 ? ", pixel size from the file" : "") << "\n";
-  } else {
-    burst = is_video ? collide::vision::loadVideo(o.frames, o.fps)
-                     : collide::vision::loadFrameFolder(o.frames, o.fps);
-  }
-  if (!burst) {
-    std::cerr << "collide analyze: " << burst.error().message << "\n";
-    return kExitBadInput;
-  }
+  const double file_pixel_size_m = loaded->file_pixel_size_m;
+  auto* burst = &loaded->burst;
+  if (loaded->kind == collide::app::FootageKind::CameraFile)
+    std::cerr << "collide analyze: " << o.frames << ": " << burst->frames.size() << " frames, "
+              << burst->fps << " frames/s" << (o.fps > 0 ? " (--fps)" : " (from the file)")
+              << (file_pixel_size_m > 0 ? ", pixel size from the file" : "") << "\n";
   if (!burst->note.empty()) std::cerr << "collide analyze: note: " << burst->note << "\n";
   // The camera file's own calibration if it has one (checked against the
   // measured sphere diameters), else from the measured radius and the diameter.
