@@ -5,6 +5,8 @@
 #include <QAbstractSpinBox>
 #include <QLineEdit>
 #include <QTest>
+#include <QWheelEvent>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -27,6 +29,29 @@ inline void typeInto(QAbstractSpinBox* box, const QString& text) {
   QTest::keyClick(box, Qt::Key_A, Qt::ControlModifier);
   QTest::keyClicks(box, text);
   QTest::keyClick(box, Qt::Key_Return);
+  QApplication::processEvents();
+}
+
+/// Shows `w`, makes it the active window and gives it the keyboard focus, so
+/// that key events reach it as a user's would.
+inline void activate(QWidget* w) {
+  w->show();
+  QApplication::setActiveWindow(w);
+  w->activateWindow();
+  (void)QTest::qWaitForWindowActive(w, 2000);
+  w->setFocus();
+  QApplication::processEvents();
+}
+
+/// Wheel notches over `widget` (120 each; positive up, negative down), as
+/// delivered to it by the platform.
+inline void wheel(QWidget* widget, int notches) {
+  for (int k = 0; k < std::abs(notches); ++k) {
+    const QPointF at = widget->rect().center();
+    QWheelEvent e(at, widget->mapToGlobal(at), QPoint(), QPoint(0, notches > 0 ? 120 : -120),
+                  Qt::NoButton, Qt::NoModifier, Qt::NoScrollPhase, false);
+    QApplication::sendEvent(widget, &e);
+  }
   QApplication::processEvents();
 }
 

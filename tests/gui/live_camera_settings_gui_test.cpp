@@ -45,24 +45,6 @@ bool waitForGain(MainWindow& w, double gain_db) {
       15000);
 }
 
-void wheel(QWidget* widget, int notches) {
-  for (int k = 0; k < std::abs(notches); ++k) {
-    const QPointF at = widget->rect().center();
-    QWheelEvent e(at, widget->mapToGlobal(at), QPoint(), QPoint(0, notches > 0 ? 120 : -120),
-                  Qt::NoButton, Qt::NoModifier, Qt::NoScrollPhase, false);
-    QApplication::sendEvent(widget, &e);
-  }
-  QApplication::processEvents();
-}
-
-void activate(QWidget* w) {
-  w->show();
-  QApplication::setActiveWindow(w);
-  w->activateWindow();
-  (void)QTest::qWaitForWindowActive(w, 2000);
-  QApplication::processEvents();
-}
-
 }  // namespace
 
 TEST(LiveCameraSettingsGui, AppliedWhenDisarmedLockedWhenArmed) {

@@ -20,6 +20,7 @@
 #include "app/profile_edit.hpp"
 #include "app/rig_setup.hpp"
 #include "gui_test_support.hpp"
+#include "gui_window_support.hpp"
 #include "hw/sequencer.hpp"
 
 using namespace collide;
@@ -44,15 +45,6 @@ ShotPtr simulatedShot() {
   (void)hw::shutDown(*rig);
   if (shot.status != hw::ShotStatus::Ok) throw std::runtime_error("shot failed");
   return std::make_shared<const hw::Shot>(std::move(shot));
-}
-
-void activate(QWidget* w) {
-  w->show();
-  QApplication::setActiveWindow(w);
-  w->activateWindow();
-  (void)QTest::qWaitForWindowActive(w, 2000);
-  w->setFocus();
-  QApplication::processEvents();
 }
 
 // The shot's frame as the view shows it (Mono12: value * 255 / 4095), made

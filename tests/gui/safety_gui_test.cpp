@@ -65,18 +65,6 @@ void clickThroughWindow(QWidget* widget) {
   QTest::mouseClick(widget->window()->windowHandle(), Qt::LeftButton, {}, centreInWindow(widget));
 }
 
-// Wheel notches over `widget` (120 each; positive up, negative down), as
-// delivered to it by the platform.
-void wheel(QWidget* widget, int notches) {
-  for (int k = 0; k < std::abs(notches); ++k) {
-    const QPointF at = widget->rect().center();
-    QWheelEvent e(at, widget->mapToGlobal(at), QPoint(), QPoint(0, notches > 0 ? 120 : -120),
-                  Qt::NoButton, Qt::NoModifier, Qt::NoScrollPhase, false);
-    QApplication::sendEvent(widget, &e);
-  }
-  QApplication::processEvents();
-}
-
 bool armAndSettle(MainWindow& w) {
   clickThroughWindow(child<QPushButton>(w.rigPanel(), "arm_button"));
   return QTest::qWaitFor(

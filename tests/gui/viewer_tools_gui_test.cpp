@@ -97,15 +97,6 @@ ShotPtr syntheticShot(int n) {
   return std::make_shared<const hw::Shot>(std::move(shot));
 }
 
-void activate(QWidget* w) {
-  w->show();
-  QApplication::setActiveWindow(w);
-  w->activateWindow();
-  (void)QTest::qWaitForWindowActive(w, 2000);
-  w->setFocus();
-  QApplication::processEvents();
-}
-
 }  // namespace
 
 TEST(ViewerToolsGui, CursorShowsThePixelsRawValueAndPosition) {
