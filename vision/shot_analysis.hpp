@@ -178,6 +178,10 @@ struct ShotAnalysis {
   ///    (with the residual scatter as s) gives |v_n| or v_s a relative error > 5 %;
   ///  "no_spin_before", "no_spin_after": a sphere's spin could not be measured
   ///    on that side (taken as 0 +- 50 rad/s per axis, so sigmas show it);
+  ///  "spin_poorly_measured": a measured spin's sigma exceeds those 50 rad/s
+  ///    on some axis (dots followed too briefly or matched badly; its errors
+  ///    can reach hundreds of rad/s, beyond what beta's and gamma's sigmas
+  ///    say); `collide fit` leaves the shot out;
   ///  "saturated_frames": some frames were mostly at full scale;
   ///  "extra_blobs_ignored": round blobs that are not this shot's spheres;
   ///  "frames_lost": frames missing or incomplete in the burst;

@@ -163,9 +163,10 @@ void setupFit(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--seed", o->seed, "Seed of the bootstrap");
   sub.footer(
       "Plots: beta_vs_cot, tangent_form, f_vs_tan, e_vs_tan, e_vs_vn (each .png and .svg).\n"
-      "Shots flagged few_frames_*, collision_instant_disagree, large_residuals, unphysical\n"
-      "or analysis_failed are left out unless --include-flagged; every left-out shot is\n"
-      "listed with its flags, and every shot the robust loss down-weights with its weights.");
+      "Shots flagged few_frames_*, collision_instant_disagree, large_residuals, unphysical,\n"
+      "spin_poorly_measured or analysis_failed are left out unless --include-flagged; every\n"
+      "left-out shot is listed with its flags, and every shot the robust loss down-weights\n"
+      "with its weights.");
   run = [o] { return runFit(*o); };
 }
 

@@ -12,9 +12,9 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 const std::vector<std::string>& excludingFlags() {
-  static const std::vector<std::string> flags = {"analysis_failed",  "few_frames_before",
-                                                 "few_frames_after", "collision_instant_disagree",
-                                                 "large_residuals",  "unphysical"};
+  static const std::vector<std::string> flags = {
+      "analysis_failed", "few_frames_before", "few_frames_after",    "collision_instant_disagree",
+      "large_residuals", "unphysical",        "spin_poorly_measured"};
   return flags;
 }
 
