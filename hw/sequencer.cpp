@@ -35,6 +35,14 @@ class ShotRun {
     shot_.rig_profile_toml = p_.text;
     fillRecords();
     stamp("start");
+    // A lost device: refused before anything is asked of any device (no valve
+    // opened, no timeout waited out again).
+    if (Status ready = rig_.health->ready(); !ready) {
+      shot_.status = ShotStatus::Failed;
+      shot_.failure_reason = "refused: " + ready.error().message;
+      stamp("refused", "a device is lost: nothing was fired");
+      return std::move(shot_);
+    }
     if (Status s = steps(request); !s) stopSafely(s.error().message);
     return std::move(shot_);
   }
@@ -138,7 +146,8 @@ class ShotRun {
         }
         return fail("the regulator did not settle within " + num(sp.settle_timeout_s) + " s (" +
                     readings + ", tolerance " + num(sp.settle_tolerance_kPa) +
-                    " kPa): check the air supply and lines, or raise sequencer.settle_timeout_s");
+                    " kPa): check the air supply and lines, or raise sequencer.settle_timeout_s "
+                    "(retrying can help if the supply was only slow this once)");
       }
       clock.sleepUntilNs(now + poll);
     }
@@ -237,18 +246,25 @@ class ShotRun {
                                   std::llround(p_.sequencer.collect_timeout_s * 1e9);
     COLLIDE_RETURN_IF_ERROR(collect(deadline));
     COLLIDE_RETURN_IF_ERROR(takeBurst());
+    if (shot_.burst.frames.empty() && !shot_.burst.complete)
+      return rig_.camera->markLost(
+          "it delivered no frame at all, by " +
+              ms(std::max<std::int64_t>(0, rig_.clock->nowNs() - t_contact)) + " after the trigger",
+          "the camera's power and cable, and that camera.device still names it");
     const vision::BurstStats& st = shot_.burst.stats;
     stamp("collected", std::to_string(shot_.burst.frames.size()) + " frames, " +
                            std::to_string(st.dropped) + " dropped, " + std::to_string(st.failed) +
                            " failed");
     if (!shot_.burst.complete)
       return fail("the camera fell short of frames: " + shot_.burst.note +
-                  "; check the camera link, or raise sequencer.collect_timeout_s");
+                  "; check the camera link, or raise sequencer.collect_timeout_s (retrying can "
+                  "help if frames were lost only this once)");
     if (st.dropped > static_cast<std::uint64_t>(p_.sequencer.max_dropped_frames))
       return fail("the camera dropped " + std::to_string(st.dropped) +
                   " frames, more than sequencer.max_dropped_frames = " +
                   std::to_string(p_.sequencer.max_dropped_frames) +
-                  ": check the camera link and bandwidth");
+                  ": check the camera link and bandwidth (retrying can help if the link was "
+                  "busy only this once)");
 
     COLLIDE_RETURN_IF_ERROR(rig_.camera->stop());
     stamp("stop", "camera stopped");
