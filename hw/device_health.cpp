@@ -8,7 +8,8 @@ std::string lostMessage(const DeviceLoss& loss) {
   return loss.device + " is lost (" + loss.what_happened +
          "): no shot is fired until it answers again, and retrying will not help before then: "
          "check " +
-         loss.what_to_check + ", then reconnect (run the command again, or Reconnect in the GUI)";
+         loss.what_to_check +
+         ", then reconnect (run the command again, or reload the rig profile in the GUI)";
 }
 
 void DeviceHealth::markLost(DeviceLoss loss) {

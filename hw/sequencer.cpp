@@ -291,8 +291,14 @@ class ShotRun {
     if (rig_.valves && rig_.valves->state() != DeviceState::Closed)
       attempt(rig_.valves->closeAll(), "valves closed");
     if (p_.safety.vent_on_failure && rig_.regulator &&
-        rig_.regulator->state() != DeviceState::Closed)
-      attempt(rig_.regulator->vent(), "pressure vented to 0 kPa");
+        rig_.regulator->state() != DeviceState::Closed) {
+      if (rig_.regulator->loss())  // asking would only wait out its timeouts again
+        problems.push_back(
+            "the pressure was not vented (the regulator does not answer): vent "
+            "the lines by hand before touching the launchers");
+      else
+        attempt(rig_.regulator->vent(), "pressure vented to 0 kPa");
+    }
     if (rig_.camera && armed_) attempt(takeBurst(), "frames kept");
     if (rig_.camera && rig_.camera->state() == DeviceState::Running)
       attempt(rig_.camera->stop(), "camera stopped");

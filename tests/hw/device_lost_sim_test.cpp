@@ -76,6 +76,9 @@ TEST(DeviceLostSim, ASilentRegulatorIsLostAndTheNextShotIsRefusedWithoutAskingIt
   EXPECT_THAT(second.failure_reason, HasSubstr("retrying will not help"));
   EXPECT_THAT(second.failure_reason, HasSubstr("check the regulator's power and cable"));
   EXPECT_EQ(hardware->unanswered(), 1) << "the safe stop must not ask the lost regulator again";
+  EXPECT_THAT(second.failure_reason,
+              HasSubstr("while stopping safely: the pressure was not vented (the regulator does "
+                        "not answer): vent the lines by hand"));
   EXPECT_EQ(valveOpenings(rig), 2u) << "no valve opened in the failed shot";
   ASSERT_TRUE(rig.regulator->loss());
   EXPECT_FALSE(rig.camera->loss());
