@@ -106,12 +106,11 @@ Status probeCamera(Camera& camera, Clock& clock) {
   return Ok{};
 }
 
-// Closes a lost device and forgets that it was lost, so that bring-up and the
-// probe may ask it again; whether it is lost is for the probe to say.
+// Closes a lost device, so that bring-up opens it again (which forgets that
+// it was lost) and the probe may ask it; whether it is lost is for them to say.
 template <class Device>
-bool reopenIfLost(Device& d, DeviceHealth& health) {
+bool closeIfLost(Device& d) {
   if (!d.loss()) return false;
-  health.clear(d.label());
   (void)closeOne(d);
   return true;
 }
@@ -127,9 +126,9 @@ Status stillLost(Device& d, Status s) {
 }  // namespace
 
 Status recheck(Rig& rig) {
-  const bool regulator = reopenIfLost(*rig.regulator, *rig.health);
-  const bool valves = reopenIfLost(*rig.valves, *rig.health);
-  const bool camera = reopenIfLost(*rig.camera, *rig.health);
+  const bool regulator = closeIfLost(*rig.regulator);
+  const bool valves = closeIfLost(*rig.valves);
+  const bool camera = closeIfLost(*rig.camera);
   if (!regulator && !valves && !camera) return Ok{};
   if (regulator) {
     COLLIDE_RETURN_IF_ERROR(

@@ -41,8 +41,9 @@ struct RigHooks {
 struct Rig {
   RigProfile profile;
   std::shared_ptr<Clock> clock;
-  /// Which devices are lost; shared by the three devices (never null).
-  std::shared_ptr<DeviceHealth> health;
+  /// Which devices are lost; makeRig shares it with the three devices (a rig
+  /// put together by hand leaves each device its own; the sequencer asks both).
+  std::shared_ptr<DeviceHealth> health = std::make_shared<DeviceHealth>();
   std::unique_ptr<PressureRegulator> regulator;
   std::unique_ptr<ValveBank> valves;
   std::unique_ptr<Camera> camera;

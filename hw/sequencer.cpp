@@ -37,7 +37,7 @@ class ShotRun {
     stamp("start");
     // A lost device: refused before anything is asked of any device (no valve
     // opened, no timeout waited out again).
-    if (Status ready = rig_.health->ready(); !ready) {
+    if (Status ready = devicesReady(); !ready) {
       shot_.status = ShotStatus::Failed;
       shot_.failure_reason = "refused: " + ready.error().message;
       stamp("refused", "a device is lost: nothing was fired");
@@ -51,6 +51,19 @@ class ShotRun {
   void stamp(std::string name, std::string detail = {}) {
     shot_.steps.push_back({std::move(name), rig_.clock->nowNs(), std::move(detail)});
     if (progress_) progress_(shot_.steps.back());
+  }
+
+  // Ok unless a device is lost: the rig's health, or (a rig put together by
+  // hand) a device's own.
+  Status devicesReady() const {
+    if (rig_.health)
+      if (Status s = rig_.health->ready(); !s) return s;
+    for (const std::optional<DeviceLoss>& loss :
+         {rig_.regulator ? rig_.regulator->loss() : std::nullopt,
+          rig_.valves ? rig_.valves->loss() : std::nullopt,
+          rig_.camera ? rig_.camera->loss() : std::nullopt})
+      if (loss) return fail(lostMessage(*loss));
+    return Ok{};
   }
 
   Status checkCancel(const char* when) const {

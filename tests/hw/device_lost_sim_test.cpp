@@ -210,3 +210,15 @@ TEST(DeviceLostSim, RecheckProbesAndClearsEveryLostDeviceThatAnswers) {
   const Shot shot = Sequencer(rig).fire(ShotRequest::atSpeeds(2.0, 2.0));
   EXPECT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
 }
+
+TEST(DeviceLostSim, ADeviceLostInItsOwnHealthRefusesTheShotToo) {
+  // A rig put together by hand leaves each device its own health.
+  Rig rig = rigFrom(simProfileText());
+  rig.regulator->setHealth(std::make_shared<DeviceHealth>());
+  (void)rig.regulator->markLost("no answer (a test said so)", "nothing");
+  EXPECT_TRUE(rig.health->ready()) << "the rig's health does not know";
+  const Shot refused = Sequencer(rig).fire(ShotRequest::atSpeeds(2.0, 2.0));
+  EXPECT_THAT(refused.failure_reason, StartsWith("refused: regulator \"sim-regulator\" is lost"));
+  EXPECT_THAT(stepNames(refused), ElementsAre("start", "refused"));
+  EXPECT_EQ(valveOpenings(rig), 0u);
+}
