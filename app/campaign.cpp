@@ -188,10 +188,13 @@ Status prepareCampaign(const hw::RigProfile& profile, const CampaignOptions& o) 
 
 std::string stopReason(const CampaignOptions& o, int failed_in_a_row,
                        const CampaignReport& report) {
+  if (Status ready = report.devices->ready(); !ready)
+    return "the next shot was refused: " + ready.error().message;
   if (o.max_consecutive_failures <= 0 || failed_in_a_row < o.max_consecutive_failures) return "";
   return std::to_string(failed_in_a_row) +
          " shots in a row failed on the rig (last: " + report.failures.back() +
-         "): check the devices, then fire the remaining shots";
+         "): check the devices, then fire the remaining shots (firing on unchanged will not "
+         "help)";
 }
 
 Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
@@ -222,7 +225,8 @@ Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
   }
   // A different simulation seed per shot: dots, spins and scatter differ.
   aimed->simulation.seed = o.seed * 1000003ULL + index;
-  auto fired = fireShot(*aimed, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel);
+  auto fired =
+      fireShot(*aimed, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel, report.devices);
   if (!fired) return fail("shot " + std::to_string(index + 1) + ": " + fired.error().message);
   hw::Shot& shot = *fired;
   ++report.fired;

@@ -7,12 +7,14 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <stop_token>
 #include <string>
 #include <vector>
 
 #include "analysis/result.hpp"
+#include "hw/device_health.hpp"
 #include "hw/rig_profile.hpp"
 #include "hw/shot.hpp"
 
@@ -31,6 +33,8 @@ struct CampaignOptions {
   double speed_max_m_s = 2.6;
   /// The campaign stops after this many shots in a row failed on the rig (a
   /// regulator outage, a camera gone): firing on would only pile up failures.
+  /// A device that stopped answering (lost, hw/device_health.hpp) stops it
+  /// at once, before the next shot.
   int max_consecutive_failures = 3;
 };
 
@@ -58,6 +62,10 @@ struct CampaignReport {
   /// fire as swept (too grazing for its speeds, ...): the planner's nearest
   /// feasible shot was fired instead.
   std::vector<std::string> replanned;
+  /// The devices' health across the campaign's shots (each shot builds its
+  /// own rig for the same devices): a device lost in one shot refuses the
+  /// next at once. Never null.
+  std::shared_ptr<hw::DeviceHealth> devices = std::make_shared<hw::DeviceHealth>();
 };
 
 /// Called after each shot is saved: shots done so far, total, the shot.
@@ -89,17 +97,18 @@ Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
                                                  CampaignReport& report,
                                                  std::stop_token cancel = {});
 
-/// Why a campaign must stop: options.max_consecutive_failures shots in a row
-/// failed (empty: go on).
+/// Why a campaign must stop: a device is lost (report.devices; the next shot
+/// is refused without asking anything of any device), or
+/// options.max_consecutive_failures shots in a row failed (empty: go on).
 std::string stopReason(const CampaignOptions& options, int failed_in_a_row,
                        const CampaignReport& report);
 
 /// Fires and saves the campaign into options.out_dir (created if missing).
 /// Failed shots are saved too (status failed, with the reason) and the
-/// campaign goes on, unless `max_consecutive_failures` shots in a row failed:
-/// then it stops and says why (CampaignReport::stopped_because). Errors (before any shot): bad
-/// options, an out_dir that cannot be created, a rig that cannot be built. Blocks; call from a
-/// worker.
+/// campaign goes on, unless a device stopped answering (lost) or
+/// `max_consecutive_failures` shots in a row failed: then it stops and says why
+/// (CampaignReport::stopped_because). Errors (before any shot): bad options, an out_dir that cannot
+/// be created, a rig that cannot be built. Blocks; call from a worker.
 Result<CampaignReport> runCampaign(const hw::RigProfile& profile, const CampaignOptions& options,
                                    const CampaignProgress& progress = {},
                                    std::stop_token cancel = {});

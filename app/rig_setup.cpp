@@ -30,13 +30,16 @@ hw::RigHooks standardRigHooks() {
   return hooks;
 }
 
-Result<hw::Rig> buildRig(const hw::RigProfile& profile) {
-  return hw::makeRig(profile, standardRigHooks());
+Result<hw::Rig> buildRig(const hw::RigProfile& profile, std::shared_ptr<hw::DeviceHealth> health) {
+  hw::RigHooks hooks = standardRigHooks();
+  hooks.health = std::move(health);
+  return hw::makeRig(profile, hooks);
 }
 
 Result<hw::Shot> fireShot(const hw::RigProfile& profile, const hw::ShotRequest& request,
-                          const std::string& id, std::stop_token cancel) {
-  auto rig = buildRig(profile);
+                          const std::string& id, std::stop_token cancel,
+                          std::shared_ptr<hw::DeviceHealth> health) {
+  auto rig = buildRig(profile, std::move(health));
   if (!rig) return rig.error();
   hw::Shot shot = hw::Sequencer(*rig).fire(request, {}, cancel);
   (void)hw::shutDown(*rig);  // the shot already records any device error

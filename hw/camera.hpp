@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,18 @@ class Camera {
   virtual CameraInfo info() const = 0;
   const std::string& label() const { return lifecycle_.device(); }
   DeviceState state() const { return lifecycle_.state(); }
+  /// Where this device's health is kept (device_health.hpp): makeRig gives
+  /// every device of a rig the rig's. Control thread, before use.
+  void setHealth(std::shared_ptr<DeviceHealth> health) { lifecycle_.setHealth(std::move(health)); }
+  /// Why the device is lost (it stopped answering), or none. Any thread.
+  std::optional<DeviceLoss> loss() const { return lifecycle_.loss(); }
+  /// Marks the device lost: every later call is refused at once until a
+  /// re-check (recheck() in rig.hpp) clears it. Called by a backend whose
+  /// device timed out or whose connection failed, or by the sequencer when
+  /// a wait on the device ran out. Returns the Error those calls get.
+  Error markLost(std::string what_happened, std::string what_to_check) {
+    return lifecycle_.markLost(std::move(what_happened), std::move(what_to_check));
+  }
   /// What the camera was shown, if it knows (a simulated camera); null for a
   /// real camera. Any thread.
   virtual std::shared_ptr<const TruthSource> groundTruth() const { return nullptr; }

@@ -27,6 +27,8 @@ Result<CameraSimSettings> CameraSimSettings::read(SettingsReader& r) {
   COLLIDE_ASSIGN_OR_RETURN(s.drop_every, r.integer("drop_every", 0, {.ge = 0, .le = 1e9}));
   COLLIDE_ASSIGN_OR_RETURN(s.stop_after_frames,
                            r.integer("stop_after_frames", -1, {.ge = -1, .le = 1e9}));
+  COLLIDE_ASSIGN_OR_RETURN(s.silent_after_bursts,
+                           r.integer("silent_after_bursts", -1, {.ge = -1, .le = 1e9}));
   const auto& keys = r.table().values;
   if (std::any_of(keys.begin(), keys.end(),
                   [](const auto& kv) { return kv.first.rfind("imaging.", 0) == 0; })) {
@@ -171,6 +173,8 @@ CameraSim::CameraSim(std::shared_ptr<SimWorld> world, CameraSimSettings settings
       world_(std::move(world)),
       settings_(settings),
       device_(std::move(device)) {
+  if (settings_.silent_after_bursts >= 0)
+    silence_ = SimSilence::forDevice(label(), settings_.silent_after_bursts);
   // A launch makes the rest of the burst known: wake the thread to render it.
   world_->onLaunch([weak = std::weak_ptr<Signal>(signal_)] {
     if (auto s = weak.lock()) {
@@ -398,7 +402,8 @@ void CameraSim::run() {
     if (std::shared_ptr<BurstRecorder> armed = recorder(); armed != current) {
       current = armed;
       post_delivered = 0;
-      stalled = false;
+      // fault: a silent camera delivers nothing for this burst.
+      stalled = current && silence_ && !silence_->answer(true);
       // Frames exposed while nothing was armed were never kept: resume now.
       if (current) seq = std::max(seq, firstFrom(monotonicNowNs()));
     }

@@ -6,7 +6,10 @@
 // acquisition thread into the armed pre-trigger ring. With realtime = false
 // it renders a burst as fast as it can once the valves have fired (the physics
 // is then known), so a shot takes less wall time than real time. Fault knobs:
-// lose every Nth frame, or stop streaming after N post-trigger frames.
+// lose every Nth frame, stop streaming after N post-trigger frames, or go
+// silent after N bursts (silent_after_bursts, counted across every camera of
+// that label in the process, see sim_silence.hpp): a silent camera delivers
+// no frame at all, and the sequencer then marks it lost.
 // An optional [camera.imaging] table makes the pictures realistic (lamps,
 // perspective lens, sensor; docs/imaging.md).
 //
@@ -22,6 +25,7 @@
 
 #include "hw/camera.hpp"
 #include "hw/settings.hpp"
+#include "hw/sim_silence.hpp"
 #include "hw/sim_world.hpp"
 #include "vision/render.hpp"
 #include "vision/render_wall.hpp"
@@ -59,13 +63,16 @@ struct CameraSimSettings {
   double noise_grey = 0.0;     ///< sensor noise, std dev in grey levels of the format
   int drop_every = 0;          ///< fault: lose every Nth frame in transport (0: never)
   int stop_after_frames = -1;  ///< fault: stop after N post-trigger frames (-1: never)
+  /// fault: deliver N bursts (in this process), then no frame at all (-1: never)
+  int silent_after_bursts = -1;
   double max_fps = 100000.0;
   double max_gain_db = 24.0;
   /// [camera.imaging]; none: the evenly lit orthographic picture.
   std::optional<SimImagingSettings> imaging;
 
   /// From the [camera] table (sensor_px, realtime, noise_grey, drop_every,
-  /// stop_after_frames, and [camera.imaging]); refuses unknown keys.
+  /// stop_after_frames, silent_after_bursts, and [camera.imaging]); refuses
+  /// unknown keys.
   static Result<CameraSimSettings> read(SettingsReader& r);
 };
 
@@ -134,6 +141,7 @@ class CameraSim final : public Camera {
   std::optional<vision::Renderer> renderer_;
   double wall_thickness_px_ = 40.0;  // the plate's band in the image
   std::shared_ptr<Signal> signal_ = std::make_shared<Signal>();
+  std::shared_ptr<SimSilence> silence_;  ///< silent_after_bursts >= 0 only
   std::thread thread_;
 };
 

@@ -33,6 +33,18 @@ const char* nextCall(DeviceState from, DeviceState to) {
 }  // namespace
 
 Status Lifecycle::require(std::string_view call, std::initializer_list<DeviceState> allowed) const {
+  if (std::optional<DeviceLoss> lost = loss()) return fail(lostMessage(*lost));
+  return requireState(call, allowed);
+}
+
+Error Lifecycle::markLost(std::string what_happened, std::string what_to_check) const {
+  DeviceLoss lost{device_, std::move(what_happened), std::move(what_to_check)};
+  health_->markLost(lost);
+  return fail(lostMessage(health_->loss(device_).value_or(lost)));
+}
+
+Status Lifecycle::requireState(std::string_view call,
+                               std::initializer_list<DeviceState> allowed) const {
   const DeviceState now = state();
   if (std::find(allowed.begin(), allowed.end(), now) != allowed.end()) return Ok{};
   // Point at the nearest allowed state: the lowest one above us, or else the
@@ -47,14 +59,16 @@ Status Lifecycle::require(std::string_view call, std::initializer_list<DeviceSta
 
 Status Lifecycle::transition(std::string_view call, std::initializer_list<DeviceState> from,
                              DeviceState to, const std::function<Status()>& hook) {
-  if (Status s = require(call, from); !s) return s;
+  if (Status s = requireState(call, from); !s) return s;
   if (Status s = hook(); !s) return s;
   state_ = to;
   return Ok{};
 }
 
 Status Lifecycle::open(const std::function<Status()>& hook) {
-  return transition("open()", {DeviceState::Closed}, DeviceState::Open, hook);
+  Status s = transition("open()", {DeviceState::Closed}, DeviceState::Open, hook);
+  if (s) health_->clear(device_);  // reopened: it answers again
+  return s;
 }
 
 Status Lifecycle::configure(const std::function<Status()>& hook) {
@@ -72,8 +86,8 @@ Status Lifecycle::stop(const std::function<Status()>& hook) {
 
 Status Lifecycle::close(const std::function<Status()>& stop_hook,
                         const std::function<Status()>& close_hook) {
-  if (Status s =
-          require("close()", {DeviceState::Open, DeviceState::Configured, DeviceState::Running});
+  if (Status s = requireState("close()",
+                              {DeviceState::Open, DeviceState::Configured, DeviceState::Running});
       !s)
     return s;
   Status stopped = state() == DeviceState::Running ? stop_hook() : Status(Ok{});

@@ -13,10 +13,12 @@
 #include <atomic>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <string>
 #include <string_view>
 
 #include "analysis/result.hpp"
+#include "hw/device_health.hpp"
 
 namespace collide::hw {
 
@@ -28,16 +30,32 @@ const char* toString(DeviceState s);
 class Lifecycle {
  public:
   /// `device` names the device in messages, e.g. `camera "sim"`.
-  explicit Lifecycle(std::string device) : device_(std::move(device)) {}
+  explicit Lifecycle(std::string device)
+      : device_(std::move(device)), health_(std::make_shared<DeviceHealth>()) {}
 
   const std::string& device() const { return device_; }
   /// Current state. Any thread.
   DeviceState state() const { return state_.load(); }
 
-  /// Ok when the device is in one of `allowed`; otherwise an Error naming the
-  /// device, the call, the current state and the call to make first, e.g.
-  /// `camera "sim": arm() refused: the device is configured; call start() first`.
+  /// Ok when the device is in one of `allowed` and not lost; otherwise an
+  /// Error naming the device, the call, the current state and the call to
+  /// make first, e.g. `camera "sim": arm() refused: the device is configured;
+  /// call start() first`, or for a lost device lostMessage() (refused at once,
+  /// nothing is asked of the device). The transitions (open() ... close()) do
+  /// not check for loss: reopening is how a lost device is re-checked.
   Status require(std::string_view call, std::initializer_list<DeviceState> allowed) const;
+
+  /// Where this device's health is kept (a rig shares one among its devices
+  /// and, in a campaign, across the rigs built for it). Control thread, before
+  /// the device is used. Default: its own.
+  void setHealth(std::shared_ptr<DeviceHealth> health) { health_ = std::move(health); }
+  const std::shared_ptr<DeviceHealth>& health() const { return health_; }
+  /// Marks the device lost (it stopped answering) and returns the Error every
+  /// later call gets: lostMessage(). A successful open() (the device closed
+  /// and opened again) clears it.
+  Error markLost(std::string what_happened, std::string what_to_check) const;
+  /// Why the device is lost, or none. Any thread.
+  std::optional<DeviceLoss> loss() const { return health_->loss(device_); }
 
   // The transitions. Each checks the state, runs the backend's hook and moves
   // to the new state only if the hook succeeded (a failed start() leaves the
@@ -52,11 +70,13 @@ class Lifecycle {
   Status close(const std::function<Status()>& stop_hook, const std::function<Status()>& close_hook);
 
  private:
+  Status requireState(std::string_view call, std::initializer_list<DeviceState> allowed) const;
   Status transition(std::string_view call, std::initializer_list<DeviceState> from, DeviceState to,
                     const std::function<Status()>& hook);
 
   std::string device_;
   std::atomic<DeviceState> state_{DeviceState::Closed};
+  std::shared_ptr<DeviceHealth> health_;
 };
 
 }  // namespace collide::hw

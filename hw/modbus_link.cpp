@@ -105,7 +105,9 @@ Status ModbusLink::open() {
 }
 
 Status ModbusLink::connect() {
-  return open();
+  Status s = open();
+  last_silent_ = !s;
+  return s;
 }
 
 std::string ModbusLink::failure(int err, const char* verb, const ModbusRegisterRef& ref) const {
@@ -119,7 +121,8 @@ std::string ModbusLink::failure(int err, const char* verb, const ModbusRegisterR
   if (isException(err)) {
     const int code = err - MODBUS_ENOBASE;
     return where + ": the device answered with Modbus exception " + std::to_string(code) + " (" +
-           modbus_strerror(err) + "): " + exceptionHint(code, ref);
+           modbus_strerror(err) + "): " + exceptionHint(code, ref) +
+           " (retrying will not help until that is fixed)";
   }
   const std::string unit = "regulator.unit_id = " + std::to_string(s.unit_id);
   const std::string tries = " (tried " + std::to_string(1 + s.retries) + " time" +
@@ -173,6 +176,9 @@ Status ModbusLink::exchange(const char* verb, const ModbusRegisterRef& ref, Op o
     if (settings_.transport == ModbusTransport::Rtu && err == ETIMEDOUT)
       std::this_thread::sleep_for(std::chrono::milliseconds(settings_.timeout_ms));
   }
+  // Silence: never connected, or no answer in time, or the link reset.
+  last_silent_ = err == 0 || err == ETIMEDOUT || err == ECONNRESET || err == ECONNREFUSED ||
+                 err == EPIPE || err == ENOTCONN || err == EHOSTUNREACH || err == ENETUNREACH;
   if (err == 0) return fail(connect_error);  // never got as far as asking
   std::string message = failure(err, verb, ref);
   if (!connect_error.empty()) message += "; reconnecting failed too: " + connect_error;

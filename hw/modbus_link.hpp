@@ -58,6 +58,10 @@ class ModbusLink {
 
   const ModbusLinkSettings& settings() const { return settings_; }
   const ModbusLinkStats& stats() const { return stats_; }
+  /// Whether the last failed connect(), read() or write() was silence (no
+  /// answer in time, no connection, a reset link), not an answer the device
+  /// gave (a Modbus exception) or a garbled one: the device is then lost.
+  bool lastFailureWasSilence() const { return last_silent_; }
 
  private:
   template <class Op>
@@ -69,6 +73,7 @@ class ModbusLink {
   _modbus* ctx_ = nullptr;
   bool connected_ = false;
   ModbusLinkStats stats_;
+  bool last_silent_ = false;
 };
 
 }  // namespace collide::hw

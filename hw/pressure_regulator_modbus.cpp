@@ -32,16 +32,20 @@ ModbusRegisterRef PressureRegulatorModbus::readbackRef(int channel) const {
           "regulator.readback"};
 }
 
+Status PressureRegulatorModbus::lostIfSilent(Status s) {
+  if (s || !link_.lastFailureWasSilence()) return s;
+  return markLost(s.error().message,
+                  "the regulator's power, its cable or network, and regulator.device");
+}
+
 Status PressureRegulatorModbus::onOpen() {
-  COLLIDE_RETURN_IF_ERROR(link_.connect());
+  COLLIDE_RETURN_IF_ERROR(lostIfSilent(link_.connect()));
   for (int ch = 0; ch < map_.channels; ++ch) {
-    if (Result<std::vector<std::uint16_t>> w = link_.read(setpointRef(ch)); !w) {
-      link_.close();
-      return w.error();
-    }
-    if (Result<std::vector<std::uint16_t>> w = link_.read(readbackRef(ch)); !w) {
-      link_.close();
-      return w.error();
+    for (const ModbusRegisterRef& ref : {setpointRef(ch), readbackRef(ch)}) {
+      if (Result<std::vector<std::uint16_t>> w = link_.read(ref); !w) {
+        link_.close();
+        return lostIfSilent(w.error());
+      }
     }
   }
   return Ok{};
@@ -75,24 +79,27 @@ Status PressureRegulatorModbus::onSetPressureKPa(int channel, double kPa) {
                 " would be written as " + num(written_kPa) +
                 " kPa, above safety.max_pressure_kpa: nothing was written");
   const ModbusRegisterRef ref = setpointRef(channel);
-  COLLIDE_RETURN_IF_ERROR(link_.write(ref, *words));
+  COLLIDE_RETURN_IF_ERROR(lostIfSilent(link_.write(ref, *words)));
   // Verify: the device must hold what we wrote (not in local mode, not
   // write-protected, not clamped to its own limit).
-  COLLIDE_ASSIGN_OR_RETURN(const std::vector<std::uint16_t> back, link_.read(ref));
+  Result<std::vector<std::uint16_t>> read_back = link_.read(ref);
+  if (!read_back) return lostIfSilent(read_back.error());
+  const std::vector<std::uint16_t>& back = *read_back;
   if (back != *words)
     return fail("wrote " + map_.setpoint.rawText(words->data()) + " (" + num(written_kPa) +
                 " kPa) to holding register " + std::to_string(ref.address) + " (" + ref.what +
                 ") on " + map_.link.describe() + " but it reads back " +
                 map_.setpoint.rawText(back.data()) + " (" + num(map_.setpoint.decode(back.data())) +
                 " kPa): the device did not take the setpoint: check that it is in remote "
-                "(Modbus) mode, not write-protected, and that the value is within its own limits");
+                "(Modbus) mode, not write-protected, and that the value is within its own limits "
+                "(retrying will not help until that is fixed)");
   return Ok{};
 }
 
 Result<double> PressureRegulatorModbus::onReadPressureKPa(int channel) {
-  COLLIDE_ASSIGN_OR_RETURN(const std::vector<std::uint16_t> words,
-                           link_.read(readbackRef(channel)));
-  return map_.readback.decode(words.data());
+  Result<std::vector<std::uint16_t>> words = link_.read(readbackRef(channel));
+  if (!words) return lostIfSilent(words.error()).error();
+  return map_.readback.decode(words->data());
 }
 
 namespace {

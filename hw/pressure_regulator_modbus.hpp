@@ -11,7 +11,10 @@
 //   is decided by what the device measures, not by what was asked;
 // - timeouts, Modbus exceptions, garbled answers name the device, the
 //   register and what to check; a dropped link is reopened and the request
-//   sent again (regulator.retries).
+//   sent again (regulator.retries);
+// - a device still silent after those retries (no answer in time, no
+//   connection) is marked lost (device_health.hpp): later calls are refused
+//   at once instead of waiting out the timeouts again.
 #include <memory>
 
 #include "hw/modbus_link.hpp"
@@ -47,6 +50,9 @@ class PressureRegulatorModbus final : public PressureRegulator {
  private:
   ModbusRegisterRef setpointRef(int channel) const;
   ModbusRegisterRef readbackRef(int channel) const;
+  /// `s` unchanged, or, when it failed because the device was silent, the
+  /// regulator marked lost and the lost message.
+  Status lostIfSilent(Status s);
 
   ModbusRegulatorMap map_;
   double max_pressure_kPa_;

@@ -1,6 +1,9 @@
 #include "hw/pressure_regulator_sim.hpp"
 
+#include <cmath>
+
 #include "hw/backend_registry.hpp"
+#include "hw/format.hpp"
 #include "hw/try.hpp"
 
 namespace collide::hw {
@@ -13,10 +16,15 @@ Result<RegulatorSimSettings> RegulatorSimSettings::read(SettingsReader& r) {
   s.time_constant_s = tau_ms * 1e-3;
   COLLIDE_ASSIGN_OR_RETURN(s.noise_kPa, r.number("noise_kpa", 0.0, {.ge = 0.0}));
   COLLIDE_ASSIGN_OR_RETURN(const std::string fault,
-                           r.text("fault", "none", {"none", "never_settles", "error"}));
+                           r.text("fault", "none", {"none", "never_settles", "error", "silent"}));
   s.fault = fault == "never_settles" ? Fault::NeverSettles
             : fault == "error"       ? Fault::Error
+            : fault == "silent"      ? Fault::Silent
                                      : Fault::None;
+  COLLIDE_ASSIGN_OR_RETURN(s.silent_after_setpoints,
+                           r.integer("silent_after_setpoints", 0, {.ge = 0, .le = 1e9}));
+  COLLIDE_ASSIGN_OR_RETURN(s.silent_timeout_ms,
+                           r.number("silent_timeout_ms", 100.0, {.ge = 0.0, .le = 60000.0}));
   COLLIDE_RETURN_IF_ERROR(r.finish("the sim regulator backend"));
   return s;
 }
@@ -31,7 +39,10 @@ PressureRegulatorSim::PressureRegulatorSim(std::shared_ptr<SimWorld> world,
     : PressureRegulator("regulator \"" + device + "\""),
       world_(std::move(world)),
       settings_(settings),
-      device_(std::move(device)) {}
+      device_(std::move(device)) {
+  if (settings_.fault == RegulatorSimSettings::Fault::Silent)
+    silence_ = SimSilence::forDevice(label(), settings_.silent_after_setpoints);
+}
 
 RegulatorInfo PressureRegulatorSim::info() const {
   return {"sim", device_, settings_.channels, settings_.device_min_kPa, settings_.device_max_kPa};
@@ -55,8 +66,18 @@ Status PressureRegulatorSim::linkUp() const {
   return Ok{};
 }
 
+Status PressureRegulatorSim::heard(bool setpoint) {
+  if (!silence_ || silence_->answer(setpoint)) return Ok{};
+  Clock& clock = world_->clock();
+  clock.sleepUntilNs(clock.nowNs() + std::llround(settings_.silent_timeout_ms * 1e6));
+  return markLost("no answer within " + num(settings_.silent_timeout_ms) +
+                      " ms (simulated fault regulator.fault = \"silent\")",
+                  "the regulator's power and cable (regulator.device)");
+}
+
 Status PressureRegulatorSim::onSetPressureKPa(int channel, double kPa) {
   if (Status s = linkUp(); !s) return s;
+  if (Status s = heard(true); !s) return s;
   world_->commandPressureKPa(channel, kPa);
   // The simulated link dies right after delivering its first setpoint.
   if (settings_.fault == RegulatorSimSettings::Fault::Error) link_failed_ = true;
@@ -65,6 +86,7 @@ Status PressureRegulatorSim::onSetPressureKPa(int channel, double kPa) {
 
 Result<double> PressureRegulatorSim::onReadPressureKPa(int channel) {
   if (Status s = linkUp(); !s) return s.error();
+  if (Status s = heard(false); !s) return s.error();
   return world_->linePressureKPa(channel, world_->clock().nowNs()) +
          (settings_.noise_kPa > 0 ? world_->gaussian(settings_.noise_kPa) : 0.0);
 }

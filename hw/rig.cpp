@@ -1,6 +1,9 @@
 #include "hw/rig.hpp"
 
+#include <algorithm>
+
 #include "hw/backend_registry.hpp"
+#include "hw/format.hpp"
 #include "hw/sim_world.hpp"
 #include "hw/try.hpp"
 
@@ -44,6 +47,7 @@ Result<Rig> makeRig(const RigProfile& profile, const RigHooks& hooks) {
   Rig rig;
   rig.profile = profile;
   rig.clock = hooks.clock ? hooks.clock : monotonicClock();
+  rig.health = hooks.health ? hooks.health : std::make_shared<DeviceHealth>();
   // Shared by every simulated device, made only if one needs it.
   std::shared_ptr<SimWorld> world;
   COLLIDE_ASSIGN_OR_RETURN(
@@ -53,6 +57,9 @@ Result<Rig> makeRig(const RigProfile& profile, const RigHooks& hooks) {
       rig.valves, build<ValveBank>(rig.profile, rig.profile.valves, hooks, rig.clock, world));
   COLLIDE_ASSIGN_OR_RETURN(rig.camera,
                            build<Camera>(rig.profile, rig.profile.camera, hooks, rig.clock, world));
+  rig.regulator->setHealth(rig.health);
+  rig.valves->setHealth(rig.health);
+  rig.camera->setHealth(rig.health);
   // A real (or Modbus-simulated) regulator on an otherwise simulated rig: the
   // simulated launches take their pressure from what it measures. The
   // regulator lives as long as the rig, and launches happen on the rig's
@@ -69,6 +76,74 @@ Status bringUp(Rig& rig) {
   COLLIDE_RETURN_IF_ERROR(bringUpOne(*rig.regulator, rig.profile.regulator_config));
   COLLIDE_RETURN_IF_ERROR(bringUpOne(*rig.valves, rig.profile.valve_config));
   return bringUpOne(*rig.camera, rig.profile.camera_config);
+}
+
+namespace {
+
+Status probeRegulator(Rig& rig) {
+  for (const LauncherProfile& l : rig.profile.launchers)
+    if (Result<double> p = rig.regulator->readPressureKPa(l.regulator_channel); !p)
+      return p.error();
+  return Ok{};
+}
+
+Status probeCamera(Camera& camera, Clock& clock) {
+  // A small burst as a shot takes one: a frame before the trigger, one after.
+  const std::int64_t period = camera.config().framePeriodNs();
+  COLLIDE_RETURN_IF_ERROR(camera.arm(1, 1));
+  const std::int64_t now = clock.nowNs();
+  // The trigger well ahead, as the sequencer does, so the stream is running by then.
+  const std::int64_t trigger = now + std::max<std::int64_t>(50'000'000, 4 * period);
+  COLLIDE_RETURN_IF_ERROR(camera.trigger(trigger));
+  constexpr std::int64_t kProbeNs = 500'000'000;
+  const std::int64_t deadline = trigger + std::max(kProbeNs, 10 * period);
+  COLLIDE_RETURN_IF_ERROR(camera.waitBurst(deadline));  // a frame, or the deadline passed
+  COLLIDE_ASSIGN_OR_RETURN(const vision::Burst burst, camera.takeBurst());
+  if (burst.frames.empty())
+    return camera.markLost("it delivered no frame within " + num(kProbeNs * 1e-9) +
+                               " s of the trigger when probed (" + burst.note + ")",
+                           "the camera's power and cable (camera.device)");
+  return Ok{};
+}
+
+// Closes a lost device, so that bring-up opens it again (which forgets that
+// it was lost) and the probe may ask it; whether it is lost is for them to say.
+template <class Device>
+bool closeIfLost(Device& d) {
+  if (!d.loss()) return false;
+  (void)closeOne(d);
+  return true;
+}
+
+// The device that failed `s` is lost again with that reason (unless it was
+// marked lost already, with a more precise one).
+template <class Device>
+Status stillLost(Device& d, Status s) {
+  if (!s && !d.loss()) (void)d.markLost(s.error().message, "its power and cable");
+  return s;
+}
+
+}  // namespace
+
+Status recheck(Rig& rig) {
+  const bool regulator = closeIfLost(*rig.regulator);
+  const bool valves = closeIfLost(*rig.valves);
+  const bool camera = closeIfLost(*rig.camera);
+  if (!regulator && !valves && !camera) return Ok{};
+  if (regulator) {
+    COLLIDE_RETURN_IF_ERROR(
+        stillLost(*rig.regulator, bringUpOne(*rig.regulator, rig.profile.regulator_config)));
+    COLLIDE_RETURN_IF_ERROR(stillLost(*rig.regulator, probeRegulator(rig)));
+  }
+  if (valves)
+    COLLIDE_RETURN_IF_ERROR(
+        stillLost(*rig.valves, bringUpOne(*rig.valves, rig.profile.valve_config)));
+  if (camera) {
+    COLLIDE_RETURN_IF_ERROR(
+        stillLost(*rig.camera, bringUpOne(*rig.camera, rig.profile.camera_config)));
+    COLLIDE_RETURN_IF_ERROR(stillLost(*rig.camera, probeCamera(*rig.camera, *rig.clock)));
+  }
+  return Ok{};
 }
 
 Status shutDown(Rig& rig) {

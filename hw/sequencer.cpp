@@ -35,6 +35,14 @@ class ShotRun {
     shot_.rig_profile_toml = p_.text;
     fillRecords();
     stamp("start");
+    // A lost device: refused before anything is asked of any device (no valve
+    // opened, no timeout waited out again).
+    if (Status ready = devicesReady(); !ready) {
+      shot_.status = ShotStatus::Failed;
+      shot_.failure_reason = "refused: " + ready.error().message;
+      stamp("refused", "a device is lost: nothing was fired");
+      return std::move(shot_);
+    }
     if (Status s = steps(request); !s) stopSafely(s.error().message);
     return std::move(shot_);
   }
@@ -43,6 +51,19 @@ class ShotRun {
   void stamp(std::string name, std::string detail = {}) {
     shot_.steps.push_back({std::move(name), rig_.clock->nowNs(), std::move(detail)});
     if (progress_) progress_(shot_.steps.back());
+  }
+
+  // Ok unless a device is lost: the rig's health, or (a rig put together by
+  // hand) a device's own.
+  Status devicesReady() const {
+    if (rig_.health)
+      if (Status s = rig_.health->ready(); !s) return s;
+    for (const std::optional<DeviceLoss>& loss :
+         {rig_.regulator ? rig_.regulator->loss() : std::nullopt,
+          rig_.valves ? rig_.valves->loss() : std::nullopt,
+          rig_.camera ? rig_.camera->loss() : std::nullopt})
+      if (loss) return fail(lostMessage(*loss));
+    return Ok{};
   }
 
   Status checkCancel(const char* when) const {
@@ -138,7 +159,8 @@ class ShotRun {
         }
         return fail("the regulator did not settle within " + num(sp.settle_timeout_s) + " s (" +
                     readings + ", tolerance " + num(sp.settle_tolerance_kPa) +
-                    " kPa): check the air supply and lines, or raise sequencer.settle_timeout_s");
+                    " kPa): check the air supply and lines, or raise sequencer.settle_timeout_s "
+                    "(retrying can help if the supply was only slow this once)");
       }
       clock.sleepUntilNs(now + poll);
     }
@@ -237,18 +259,25 @@ class ShotRun {
                                   std::llround(p_.sequencer.collect_timeout_s * 1e9);
     COLLIDE_RETURN_IF_ERROR(collect(deadline));
     COLLIDE_RETURN_IF_ERROR(takeBurst());
+    if (shot_.burst.frames.empty() && !shot_.burst.complete)
+      return rig_.camera->markLost(
+          "it delivered no frame at all, by " +
+              ms(std::max<std::int64_t>(0, rig_.clock->nowNs() - t_contact)) + " after the trigger",
+          "the camera's power and cable, and that camera.device still names it");
     const vision::BurstStats& st = shot_.burst.stats;
     stamp("collected", std::to_string(shot_.burst.frames.size()) + " frames, " +
                            std::to_string(st.dropped) + " dropped, " + std::to_string(st.failed) +
                            " failed");
     if (!shot_.burst.complete)
       return fail("the camera fell short of frames: " + shot_.burst.note +
-                  "; check the camera link, or raise sequencer.collect_timeout_s");
+                  "; check the camera link, or raise sequencer.collect_timeout_s (retrying can "
+                  "help if frames were lost only this once)");
     if (st.dropped > static_cast<std::uint64_t>(p_.sequencer.max_dropped_frames))
       return fail("the camera dropped " + std::to_string(st.dropped) +
                   " frames, more than sequencer.max_dropped_frames = " +
                   std::to_string(p_.sequencer.max_dropped_frames) +
-                  ": check the camera link and bandwidth");
+                  ": check the camera link and bandwidth (retrying can help if the link was "
+                  "busy only this once)");
 
     COLLIDE_RETURN_IF_ERROR(rig_.camera->stop());
     stamp("stop", "camera stopped");
@@ -275,8 +304,14 @@ class ShotRun {
     if (rig_.valves && rig_.valves->state() != DeviceState::Closed)
       attempt(rig_.valves->closeAll(), "valves closed");
     if (p_.safety.vent_on_failure && rig_.regulator &&
-        rig_.regulator->state() != DeviceState::Closed)
-      attempt(rig_.regulator->vent(), "pressure vented to 0 kPa");
+        rig_.regulator->state() != DeviceState::Closed) {
+      if (rig_.regulator->loss())  // asking would only wait out its timeouts again
+        problems.push_back(
+            "the pressure was not vented (the regulator does not answer): vent "
+            "the lines by hand before touching the launchers");
+      else
+        attempt(rig_.regulator->vent(), "pressure vented to 0 kPa");
+    }
     if (rig_.camera && armed_) attempt(takeBurst(), "frames kept");
     if (rig_.camera && rig_.camera->state() == DeviceState::Running)
       attempt(rig_.camera->stop(), "camera stopped");

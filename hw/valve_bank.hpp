@@ -10,6 +10,7 @@
 // as Error values naming the device and what to do. After a failed fire() the
 // bank has closed every valve.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,18 @@ class ValveBank {
   virtual ValveInfo info() const = 0;
   const std::string& label() const { return lifecycle_.device(); }
   DeviceState state() const { return lifecycle_.state(); }
+  /// Where this device's health is kept (device_health.hpp): makeRig gives
+  /// every device of a rig the rig's. Control thread, before use.
+  void setHealth(std::shared_ptr<DeviceHealth> health) { lifecycle_.setHealth(std::move(health)); }
+  /// Why the device is lost (it stopped answering), or none. Any thread.
+  std::optional<DeviceLoss> loss() const { return lifecycle_.loss(); }
+  /// Marks the device lost: every later call is refused at once until a
+  /// re-check (recheck() in rig.hpp) clears it. Called by a backend whose
+  /// device timed out or whose connection failed, or by the sequencer when
+  /// a wait on the device ran out. Returns the Error those calls get.
+  Error markLost(std::string what_happened, std::string what_to_check) {
+    return lifecycle_.markLost(std::move(what_happened), std::move(what_to_check));
+  }
 
   // Lifecycle (see lifecycle.hpp). configure() refuses max_pulse_us <= 0.
   Status open();

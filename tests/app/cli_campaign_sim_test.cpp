@@ -115,6 +115,30 @@ TEST(CliCampaign, RepeatedDeviceFailuresStopTheCampaignWithExitCode1) {
   EXPECT_EQ(keptShots(out), 3u) << "every fired shot is saved, failed ones included";
 }
 
+// A regulator that stops answering mid-campaign (after 2 shots' setpoints):
+// it is lost, the next shot is refused at once, the campaign stops with the
+// device, what to check and that retrying will not help, exits 1, and every
+// shot fired is kept.
+TEST(CliCampaign, ARegulatorThatGoesSilentStopsTheCampaignAtOnceWithExitCode1) {
+  ScratchDir scratch;
+  const std::string rig =
+      editedRig(scratch, "fault = \"none\"            # \"none\" | \"never_settles\"",
+                "fault = \"silent\"\nsilent_after_setpoints = 4\nsilent_timeout_ms = 50 #",
+                "silent-regulator.toml");
+  ASSERT_FALSE(rig.empty()) << "sim.toml changed: update this test";
+  const std::string out = scratch.file("shots");
+  const auto run =
+      runCollide("campaign --rig " + q(rig) + " --shots 6 --out " + q(out) + " --seed 1", scratch);
+  EXPECT_EQ(run.exit_code, 1) << run.out << run.err;
+  EXPECT_NE(run.err.find("stopped after 3 of 6 shots: the next shot was refused: regulator "
+                         "\"sim-regulator\" is lost (no answer within 50 ms"),
+            std::string::npos)
+      << run.err;
+  EXPECT_NE(run.err.find("retrying will not help"), std::string::npos) << run.err;
+  EXPECT_NE(run.out.find("3 shots fired (2 ok, 1 failed)"), std::string::npos) << run.out;
+  EXPECT_EQ(keptShots(out), 3u) << "every fired shot is saved, the failed one included";
+}
+
 TEST(CliCampaign, ABadProfileIsRefusedAtLoadWithExitCode2BeforeAnyShot) {
   ScratchDir scratch;
   const std::string rig =

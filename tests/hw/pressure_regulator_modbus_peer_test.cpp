@@ -270,10 +270,23 @@ TEST_P(ModbusRegulator, SlowAnswersTimeOutAndTheLinkRecovers) {
               HasSubstr("no answer within 200 ms (tried 2 times, reconnecting in between)"));
   EXPECT_THAT(read.error().message, HasSubstr("that regulator.unit_id = 1 is its unit id"));
   EXPECT_GE(waited_s, 0.4);  // two attempts of 200 ms each
-  // The device answers promptly again: the late answers to the old requests
-  // must not be taken for new ones.
+  // Still silent after its retries: lost. The next call is refused at once,
+  // without a request (it would wait out the timeouts again).
+  EXPECT_THAT(read.error().message, HasSubstr("regulator \"test-regulator\" is lost ("));
+  EXPECT_THAT(read.error().message, HasSubstr("retrying will not help"));
+  ASSERT_TRUE(reg().loss());
+  const std::int64_t requests = reg().linkStats().requests;
+  const auto refused = reg().setPressureKPa(0, 42.0);
+  ASSERT_FALSE(refused);
+  EXPECT_THAT(refused.error().message, HasSubstr("is lost"));
+  EXPECT_EQ(reg().linkStats().requests, requests) << "a lost regulator is not asked";
+  // The device answers promptly again and is reopened: the late answers to
+  // the old requests must not be taken for new ones.
   server().setFaults({});
   std::this_thread::sleep_for(std::chrono::milliseconds(900));  // the server works off its backlog
+  ASSERT_TRUE(reg().close());
+  bringUp();
+  EXPECT_FALSE(reg().loss()) << "reopening found it again";
   ASSERT_TRUE(reg().setPressureKPa(0, 42.0)) << "did not recover";
   EXPECT_NEAR(settle(reg(), 0, 0.5), 42.0, 0.5);
 }
@@ -346,12 +359,18 @@ TEST_F(ModbusRegulatorTcp, ADeviceGoneForGoodIsReportedAndFoundAgainWhenBack) {
   EXPECT_THAT(read.error().message, HasSubstr("check that the device is on and reachable at "
                                               "127.0.0.1:" +
                                               std::to_string(port)));
-  // Switched on again at the same address: the next call reconnects.
+  EXPECT_THAT(read.error().message, HasSubstr("is lost"));
+  // Switched on again at the same address: still lost (nothing is asked of a
+  // lost device) until it is reopened, which reconnects.
   ModbusServerOptions again = options;
   again.port = port;
   auto s = ModbusRegulatorServer::create(again, nullptr);
   ASSERT_TRUE(s) << s.error().message;
   peer_.server = std::make_unique<ServerThread>(std::move(*s));
+  EXPECT_FALSE(reg().setPressureKPa(0, 35.0));
+  EXPECT_EQ(server().stats().answered, 0);
+  ASSERT_TRUE(reg().close());
+  bringUp();
   ASSERT_TRUE(reg().setPressureKPa(0, 35.0));
   EXPECT_DOUBLE_EQ(server().setpointKPa(0), 35.0);
 }
