@@ -5,7 +5,8 @@
 // saved shots (app::loadCampaign + assessCampaign, not the widget's), the
 // targets are met by all the shots and not yet by all but the last (stopped
 // as soon as they were reached), or the budget was spent. Stop mid-run keeps
-// every shot fired. Also: the status bar's short form of a long message.
+// every shot fired; a reversed angle range is refused before the rig is
+// touched. Also: the status bar's short form of a long message.
 #include <gtest/gtest.h>
 
 #include <QChart>
@@ -271,4 +272,22 @@ TEST(AdaptiveCampaignGui, TheStatusBarShowsWholeWordsOfALongMessage) {
   const QString kept = line.chopped(1);
   EXPECT_TRUE(message.startsWith(kept));
   EXPECT_EQ(message.at(kept.size()), QChar(' ')) << "cut mid-word: " << line.toStdString();
+}
+
+TEST(AdaptiveCampaignGui, AReversedAngleRangeIsRefusedBeforeFiring) {
+  application();
+  Window x = adaptiveWindow("adaptive-reversed", "0.01", "0.04", "8");
+  typeInto(child<QDoubleSpinBox>(x.view, "campaign_angle_min"), "60");
+  typeInto(child<QDoubleSpinBox>(x.view, "campaign_angle_max"), "30");
+  QSignalSpy finished(x.w->rigWorker(), &RigWorker::campaignFinished);
+  const auto before = x.w->messages().size();
+  QTest::mouseClick(child<QPushButton>(x.view, "run_campaign"), Qt::LeftButton);
+  ASSERT_EQ(x.w->messages().size(), before + 1);
+  const std::string message = x.w->messages().last().toStdString();
+  EXPECT_NE(message.find("Adaptive campaign not started"), std::string::npos) << message;
+  EXPECT_NE(message.find("min < max"), std::string::npos) << message;
+  QTest::qWait(500);
+  EXPECT_EQ(finished.count(), 0) << "the rig was asked to run it";
+  EXPECT_TRUE(child<QPushButton>(x.view, "run_campaign")->isEnabled());
+  EXPECT_EQ(countShotFiles(x.dir), 0);
 }
