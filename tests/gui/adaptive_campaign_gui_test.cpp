@@ -20,6 +20,7 @@
 #include <QScrollBar>
 #include <QSignalSpy>
 #include <QSpinBox>
+#include <QStatusBar>
 #include <QTabWidget>
 #include <QValueAxis>
 #include <algorithm>
@@ -212,9 +213,21 @@ TEST(AdaptiveCampaignGui, SpendsTheBudgetWhenTheTargetsAreOutOfReach) {
   for (int i = 6; i < 8; ++i)
     EXPECT_TRUE(log[i].contains("is furthest from its target") || log[i].contains("largest gap"))
         << log[i].toStdString();
+  // The status bar shows the first sentence of the long summary, whole.
+  QStatusBar* bar = x.w->statusBar();
+  const QString line = bar->currentMessage();
+  EXPECT_TRUE(x.view->reportText().startsWith(line)) << line.toStdString();
+  EXPECT_TRUE(line.endsWith('.') || line.endsWith(QString::fromUtf8("…"))) << line.toStdString();
+  EXPECT_LE(bar->fontMetrics().horizontalAdvance(line), bar->width()) << line.toStdString();
+  // What is shown is what the saved shots give. With few shots near the
+  // switch (~40 deg) the noise can leave one regime with too few shots for a
+  // friction fit: then both say so.
   const AdaptiveStatus all = refitSaved(x.dir, design);
-  ASSERT_TRUE(all.friction) << all.fit_error;
   EXPECT_FALSE(all.targets_met);
+  if (!all.friction) {
+    EXPECT_NE(report.find("no friction fit yet: " + all.fit_error), std::string::npos) << report;
+    return;
+  }
   expectShown(report, "sigma(mu)", all.friction->mu.sigma);
   expectShown(report, "sigma(beta_0)", all.friction->beta0.sigma);
   // The shown comparisons are the true ones.
