@@ -168,10 +168,10 @@ Result<NextShot> chooseNextShot(std::span<const CampaignShot> shots, const Adapt
   }
   const bool mu_worse = now.mu / o.target_sigma_mu >= now.beta0 / o.target_sigma_beta0;
   next.why = std::string(mu_worse ? "mu" : "beta0") + " is furthest from its target " +
-             fmt("(sigma_mu %.4f for %.4f, sigma_beta0 %.4f for %.4f); ", now.mu, o.target_sigma_mu,
+             fmt("(sigma_mu %.3g for %.3g, sigma_beta0 %.3g for %.3g); ", now.mu, o.target_sigma_mu,
                  now.beta0, o.target_sigma_beta0) +
              fmt("at %.1f deg (switch at %.1f deg) the shot slides with probability %.0f %% and "
-                 "is expected to bring sigma_mu to %.4f, sigma_beta0 to %.4f",
+                 "is expected to bring sigma_mu to %.3g, sigma_beta0 to %.3g",
                  next.incidence_deg, f.switch_angle_deg.value, 100 * best_p, next.expected_sigma_mu,
                  next.expected_sigma_beta0);
   return next;

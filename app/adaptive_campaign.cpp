@@ -8,6 +8,47 @@
 
 namespace collide::app {
 
+namespace {
+
+// "sigma(mu) 0.0061 > 0.005" (compare) or "sigma(mu) 0.0061 (target 0.005)".
+std::string sigmaAgainst(const char* name, double sigma, double target, bool compare) {
+  char b[128];
+  if (compare)
+    std::snprintf(b, sizeof b, "%s %.3g %s %.3g", name, sigma, sigma <= target ? "<=" : ">",
+                  target);
+  else
+    std::snprintf(b, sizeof b, "%s %.3g (target %.3g)", name, sigma, target);
+  return b;
+}
+
+std::string sigmas(const AdaptiveStatus& st, const AdaptiveOptions& design, bool compare) {
+  if (!st.friction) return "no friction fit yet: " + st.fit_error;
+  return sigmaAgainst("sigma(mu)", st.friction->mu.sigma, design.target_sigma_mu, compare) + ", " +
+         sigmaAgainst("sigma(beta_0)", st.friction->beta0.sigma, design.target_sigma_beta0,
+                      compare);
+}
+
+}  // namespace
+
+std::string adaptiveSigmasText(const AdaptiveStatus& status, const AdaptiveOptions& design) {
+  return sigmas(status, design, false);
+}
+
+std::string adaptiveStopText(const AdaptiveCampaignReport& r, const CampaignOptions& o,
+                             const AdaptiveOptions& design) {
+  const int fired = r.campaign.fired;
+  const std::string figures = sigmas(r.status, design, true);
+  if (r.targets_met) return "targets reached after " + std::to_string(fired) + " shots: " + figures;
+  if (r.campaign.cancelled)
+    return "stopped on request after " + std::to_string(fired) + " of at most " +
+           std::to_string(o.shots) + " shots: " + figures;
+  if (!r.campaign.stopped_because.empty())
+    return "stopped after " + std::to_string(fired) + " shots: " + r.campaign.stopped_because +
+           "; " + figures;
+  return "targets not reached within " + std::to_string(o.shots) +
+         " shots (the budget): " + figures;
+}
+
 Result<AdaptiveCampaignReport> runAdaptiveCampaign(const hw::RigProfile& profile,
                                                    const CampaignOptions& o,
                                                    const AdaptiveOptions& design_in,

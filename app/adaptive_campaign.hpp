@@ -38,6 +38,18 @@ using AdaptiveProgress =
 /// `options.shots` is the budget; the angle range and exit speeds come from
 /// `options` as for a plain campaign (speeds drawn per shot). Errors as
 /// runCampaign's, and bad design options (named).
+/// The fit's sigmas against the targets, e.g. "sigma(mu) 0.00612 (target
+/// 0.005), sigma(beta_0) 0.0133 (target 0.02)"; before a friction fit, why
+/// there is none. Shown after each shot by the CLI and the GUI.
+std::string adaptiveSigmasText(const AdaptiveStatus& status, const AdaptiveOptions& design);
+
+/// Why the adaptive campaign ended, with the figures: "targets reached after 8
+/// shots: sigma(mu) 0.0042 <= 0.005, ...", "targets not reached within 20
+/// shots (the budget): sigma(mu) 0.0061 > 0.005, ...", "stopped on request
+/// after 3 of at most 20 shots: ...", or the rig's reason for stopping.
+std::string adaptiveStopText(const AdaptiveCampaignReport& report, const CampaignOptions& options,
+                             const AdaptiveOptions& design);
+
 Result<AdaptiveCampaignReport> runAdaptiveCampaign(const hw::RigProfile& profile,
                                                    const CampaignOptions& options,
                                                    const AdaptiveOptions& design,

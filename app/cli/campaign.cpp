@@ -16,13 +16,6 @@ namespace {
 int runAdaptive(const collide::hw::RigProfile& profile, const collide::app::CampaignOptions& o,
                 const collide::AdaptiveOptions& design, std::stop_token stop) {
   using namespace collide;
-  const auto sigmas = [](const AdaptiveStatus& st) {
-    if (!st.friction) return "no friction fit yet: " + st.fit_error;
-    char b[160];
-    std::snprintf(b, sizeof b, "mu %.4f +- %.4f, beta0 %.4f +- %.4f", st.friction->mu.value,
-                  st.friction->mu.sigma, st.friction->beta0.value, st.friction->beta0.sigma);
-    return std::string(b);
-  };
   AdaptiveOptions checked = design;
   checked.angle_min_deg = o.angle_min_deg, checked.angle_max_deg = o.angle_max_deg;
   if (auto bad = chooseNextShot({}, {}, checked); !bad) {
@@ -38,7 +31,7 @@ int runAdaptive(const collide::hw::RigProfile& profile, const collide::app::Camp
         std::cout << head << (shot.id.empty() ? "not fired" : shot.id) << "\n  why: " << shot.why
                   << "\n";
         if (!shot.note.empty()) std::cout << "  note: " << shot.note << "\n";
-        std::cout << "  now: " << sigmas(st) << std::endl;
+        std::cout << "  now: " << app::adaptiveSigmasText(st, design) << std::endl;
       },
       stop);
   if (!report) {
@@ -47,17 +40,14 @@ int runAdaptive(const collide::hw::RigProfile& profile, const collide::app::Camp
   }
   const app::CampaignReport& c = report->campaign;
   std::cout << c.fired << " shots fired (" << c.ok << " ok, " << c.failed << " failed) into "
-            << o.out_dir << "; " << sigmas(report->status) << "\n";
-  if (report->targets_met) {
-    std::cout << "targets reached (sigma_mu <= " << design.target_sigma_mu
-              << ", sigma_beta0 <= " << design.target_sigma_beta0 << ") after " << c.fired
-              << " shots\n";
-  } else if (!c.cancelled) {
-    std::cerr << "collide campaign: targets not reached within " << o.shots << " shots ("
-              << sigmas(report->status) << "): raise --shots or loosen the targets\n";
-  }
-  if (!c.stopped_because.empty())
-    std::cerr << "collide campaign: stopped: " << c.stopped_because << "\n";
+            << o.out_dir << "\n";
+  // One text for the CLI and the GUI: why it ended, with the sigmas against the targets.
+  const std::string why = app::adaptiveStopText(*report, o, design);
+  if (report->targets_met || c.cancelled)
+    std::cout << why << "\n";
+  else
+    std::cerr << "collide campaign: " << why
+              << (c.stopped_because.empty() ? ": raise --shots or loosen the targets" : "") << "\n";
   return report->targets_met && c.stopped_because.empty() ? cli::kExitOk : cli::kExitFailure;
 }
 

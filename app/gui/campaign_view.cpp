@@ -2,10 +2,12 @@
 
 #include <QChart>
 #include <QChartView>
+#include <QComboBox>
 #include <QDir>
 #include <QDoubleSpinBox>
 #include <QFile>
 #include <QFileDialog>
+#include <QFontMetrics>
 #include <QFormLayout>
 #include <QGridLayout>
 #include <QHBoxLayout>
@@ -13,6 +15,7 @@
 #include <QLegendMarker>
 #include <QLineSeries>
 #include <QPainter>
+#include <QPlainTextEdit>
 #include <QPushButton>
 #include <QScatterSeries>
 #include <QScrollArea>
@@ -63,7 +66,12 @@ void setRange(QValueAxis* axis, std::optional<double> lo, std::optional<double> 
 
 QChartView* makeChartView(const app::PlotSpec& spec) {
   auto* chart = new QChart;
-  chart->setTitle(QString::fromStdString(spec.title));
+  // "<plot>: <fit>" on two lines: one is elided in a half-width chart.
+  const QString title = QString::fromStdString(spec.title);
+  const qsizetype colon = title.indexOf(": ");
+  chart->setTitle(colon < 0 ? title.toHtmlEscaped()
+                            : title.left(colon).toHtmlEscaped() + "<br>" +
+                                  title.mid(colon + 2).toHtmlEscaped());
   auto* x = new QValueAxis;
   auto* y = new QValueAxis;
   x->setTitleText(QString::fromStdString(spec.x_label));
@@ -124,7 +132,10 @@ QChartView* makeChartView(const app::PlotSpec& spec) {
   chart->legend()->setAlignment(Qt::AlignBottom);
   auto* view = new QChartView(chart);
   view->setRenderHint(QPainter::Antialiasing);
-  view->setMinimumSize(360, 260);
+  // Tall enough that the plot area holds the y-axis title (Qt elides a
+  // longer one): the chart's title, x axis and legend take about 190 px.
+  const int y_title_px = QFontMetrics(y->titleFont()).horizontalAdvance(y->titleText());
+  view->setMinimumSize(360, std::max(260, y_title_px + 190));
   return view;
 }
 
@@ -151,6 +162,14 @@ std::string plotCsv(const app::PlotSpec& plot) {
 CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(this);
   auto* controls = new QHBoxLayout;
+  mode_ = new QComboBox;
+  mode_->setObjectName("campaign_mode");
+  mode_->addItem(tr("Uniform sweep"));
+  mode_->addItem(tr("Adaptive"));
+  mode_->setToolTip(
+      tr("Uniform sweep: the shots spread evenly over the incidence range.\nAdaptive: each shot "
+         "is analysed and the fit redone, and the next incidence is chosen where mu or beta_0 is "
+         "least known; it stops when both sigmas reach their targets or the budget is spent."));
   shots_ = new QSpinBox;
   shots_->setObjectName("campaign_shots");
   shots_->setRange(1, 1000);
@@ -176,9 +195,13 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   run_->setObjectName("run_campaign");
   cancel_ = new QPushButton(tr("Cancel"));
   cancel_->setObjectName("cancel_campaign");
+  cancel_->setToolTip(
+      tr("Stops the campaign; every shot recorded is kept (a shot still waiting for its "
+         "pressure is abandoned and saved as failed, 'cancelled')"));
   cancel_->setEnabled(false);
   auto* export_all = new QPushButton(tr("Export all..."));
   export_all->setObjectName("export_all");
+  controls->addWidget(mode_);
   controls->addWidget(shots_);
   controls->addWidget(seed_);
   controls->addWidget(new QLabel(tr("incidence")));
@@ -190,6 +213,46 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   controls->addStretch();
   controls->addWidget(export_all);
   layout->addLayout(controls);
+  // The adaptive campaign's targets (mu and beta_0 are dimensionless).
+  adaptive_controls_ = new QWidget;
+  auto* targets = new QHBoxLayout(adaptive_controls_);
+  targets->setContentsMargins(0, 0, 0, 0);
+  target_mu_ = new QDoubleSpinBox;
+  target_mu_->setObjectName("campaign_target_sigma_mu");
+  // Down to 1e-5: the simulated rig's precise imaging gets sigmas of a few 1e-5.
+  target_mu_->setRange(0.00001, 0.5);
+  target_mu_->setDecimals(5);
+  target_mu_->setSingleStep(0.001);
+  target_mu_->setValue(0.005);
+  target_mu_->setPrefix(QString::fromUtf8("stop at σ(μ) ≤ "));
+  target_beta0_ = new QDoubleSpinBox;
+  target_beta0_->setObjectName("campaign_target_sigma_beta0");
+  target_beta0_->setRange(0.00001, 1.0);
+  target_beta0_->setDecimals(5);
+  target_beta0_->setSingleStep(0.005);
+  target_beta0_->setValue(0.02);
+  target_beta0_->setPrefix(QString::fromUtf8("and σ(β₀) ≤ "));
+  targets->addWidget(target_mu_);
+  targets->addWidget(target_beta0_);
+  auto* note = new QLabel(tr("(dimensionless; the shots box is the budget)"));
+  note->setToolTip(
+      tr("The design chooses each shot's incidence; the exit speeds are drawn per shot from the "
+         "campaign's speed range, as in a uniform sweep."));
+  targets->addWidget(note);
+  targets->addStretch();
+  layout->addWidget(adaptive_controls_);
+  adaptive_status_ = new QLabel;
+  adaptive_status_->setObjectName("campaign_adaptive_status");
+  adaptive_status_->setWordWrap(true);
+  adaptive_status_->hide();
+  layout->addWidget(adaptive_status_);
+  adaptive_log_ = new QPlainTextEdit;
+  adaptive_log_->setObjectName("campaign_adaptive_log");
+  adaptive_log_->setReadOnly(true);
+  adaptive_log_->setLineWrapMode(QPlainTextEdit::WidgetWidth);
+  adaptive_log_->setMaximumHeight(130);
+  adaptive_log_->hide();
+  layout->addWidget(adaptive_log_);
   report_ = new QLabel;
   report_->setObjectName("campaign_report");
   report_->setWordWrap(true);
@@ -206,10 +269,17 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   new QGridLayout(grid_host_);
   scroll->setWidget(grid_host_);
   layout->addWidget(scroll, 1);
+  showMode();
 
+  connect(mode_, &QComboBox::currentIndexChanged, this, [this] { showMode(); });
   connect(run_, &QPushButton::clicked, this, [this] {
-    emit campaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
-                           angle_min_->value(), angle_max_->value());
+    if (adaptiveSelected())
+      emit adaptiveCampaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
+                                     angle_min_->value(), angle_max_->value(), target_mu_->value(),
+                                     target_beta0_->value());
+    else
+      emit campaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
+                             angle_min_->value(), angle_max_->value());
   });
   connect(cancel_, &QPushButton::clicked, this, [this] { emit cancelRequested(); });
   connect(export_all, &QPushButton::clicked, this, [this] {
@@ -232,10 +302,49 @@ CampaignView::~CampaignView() {
   loader_.waitForFinished();
 }
 
+bool CampaignView::adaptiveSelected() const {
+  return mode_->currentIndex() == 1;
+}
+
+void CampaignView::showMode() {
+  const bool adaptive = adaptiveSelected();
+  adaptive_controls_->setVisible(adaptive);
+  shots_->setPrefix(adaptive ? tr("budget: ") : tr("shots: "));
+  shots_->setToolTip(adaptive ? tr("At most this many shots; fewer when the targets are reached")
+                              : tr("Shots to fire, spread evenly over the incidence range"));
+}
+
 void CampaignView::setCampaignRunning(bool running) {
   run_->setEnabled(!running);
   cancel_->setEnabled(running);
-  if (running) report_->hide();
+  // The mode and targets stay as the running campaign was started with.
+  for (QWidget* w :
+       {static_cast<QWidget*>(mode_), static_cast<QWidget*>(shots_), static_cast<QWidget*>(seed_),
+        static_cast<QWidget*>(angle_min_), static_cast<QWidget*>(angle_max_), adaptive_controls_})
+    w->setEnabled(!running);
+  if (!running) return;
+  report_->hide();
+  adaptive_lines_.clear();
+  adaptive_log_->clear();
+  adaptive_log_->setVisible(adaptiveSelected());
+  adaptive_status_->setText(tr("Adaptive campaign: firing the first shot..."));
+  adaptive_status_->setVisible(adaptiveSelected());
+}
+
+void CampaignView::addAdaptiveShot(const QString& line, const QString& sigmas) {
+  adaptive_lines_ << line;
+  adaptive_log_->appendPlainText(line);
+  adaptive_log_->show();
+  adaptive_status_->setText(tr("After shot %1: %2").arg(adaptive_lines_.size()).arg(sigmas));
+  adaptive_status_->show();
+}
+
+QStringList CampaignView::adaptiveLog() const {
+  return adaptive_lines_;
+}
+
+QString CampaignView::adaptiveStatus() const {
+  return adaptive_status_->isVisible() ? adaptive_status_->text() : QString();
 }
 
 void CampaignView::setReport(const QString& text, bool warning) {

@@ -3,7 +3,10 @@
 // -v_n/v_s with the fitted Walton lines, -v_s'/v_n against -v_s/v_n, f and e
 // against tan psi, e against |v_n| with the fitted law), redrawn as analysed
 // shots accumulate, each exportable as PNG, SVG and CSV; and the controls that
-// start a campaign on the rig. The plots' content comes from app/ (the same
+// start a campaign on the rig: a uniform sweep of the incidence angle, or the
+// adaptive campaign (app/adaptive_campaign.hpp), which chooses each shot where
+// mu or beta_0 is least known, says why, and stops at the target sigmas or
+// when the shot budget is spent. The plots' content comes from app/ (the same
 // PlotSpec `collide fit` draws), so the GUI and the command line always agree.
 #include <QFutureWatcher>
 #include <QWidget>
@@ -13,7 +16,9 @@
 #include "app/report/plot.hpp"
 
 class QChartView;
+class QComboBox;
 class QLabel;
+class QPlainTextEdit;
 class QSpinBox;
 class QDoubleSpinBox;
 class QPushButton;
@@ -61,6 +66,11 @@ class CampaignView : public QWidget {
  signals:
   /// Fire a campaign of `shots` shots into the shot folder.
   void campaignRequested(int shots, quint64 seed, double angle_min_deg, double angle_max_deg);
+  /// Fire an adaptive campaign of at most `budget` shots, stopping when
+  /// sigma(mu) <= target_sigma_mu and sigma(beta_0) <= target_sigma_beta0.
+  void adaptiveCampaignRequested(int budget, quint64 seed, double angle_min_deg,
+                                 double angle_max_deg, double target_sigma_mu,
+                                 double target_sigma_beta0);
   void cancelRequested();
   /// The plots were redrawn.
   void refreshed();
@@ -71,6 +81,15 @@ class CampaignView : public QWidget {
   /// fired), above the plots; `warning` when shots are missing or failed.
   void setReport(const QString& text, bool warning);
   QString reportText() const;
+  /// One adaptive shot done: `line` says which angle, why it was chosen (the
+  /// engine's reason) and any note; `sigmas` the fit's sigmas against the
+  /// targets after it (app::adaptiveSigmasText).
+  void addAdaptiveShot(const QString& line, const QString& sigmas);
+  /// The adaptive campaign's per-shot lines so far (empty for a sweep).
+  QStringList adaptiveLog() const;
+  /// "After shot N: sigma(mu) ... (target ...), ..." (empty for a sweep).
+  QString adaptiveStatus() const;
+  bool adaptiveSelected() const;
 
   struct Loaded {
     std::vector<ChartData> charts;
@@ -79,6 +98,7 @@ class CampaignView : public QWidget {
 
  private:
   void rebuild();
+  void showMode();
 
   QString dir_;
   std::vector<ChartData> charts_;
@@ -90,6 +110,13 @@ class CampaignView : public QWidget {
   QSpinBox* seed_ = nullptr;
   QDoubleSpinBox* angle_min_ = nullptr;
   QDoubleSpinBox* angle_max_ = nullptr;
+  QComboBox* mode_ = nullptr;
+  QWidget* adaptive_controls_ = nullptr;
+  QDoubleSpinBox* target_mu_ = nullptr;
+  QDoubleSpinBox* target_beta0_ = nullptr;
+  QPlainTextEdit* adaptive_log_ = nullptr;
+  QLabel* adaptive_status_ = nullptr;
+  QStringList adaptive_lines_;
   QPushButton* run_ = nullptr;
   QPushButton* cancel_ = nullptr;
   QFutureWatcher<Loaded> loader_;

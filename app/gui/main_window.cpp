@@ -6,6 +6,7 @@
 #include <QDockWidget>
 #include <QFileDialog>
 #include <QFileInfo>
+#include <QFontMetrics>
 #include <QFrame>
 #include <QFutureWatcher>
 #include <QHBoxLayout>
@@ -20,6 +21,7 @@
 #include <QTemporaryFile>
 #include <QVBoxLayout>
 #include <QtConcurrent/QtConcurrentRun>
+#include <algorithm>
 
 #include "app/footage_shot.hpp"
 #include "app/gui/calibration_dialog.hpp"
@@ -41,6 +43,22 @@ QString qs(const std::string& s) {
 }
 
 }  // namespace
+
+QString statusBarLine(const QString& message, const QFontMetrics& metrics, int width_px) {
+  // The first sentence (decimal points are not followed by a space).
+  QString line = message;
+  if (const qsizetype stop = line.indexOf(". "); stop > 0) line = line.left(stop + 1);
+  if (metrics.horizontalAdvance(line) <= width_px) return line;
+  // Whole words that fit, then an ellipsis: never cut mid-word.
+  const QString ellipsis = QString::fromUtf8("…");
+  QString out;
+  for (const QString& word : line.split(' ')) {
+    const QString next = out.isEmpty() ? word : out + ' ' + word;
+    if (metrics.horizontalAdvance(next + ellipsis) > width_px) break;
+    out = next;
+  }
+  return out.isEmpty() ? metrics.elidedText(line, Qt::ElideRight, width_px) : out + ellipsis;
+}
 
 MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     : QMainWindow(parent), options_(std::move(options)) {
@@ -232,6 +250,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   connect(shot_browser_, &ShotBrowser::reanalyseRequested, this, &MainWindow::reanalyse);
   connect(shot_browser_, &ShotBrowser::error, this, [this](QString m) { showMessage(m); });
   connect(campaign_view_, &CampaignView::campaignRequested, this, &MainWindow::startCampaign);
+  connect(campaign_view_, &CampaignView::adaptiveCampaignRequested, this,
+          &MainWindow::startAdaptiveCampaign);
+  connect(worker_, &RigWorker::adaptiveProgress, this, &MainWindow::onAdaptiveProgress);
   connect(campaign_view_, &CampaignView::cancelRequested, this,
           [this] { worker_->requestCancel(); });
 
@@ -373,7 +394,10 @@ void MainWindow::showMessage(const QString& message, MessageKind kind, MessageTo
                                   : "#message_bar { background: #e3f1e0; }");
   save_elsewhere_->setVisible(unsaved_shot_ != nullptr && kind == MessageKind::Error);
   message_bar_->show();
-  statusBar()->showMessage(message, 8000);
+  // The message bar shows the whole text; the status bar a line of it that fits.
+  const int line_px =
+      std::max(200, (statusBar()->isVisible() ? statusBar()->width() : this->width()) - 24);
+  statusBar()->showMessage(statusBarLine(message, statusBar()->fontMetrics(), line_px), 8000);
 }
 
 void MainWindow::showShot(ShotPtr shot) {
@@ -528,20 +552,14 @@ void MainWindow::reanalyse(const QStringList& files) {
   });
 }
 
-void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double angle_max) {
-  app::CampaignOptions o;
-  o.shots = shots;
-  o.seed = seed;
-  o.angle_min_deg = angle_min;
-  o.angle_max_deg = angle_max;
-  o.out_dir = shots_dir_.toStdString();
+bool MainWindow::beginCampaign(int shots, const QString& title) {
   if (const QString problem = shotsDirProblem(shots_dir_, false); !problem.isEmpty()) {
     showMessage(tr("Campaign not started: %1").arg(problem), MessageKind::Error,
                 MessageTopic::ShotsDir);
-    return;
+    return false;
   }
   delete progress_;
-  progress_ = new QProgressDialog(tr("Firing the campaign"), tr("Cancel"), 0, shots, this);
+  progress_ = new QProgressDialog(title, tr("Cancel"), 0, shots, this);
   progress_->setObjectName("progress");
   progress_->setWindowModality(Qt::NonModal);
   progress_->setMinimumDuration(0);
@@ -549,7 +567,64 @@ void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double
   connect(progress_, &QProgressDialog::canceled, this, [this] { worker_->requestCancel(); });
   campaign_view_->setCampaignRunning(true);
   campaign_running_ = true;
-  worker_->requestCampaign(o);
+  return true;
+}
+
+void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double angle_max) {
+  app::CampaignOptions o;
+  o.shots = shots;
+  o.seed = seed;
+  o.angle_min_deg = angle_min;
+  o.angle_max_deg = angle_max;
+  o.out_dir = shots_dir_.toStdString();
+  if (beginCampaign(shots, tr("Firing the campaign"))) worker_->requestCampaign(o);
+}
+
+void MainWindow::startAdaptiveCampaign(int budget, quint64 seed, double angle_min, double angle_max,
+                                       double target_sigma_mu, double target_sigma_beta0) {
+  app::CampaignOptions o;
+  o.shots = budget;
+  o.seed = seed;
+  o.angle_min_deg = angle_min;
+  o.angle_max_deg = angle_max;
+  o.out_dir = shots_dir_.toStdString();
+  AdaptiveOptions design;
+  design.target_sigma_mu = target_sigma_mu;
+  design.target_sigma_beta0 = target_sigma_beta0;
+  // Bad targets or angle range: refused before the rig is touched.
+  AdaptiveOptions checked = design;
+  checked.angle_min_deg = angle_min, checked.angle_max_deg = angle_max;
+  if (auto bad = chooseNextShot({}, {}, checked); !bad) {
+    showMessage(tr("Adaptive campaign not started: %1").arg(qs(bad.error().message)));
+    return;
+  }
+  if (beginCampaign(budget, tr("Firing the adaptive campaign (at most %1 shots)").arg(budget)))
+    worker_->requestAdaptiveCampaign(o, design);
+}
+
+void MainWindow::onAdaptiveProgress(AdaptiveStepPtr step) {
+  const app::AdaptiveShot& shot = step->shot;
+  QString line = tr("Shot %1 (of at most %2) at %3%4: %5. Why: %6")
+                     .arg(step->done)
+                     .arg(step->budget)
+                     .arg(shot.incidence_deg, 0, 'f', 1)
+                     .arg(QString::fromUtf8("°"))
+                     .arg(shot.id.empty() ? tr("not fired") : qs(shot.id))
+                     .arg(qs(shot.why));
+  if (!shot.note.empty()) line += tr(" Note: %1").arg(qs(shot.note));
+  campaign_view_->addAdaptiveShot(line, step->sigmas);
+  if (progress_) {
+    progress_->setMaximum(step->budget);
+    progress_->setValue(step->done);
+    progress_->setLabelText(tr("Shot %1 of at most %2 fired and analysed.\n%3")
+                                .arg(step->done)
+                                .arg(step->budget)
+                                .arg(step->sigmas));
+  }
+  // The engine analysed the shot and stored its results already: the views
+  // only re-read the folder.
+  shot_browser_->refresh();
+  campaign_view_->refresh();
 }
 
 void MainWindow::openCalibrationDialog() {

@@ -17,10 +17,16 @@
 class QLabel;
 class QTabWidget;
 class QProgressDialog;
+class QFontMetrics;
 class QFrame;
 class QPushButton;
 
 namespace collide::gui {
+
+/// What the status bar shows of a message (the message bar shows it whole):
+/// its first sentence, cut at a word boundary with an ellipsis when wider
+/// than `width_px` in `metrics`.
+QString statusBarLine(const QString& message, const QFontMetrics& metrics, int width_px);
 
 class RigPanel;
 class LiveView;
@@ -106,6 +112,12 @@ class MainWindow : public QMainWindow {
   void showShot(ShotPtr shot);
   void reanalyse(const QStringList& files);
   void startCampaign(int shots, quint64 seed, double angle_min, double angle_max);
+  void startAdaptiveCampaign(int budget, quint64 seed, double angle_min, double angle_max,
+                             double target_sigma_mu, double target_sigma_beta0);
+  /// The shot folder checked and the progress dialog up; false (and said
+  /// why) when the folder cannot take shots.
+  bool beginCampaign(int shots, const QString& title);
+  void onAdaptiveProgress(AdaptiveStepPtr step);
   /// Writes the results JSON into the shot's file and catalog row (worker thread).
   void storeResults(const QString& file, const std::string& id, std::string results_json);
   /// Empty if shots can be saved in `dir`, else why not (and what to do).

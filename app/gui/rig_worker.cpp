@@ -26,6 +26,7 @@ RigWorker::RigWorker() {
   qRegisterMetaType<CameraPtr>();
   qRegisterMetaType<RigStatus>();
   qRegisterMetaType<ShotPtr>();
+  qRegisterMetaType<AdaptiveStepPtr>();
   thread_.setObjectName("rig control");
   moveToThread(&thread_);
   thread_.start();
@@ -72,6 +73,10 @@ void RigWorker::requestFire(std::array<double, 2> v, QString out_dir) {
 void RigWorker::requestCampaign(app::CampaignOptions options) {
   QMetaObject::invokeMethod(
       this, [this, options] { campaign(options); }, Qt::QueuedConnection);
+}
+void RigWorker::requestAdaptiveCampaign(app::CampaignOptions options, AdaptiveOptions design) {
+  QMetaObject::invokeMethod(
+      this, [this, options, design] { adaptiveCampaign(options, design); }, Qt::QueuedConnection);
 }
 void RigWorker::requestBurstSettings(int pre, int post, double fps, double exposure_us) {
   QMetaObject::invokeMethod(
@@ -338,27 +343,24 @@ void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
   poll();
 }
 
-void RigWorker::campaign(const app::CampaignOptions& options) {
+bool RigWorker::beginCampaign() {
   if (!profile_) {
     // Said once, by campaignFinished (the window shows it and unlocks the view).
     emit campaignFinished(tr("Campaign not started: no rig profile is loaded. Open one (File > "
                              "Open rig profile), then run the campaign again."),
                           false, false);
-    return;
+    return false;
   }
   // The campaign builds a rig per shot (each aimed for its angle): free the
-  // devices for it, and take them back afterwards.
+  // devices for it (lines vented, valves closed), and take them back afterwards.
   poll_timer_->stop();
   shutDownRig();
   status_.busy = true;
   emitStatus();
-  const std::stop_token cancel = newCancelToken();
-  Result<app::CampaignReport> report = app::runCampaign(
-      *profile_, options,
-      [this](int done, int total, const hw::Shot& shot) {
-        emit campaignProgress(done, total, std::make_shared<const hw::Shot>(shot));
-      },
-      cancel);
+  return true;
+}
+
+void RigWorker::endCampaign() {
   status_.busy = false;
   if (rig_) {
     if (Status up = hw::bringUp(*rig_); !up)
@@ -367,6 +369,18 @@ void RigWorker::campaign(const app::CampaignOptions& options) {
   }
   poll_timer_->start();
   emitStatus();
+}
+
+void RigWorker::campaign(const app::CampaignOptions& options) {
+  if (!beginCampaign()) return;
+  const std::stop_token cancel = newCancelToken();
+  Result<app::CampaignReport> report = app::runCampaign(
+      *profile_, options,
+      [this](int done, int total, const hw::Shot& shot) {
+        emit campaignProgress(done, total, std::make_shared<const hw::Shot>(shot));
+      },
+      cancel);
+  endCampaign();
   if (!report) {
     emit campaignFinished(tr("Campaign stopped: %1").arg(qs(report.error().message)), false, false);
     return;
@@ -374,6 +388,80 @@ void RigWorker::campaign(const app::CampaignOptions& options) {
   emit campaignFinished(campaignSummary(options, *report), report->cancelled,
                         report->fired == options.shots && report->failed == 0 &&
                             static_cast<int>(report->files.size()) == options.shots);
+}
+
+void RigWorker::adaptiveCampaign(const app::CampaignOptions& options,
+                                 const AdaptiveOptions& design) {
+  if (!beginCampaign()) return;
+  const std::stop_token cancel = newCancelToken();
+  // The CLI's engine (app/adaptive_campaign.hpp), here on the control thread.
+  Result<app::AdaptiveCampaignReport> report = app::runAdaptiveCampaign(
+      *profile_, options, design,
+      [this, &design](int done, int budget, const app::AdaptiveShot& shot,
+                      const AdaptiveStatus& st) {
+        auto step = std::make_shared<AdaptiveStep>();
+        step->done = done;
+        step->budget = budget;
+        step->shot = shot;
+        step->status = st;
+        step->sigmas = qs(app::adaptiveSigmasText(st, design));
+        emit adaptiveProgress(step);
+      },
+      cancel);
+  endCampaign();
+  if (!report) {
+    emit campaignFinished(tr("Adaptive campaign stopped: %1").arg(qs(report.error().message)),
+                          false, false);
+    return;
+  }
+  // Complete: stopped at the targets with every shot fired saved and ok.
+  const app::CampaignReport& c = report->campaign;
+  emit campaignFinished(
+      adaptiveCampaignSummary(options, design, *report), c.cancelled,
+      report->targets_met && c.failed == 0 && static_cast<int>(c.files.size()) == c.fired);
+}
+
+namespace {
+
+// ". Failed: <reason> (<ids>); ..." with shots that failed alike listed once.
+QString failuresText(const app::CampaignReport& report) {
+  if (report.failures.empty()) return {};
+  QStringList reasons;
+  QList<QStringList> ids;
+  for (const std::string& x : report.failures) {
+    const QString f = qs(x);
+    const qsizetype colon = f.indexOf(": ");
+    const QString id = colon < 0 ? QString() : f.left(colon);
+    const QString reason = colon < 0 ? f : f.mid(colon + 2);
+    qsizetype k = reasons.indexOf(reason);
+    if (k < 0) {
+      reasons << reason;
+      ids << QStringList();
+      k = reasons.size() - 1;
+    }
+    if (!id.isEmpty()) ids[k] << id;
+  }
+  QStringList parts;
+  for (qsizetype k = 0; k < reasons.size(); ++k)
+    parts << QObject::tr("%1 (%2)").arg(reasons[k], ids[k].join(", "));
+  return QObject::tr(". Failed: %1").arg(parts.join("; "));
+}
+
+}  // namespace
+
+QString adaptiveCampaignSummary(const app::CampaignOptions& options, const AdaptiveOptions& design,
+                                const app::AdaptiveCampaignReport& report) {
+  const app::CampaignReport& c = report.campaign;
+  QString s = QObject::tr(
+                  "Adaptive campaign: %1. %2 fired (%3 ok, %4 failed on the rig), %5 saved "
+                  "into %6")
+                  .arg(qs(app::adaptiveStopText(report, options, design)))
+                  .arg(c.fired)
+                  .arg(c.ok)
+                  .arg(c.fired - c.ok)
+                  .arg(c.files.size())
+                  .arg(qs(options.out_dir));
+  return s + failuresText(c) + ".";
 }
 
 QString campaignSummary(const app::CampaignOptions& options, const app::CampaignReport& report) {
@@ -404,28 +492,7 @@ QString campaignSummary(const app::CampaignOptions& options, const app::Campaign
     s +=
         QObject::tr(". %1 of %2 not fired: %3").arg(missing).arg(options.shots).arg(why.join("; "));
   }
-  if (!report.failures.empty()) {
-    // "<id>: <reason>" each; shots that failed alike are listed once.
-    QStringList reasons;
-    QList<QStringList> ids;
-    for (const std::string& x : report.failures) {
-      const QString f = qs(x);
-      const qsizetype colon = f.indexOf(": ");
-      const QString id = colon < 0 ? QString() : f.left(colon);
-      const QString reason = colon < 0 ? f : f.mid(colon + 2);
-      qsizetype k = reasons.indexOf(reason);
-      if (k < 0) {
-        reasons << reason;
-        ids << QStringList();
-        k = reasons.size() - 1;
-      }
-      if (!id.isEmpty()) ids[k] << id;
-    }
-    QStringList parts;
-    for (qsizetype k = 0; k < reasons.size(); ++k)
-      parts << QObject::tr("%1 (%2)").arg(reasons[k], ids[k].join(", "));
-    s += QObject::tr(". Failed: %1").arg(parts.join("; "));
-  }
+  s += failuresText(report);
   return s + ".";
 }
 

@@ -2,7 +2,8 @@
 // The rig's control thread. One RigWorker lives on its own QThread and is the
 // only code that calls the devices (hw's threading rule): loading a profile,
 // bringing the rig up, setting and watching pressures, arming, firing through
-// hw::Sequencer, running a campaign through app::runCampaign. The GUI talks to
+// hw::Sequencer, running a campaign through app::runCampaign or
+// app::runAdaptiveCampaign. The GUI talks to
 // it only through queued calls (the public request* methods may be called from
 // any thread) and hears back through signals, so no device call ever blocks
 // the GUI. Long work (a shot, a campaign) can be cancelled from any thread.
@@ -17,6 +18,7 @@
 #include <stop_token>
 #include <vector>
 
+#include "app/adaptive_campaign.hpp"
 #include "app/campaign.hpp"
 #include "app/gui/shot_analysis_service.hpp"
 #include "hw/rig.hpp"
@@ -43,6 +45,22 @@ struct RigStatus {
 /// why each planned shot that was not fired was not.
 QString campaignSummary(const app::CampaignOptions& options, const app::CampaignReport& report);
 
+/// The same for an adaptive campaign: why it ended (targets reached, budget
+/// spent, stopped), with the sigmas against the targets, then what was fired
+/// and saved and why any shot failed.
+QString adaptiveCampaignSummary(const app::CampaignOptions& options, const AdaptiveOptions& design,
+                                const app::AdaptiveCampaignReport& report);
+
+/// One shot of an adaptive campaign, fired, saved and analysed: what it was,
+/// why it was chosen, and the fit after it.
+struct AdaptiveStep {
+  int done = 0, budget = 0;
+  app::AdaptiveShot shot;
+  AdaptiveStatus status;
+  QString sigmas;  ///< app::adaptiveSigmasText(status, design)
+};
+using AdaptiveStepPtr = std::shared_ptr<const AdaptiveStep>;
+
 class RigWorker : public QObject {
   Q_OBJECT
  public:
@@ -61,6 +79,9 @@ class RigWorker : public QObject {
   /// One shot at these speeds; saved into `out_dir` (file first, then catalog row).
   void requestFire(std::array<double, 2> speed_m_s, QString out_dir);
   void requestCampaign(app::CampaignOptions options);
+  /// An adaptive campaign (options.shots is the budget): each shot is analysed
+  /// here (results into its file and the catalog) before the next is chosen.
+  void requestAdaptiveCampaign(app::CampaignOptions options, AdaptiveOptions design);
   /// Burst and camera timing: edits the profile's text (so every shot records
   /// the settings it was really taken with) and rebuilds the rig from it.
   /// Refused with an error while armed or busy.
@@ -87,6 +108,8 @@ class RigWorker : public QObject {
   /// `save_error` set if saving failed: the shot is still in memory).
   void shotFired(collide::gui::ShotPtr shot, QString file, QString save_error);
   void campaignProgress(int done, int total, collide::gui::ShotPtr shot);
+  /// An adaptive campaign's shot is done (fired, saved and analysed).
+  void adaptiveProgress(collide::gui::AdaptiveStepPtr step);
   /// Every requested campaign ends with this, also one refused before its
   /// first shot. `complete`: every planned shot was fired, saved and ok;
   /// otherwise `summary` says how many were planned, fired and saved and why
@@ -113,6 +136,12 @@ class RigWorker : public QObject {
   void disarm();
   void fire(std::array<double, 2> speed_m_s, const QString& out_dir);
   void campaign(const app::CampaignOptions& options);
+  void adaptiveCampaign(const app::CampaignOptions& options, const AdaptiveOptions& design);
+  /// Frees the devices for a campaign (it builds a rig per shot, each aimed
+  /// for its angle); false (campaignFinished said why) without a profile.
+  bool beginCampaign();
+  /// Takes the devices back after a campaign.
+  void endCampaign();
   void poll();
   void shutDownRig();
   void emitStatus();
@@ -134,3 +163,4 @@ class RigWorker : public QObject {
 Q_DECLARE_METATYPE(collide::gui::ProfilePtr)
 Q_DECLARE_METATYPE(collide::gui::CameraPtr)
 Q_DECLARE_METATYPE(collide::gui::RigStatus)
+Q_DECLARE_METATYPE(collide::gui::AdaptiveStepPtr)
