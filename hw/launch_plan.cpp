@@ -22,8 +22,8 @@ Eigen::Vector2d worldToPixel(const RigProfile& p, const Vec3& w) {
 
 namespace {
 
-// A wall rig: launcher 1 fires at the plate, launcher 2 stays shut (its valve
-// opens with the first, but the simulated world leaves its sphere in the tube).
+// A wall rig: launcher 1 fires at the plate, launcher 2 stays shut (the
+// sequencer holds it at 0 kPa and never opens its valve).
 Result<LaunchPlan> planWallLaunch(const RigProfile& p, const std::array<double, 2>& v) {
   LaunchPlan plan;
   plan.exit_speed_m_s = v;

@@ -601,13 +601,6 @@ Result<RigProfile> parseRigProfile(std::string_view text, const std::string& sou
     COLLIDE_RETURN_IF_ERROR(parseAnalysis(an->second, p));
   if (const auto wall = doc.sections.find("wall"); wall != doc.sections.end()) {
     COLLIDE_RETURN_IF_ERROR(parseWall(wall->second, p));
-    // The sequencer still pressurises and opens both launchers: on real
-    // valves a wall rig would fire launcher 2 into the room.
-    if (p.valves.backend != "sim")
-      return fail(source_name + ": [wall] (a sphere-on-wall rig) works on simulated valves only "
-                                "(valves backend \"sim\"): the sequencer would still open "
-                                "launcher 2's valve on \"" +
-                  p.valves.backend + "\" valves; remove [wall] to drive this rig");
   }
   return p;
 }

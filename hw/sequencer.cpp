@@ -198,6 +198,10 @@ class ShotRun {
       stamp("bring_up", "devices opened, configured and started from the profile");
     }
 
+    // A wall rig fires launcher 1 only: launcher 2 is held at 0 kPa and its
+    // valve stays shut.
+    const int fired_launchers = p_.wall ? 1 : 2;
+    if (p_.wall) pressure[1] = 0.0;
     for (int i = 0; i < 2; ++i) {
       COLLIDE_RETURN_IF_ERROR(rig_.regulator->setPressureKPa(channel(i), pressure[i]));
       shot_.launchers[i].commanded_kPa = pressure[i];
@@ -232,17 +236,18 @@ class ShotRun {
 
     std::vector<ValvePulse> pattern;
     std::string planned;
-    for (int i = 0; i < 2; ++i) {
+    for (int i = 0; i < fired_launchers; ++i) {
       const auto open = t0 + std::llround(plan.valve_open_s[i] * 1e9);
       pattern.push_back({p_.launchers[i].valve, open, p_.sequencer.pulse_us});
       planned += (i ? ", " : "") + name(i) + " opens at +" + ms(open - t0);
     }
     COLLIDE_RETURN_IF_ERROR(checkCancel("before firing"));
+    if (p_.wall) planned += "; " + name(1) + " stays shut (a wall rig)";
     stamp("fire", planned + ", " + std::to_string(p_.sequencer.pulse_us) + " us each");
     COLLIDE_ASSIGN_OR_RETURN(const std::vector<ValveEvent> events, rig_.valves->fire(pattern));
     std::string achieved;
     for (const ValveEvent& e : events) {
-      for (int i = 0; i < 2; ++i) {
+      for (int i = 0; i < fired_launchers; ++i) {
         if (p_.launchers[i].valve != e.valve) continue;
         shot_.launchers[i].valve_open_ns = e.opened_ns;
         shot_.launchers[i].pulse_us = e.pulseUs();

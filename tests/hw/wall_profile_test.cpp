@@ -8,7 +8,9 @@
 #include <sstream>
 
 #include "hw/camera_sim.hpp"
+#include "hw/rig.hpp"
 #include "hw/rig_profile.hpp"
+#include "hw/sequencer.hpp"
 #include "vision/render_wall.hpp"
 
 namespace collide::hw {
@@ -55,14 +57,34 @@ TEST(WallProfile, ErrorsNameTheFieldAndWhatToDo) {
       std::regex_replace(text, std::regex(R"(point_m = \[[^\]]*\])"), ""), "missing.toml");
   ASSERT_FALSE(missing);
   EXPECT_THAT(missing.error().message, HasSubstr("point_m"));
-  // Real valves would still open launcher 2: a wall rig is refused on them.
-  auto real_valves = parseRigProfile(
-      std::regex_replace(text, std::regex(R"(\[valves\]\nbackend = "sim")"),
-                         "[valves]\nbackend = \"gpiod\""),
-      "gpiod-wall.toml");
-  ASSERT_FALSE(real_valves);
-  EXPECT_THAT(real_valves.error().message, HasSubstr("simulated valves only"));
-  EXPECT_THAT(real_valves.error().message, HasSubstr("launcher 2"));
+  // A wall rig drives real valves too: the sequencer never opens launcher 2.
+  auto real_valves =
+      parseRigProfile(std::regex_replace(text, std::regex(R"(\[valves\]\nbackend = "sim")"),
+                                         "[valves]\nbackend = \"gpiod\""),
+                      "gpiod-wall.toml");
+  EXPECT_TRUE(real_valves) << real_valves.error().message;
+}
+
+// The sequencer fires launcher 1 only on a wall rig: launcher 2 is held at
+// 0 kPa and its valve never opens (on real valves it would fire a sphere into
+// the room), while launcher 1's pulse is the profile's.
+TEST(WallProfile, TheSequencerFiresLauncherOneOnly) {
+  auto profile = parseRigProfile(wallText(), "sim-wall.toml");
+  ASSERT_TRUE(profile) << profile.error().message;
+  auto rig = makeRig(*profile);
+  ASSERT_TRUE(rig) << rig.error().message;
+  const Shot shot = Sequencer(*rig).fire(ShotRequest::atSpeeds(2.0, 2.0));
+  (void)shutDown(*rig);
+  ASSERT_EQ(shot.status, ShotStatus::Ok) << shot.failure_reason;
+  EXPECT_GT(shot.launchers[0].valve_open_ns, 0);
+  EXPECT_EQ(shot.launchers[0].pulse_us, profile->sequencer.pulse_us);
+  EXPECT_EQ(shot.launchers[1].valve_open_ns, 0);
+  EXPECT_EQ(shot.launchers[1].pulse_us, 0);
+  EXPECT_EQ(shot.launchers[1].commanded_kPa, 0.0);
+  bool said = false;
+  for (const auto& step : shot.steps)
+    if (step.name == "fire") said = step.detail.find("stays shut") != std::string::npos;
+  EXPECT_TRUE(said) << "the fire step should say launcher 2 stays shut";
 }
 
 TEST(WallProfile, TheFaceLineInTheImageFollowsTheGeometry) {
