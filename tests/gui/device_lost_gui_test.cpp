@@ -108,7 +108,7 @@ TEST(DeviceLostGui, ALostRegulatorIsShownAndOnlyReconnectClearsItOnceItAnswers) 
     }
     const ShotPtr previous = w.lastShot();
     clickThroughWindow(fire);
-    // (The spy hears the worker at once; the window a moment later.)
+    // The window hears of the shot through a queued signal.
     ASSERT_TRUE(QTest::qWaitFor([&] { return w.lastShot() != previous; }, 30000));
     if (w.lastShot()->status == hw::ShotStatus::Ok) ++ok_shots;
     QTest::qWait(200);  // the status after the shot
