@@ -9,7 +9,7 @@ std::string lostMessage(const DeviceLoss& loss) {
          "): no shot is fired until it answers again, and retrying will not help before then: "
          "check " +
          loss.what_to_check +
-         ", then reconnect (run the command again, or reload the rig profile in the GUI)";
+         ", then reconnect (run the command again, or press Reconnect in the GUI's rig panel)";
 }
 
 void DeviceHealth::markLost(DeviceLoss loss) {

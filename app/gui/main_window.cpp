@@ -141,6 +141,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     worker_->requestFire(v, shots_dir_);
   });
   connect(rig_panel_, &RigPanel::cancelRequested, this, [this] { worker_->requestCancel(); });
+  connect(rig_panel_, &RigPanel::reconnectRequested, this, [this] {
+    statusBar()->showMessage(tr("Reconnecting the lost devices..."), 5000);
+    worker_->requestReconnect();
+  });
   connect(rig_panel_, &RigPanel::burstSettingsRequested, this, [this](BurstSettings b) {
     worker_->requestBurstSettings(b.pre_trigger_frames, b.post_trigger_frames, b.fps,
                                   b.exposure_us);
@@ -193,6 +197,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     statusBar()->showMessage(step, 3000);
   });
   connect(worker_, &RigWorker::shotFired, this, &MainWindow::onShotFired);
+  connect(worker_, &RigWorker::reconnectFinished, this, [this](bool ok, QString message) {
+    rig_panel_->reconnectFinished(ok, message);
+    showMessage(message, ok ? MessageKind::Info : MessageKind::Error);
+  });
   connect(worker_, &RigWorker::campaignProgress, this, [this](int done, int total, ShotPtr shot) {
     if (progress_) {
       progress_->setMaximum(total);

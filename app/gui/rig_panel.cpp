@@ -3,6 +3,7 @@
 #include <QChart>
 #include <QChartView>
 #include <QDoubleSpinBox>
+#include <QEvent>
 #include <QFormLayout>
 #include <QGroupBox>
 #include <QHBoxLayout>
@@ -14,12 +15,14 @@
 #include <QScatterSeries>
 #include <QScrollArea>
 #include <QTableWidget>
+#include <QTime>
 #include <QVBoxLayout>
 #include <QValueAxis>
 #include <algorithm>
 #include <cmath>
 
 #include "app/gui/guarded_spin_box.hpp"
+#include "hw/device_health.hpp"
 
 namespace collide::gui {
 namespace {
@@ -200,6 +203,8 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
 
   // ... the action bar does not: always on screen.
   auto* bar = new QFrame;
+  action_bar_ = bar;
+  bar->installEventFilter(this);
   bar->setObjectName("action_bar");
   bar->setFrameShape(QFrame::StyledPanel);
   auto* al = new QVBoxLayout(bar);
@@ -239,6 +244,11 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   cancel_ = new QPushButton(tr("Cancel"));
   cancel_->setObjectName("cancel_button");
   cancel_->setToolTip(tr("Stop the running shot or campaign between steps."));
+  reconnect_ = new QPushButton(tr("Reconnect"));
+  reconnect_->setObjectName("reconnect_button");
+  reconnect_->setToolTip(
+      tr("Look for the lost devices again: each is closed, reopened and asked to answer "
+         "(enabled while a device is lost)."));
   // Keyboard: two-hand chords for what pressurises or fires, Escape for what
   // stops. A button's shortcut acts only while the button is enabled, so Fire
   // by key needs the same armed-and-settled state as by mouse.
@@ -246,12 +256,15 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   disarm_->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_D));
   fire_->setShortcut(QKeySequence(Qt::CTRL | Qt::SHIFT | Qt::Key_F));
   cancel_->setShortcut(QKeySequence(Qt::Key_Escape));
-  for (auto* b : {arm_, disarm_, fire_, cancel_}) {
-    b->setToolTip(b->toolTip() + "  (" + b->shortcut().toString(QKeySequence::NativeText) + ")");
+  for (auto* b : {arm_, disarm_, fire_, cancel_, reconnect_}) {
+    if (!b->shortcut().isEmpty())
+      b->setToolTip(b->toolTip() + "  (" + b->shortcut().toString(QKeySequence::NativeText) + ")");
     b->setMinimumWidth(60);
     b->setSizePolicy(QSizePolicy::Preferred, QSizePolicy::Fixed);
     buttons->addWidget(b);
   }
+  arm_tip_ = arm_->toolTip();
+  fire_tip_ = fire_->toolTip();
   al->addLayout(buttons);
   connect(arm_, &QPushButton::clicked, this, [this] {
     // Armed with an edited setpoint, Arm changes the pressure like Apply: it
@@ -268,7 +281,20 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
     emit fireRequested(wantedSpeeds());
   });
   connect(cancel_, &QPushButton::clicked, this, [this] { emit cancelRequested(); });
+  connect(reconnect_, &QPushButton::clicked, this, [this] {
+    reconnecting_ = true;  // until the worker reports back
+    reconnect_result_.clear();
+    showLost();
+    updateButtons();
+    emit reconnectRequested();
+  });
 
+  lost_ = new QLabel;
+  lost_->setObjectName("lost_devices");
+  lost_->setWordWrap(true);
+  lost_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  lost_->setStyleSheet("color: #b03020;");
+  lost_->hide();
   state_ = new QLabel(tr("disarmed"));
   state_->setObjectName("arm_state");
   hint_ = new QLabel;
@@ -281,6 +307,7 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   shots_dir_->setObjectName("shots_dir_label");
   shots_dir_->setWordWrap(true);
   shots_dir_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  al->addWidget(lost_);
   al->addWidget(state_);
   al->addWidget(hint_);
   al->addWidget(step_);
@@ -360,20 +387,41 @@ void RigPanel::setStatus(const RigStatus& s) {
     // on purpose meanwhile, which is not an alarm.
     const bool campaign_owned = s.busy && s.state[r] == "closed";
     const QString cells[3] = {s.backend[r], s.device[r],
-                              campaign_owned ? tr("in use by the shot") : s.state[r]};
+                              s.lost[r]        ? tr("lost")
+                              : campaign_owned ? tr("in use by the shot")
+                                               : s.state[r]};
+    const QString why = s.lost[r] ? qs(hw::lostMessage(*s.lost[r])) : QString();
     for (int c = 0; c < 3; ++c) {
       auto* item = devices_->item(r, c);
       if (!item) devices_->setItem(r, c, item = new QTableWidgetItem);
       item->setText(cells[c]);
-      if (c == 2)
-        item->setForeground(s.state[r] == "running" ? QColor(20, 130, 40)
-                            : campaign_owned        ? QColor(110, 110, 110)
-                                                    : QColor(170, 40, 30));
+      item->setToolTip(why);
+      if (c == 2) {
+        QFont font = item->font();
+        font.setBold(s.lost[r].has_value());
+        item->setFont(font);
+        item->setForeground(s.lost[r]                 ? QColor(170, 40, 30)
+                            : s.state[r] == "running" ? QColor(20, 130, 40)
+                            : campaign_owned          ? QColor(110, 110, 110)
+                                                      : QColor(170, 40, 30));
+      }
     }
   }
-  for (int i = 0; i < 2; ++i)
-    readback_[i]->setText(
-        tr("%1 kPa (set %2)").arg(s.readback_kPa[i], 0, 'f', 2).arg(s.setpoint_kPa[i], 0, 'f', 2));
+  // A lost regulator's last read-back is stale: it is not shown as a pressure.
+  for (int i = 0; i < 2; ++i) {
+    if (s.lost[0]) {
+      readback_[i]->setText(tr("<b>lost</b>"));
+      readback_[i]->setStyleSheet("color: #b03020;");
+      readback_[i]->setToolTip(qs(hw::lostMessage(*s.lost[0])));
+    } else {
+      readback_[i]->setText(tr("%1 kPa (set %2)")
+                                .arg(s.readback_kPa[i], 0, 'f', 2)
+                                .arg(s.setpoint_kPa[i], 0, 'f', 2));
+      readback_[i]->setStyleSheet({});
+      readback_[i]->setToolTip({});
+    }
+  }
+  showLost();
   state_->setText(s.busy      ? tr("<b>busy</b>: firing")
                   : !s.armed  ? tr("disarmed")
                   : s.settled ? tr("<b>armed and settled</b>: ready to fire")
@@ -384,6 +432,50 @@ void RigPanel::setStatus(const RigStatus& s) {
     apply_setpoint_->hide();
   }
   updateButtons();
+}
+
+void RigPanel::reconnectFinished(bool ok, const QString& message) {
+  reconnecting_ = false;
+  (void)message;  // the window's message bar shows it whole
+  reconnect_result_ = ok ? QString() : QTime::currentTime().toString("HH:mm:ss");
+  showLost();
+  updateButtons();
+}
+
+void RigPanel::showLost() {
+  // Short (the action bar has little room): what happened and what to check;
+  // the whole message is the tooltip and in the window's message bar.
+  QStringList lines, whole;
+  for (const auto& l : status_.lost) {
+    if (!l) continue;
+    lines << tr("<b>%1 is lost</b> (%2): check %3, then press Reconnect.")
+                 .arg(qs(l->device).toHtmlEscaped(), qs(l->what_happened).toHtmlEscaped(),
+                      qs(l->what_to_check).toHtmlEscaped());
+    whole << qs(hw::lostMessage(*l));
+  }
+  lost_->setToolTip(whole.join("\n\n"));
+  if (reconnecting_)
+    lines << tr("<i>Reconnecting: reopening and asking the lost devices...</i>");
+  else if (!reconnect_result_.isEmpty() && !lines.isEmpty())
+    lines << tr("<b>Reconnect at %1 did not find it</b>: it still does not answer.")
+                 .arg(reconnect_result_);
+  lost_->setText(lines.join("<br>"));
+  lost_->setVisible(!lines.isEmpty());
+  fitActionBar();
+}
+
+void RigPanel::fitActionBar() {
+  // The dock lays the panel out by size hints, not by height for width: the
+  // bar's word-wrapped labels (the lost message, the hint) would overlap when
+  // they wrap to more lines than their hints assume. The bar asks for what its
+  // labels need at its width.
+  if (QLayout* l = action_bar_->layout())
+    action_bar_->setMinimumHeight(l->totalHeightForWidth(action_bar_->width()));
+}
+
+bool RigPanel::eventFilter(QObject* watched, QEvent* event) {
+  if (watched == action_bar_ && event->type() == QEvent::Resize) fitActionBar();
+  return QWidget::eventFilter(watched, event);
 }
 
 void RigPanel::setStep(const QString& step) {
@@ -504,6 +596,10 @@ void RigPanel::updateHint() {
     hint = tr("First: choose a shot folder you can write to (File &gt; Shot folder).");
   else if (status_.busy)
     hint = tr("Wait for the shot or campaign to finish, or Cancel it.");
+  else if (status_.anyLost())
+    hint =
+        tr("Arm and Fire are off while a device is lost: check it (see above), then press "
+           "<b>Reconnect</b>.");
   else if (pending_)
     hint = tr("Next: Apply the new setpoint (or Disarm).");
   else if (!status_.armed)
@@ -514,6 +610,7 @@ void RigPanel::updateHint() {
   else
     hint = tr("Next: <b>Fire</b>. The shot opens in Replay with its results.");
   hint_->setText(hint);
+  fitActionBar();
 }
 
 void RigPanel::updateCurveMarkers() {
@@ -523,12 +620,20 @@ void RigPanel::updateCurveMarkers() {
 
 void RigPanel::updateButtons() {
   const bool loaded = profile_ != nullptr;
-  const bool busy = status_.busy;
-  arm_->setEnabled(loaded && !busy && shots_usable_);
+  const bool busy = status_.busy || reconnecting_;
+  const bool lost = status_.anyLost();
+  arm_->setEnabled(loaded && !busy && shots_usable_ && !lost);
   disarm_->setEnabled(loaded && !busy && status_.armed);
   fire_->setEnabled(loaded && !busy && status_.armed && status_.settled && !pending_ &&
-                    shots_usable_);
-  cancel_->setEnabled(busy);
+                    shots_usable_ && !lost);
+  cancel_->setEnabled(status_.busy);
+  reconnect_->setEnabled(loaded && lost && !busy);
+  reconnect_->setText(reconnecting_ ? tr("Reconnecting...") : tr("Reconnect"));
+  // Why Arm and Fire are off, where the pointer is.
+  const QString off =
+      lost ? tr("Off while a device is lost: press Reconnect once it is checked.") : QString();
+  arm_->setToolTip(lost ? off : arm_tip_);
+  fire_->setToolTip(lost ? off : fire_tip_);
   // Applying rebuilds the rig (lines vented): not while armed, as Live's camera controls.
   apply_burst_->setEnabled(loaded && !busy && !status_.armed);
   apply_burst_->setToolTip(status_.armed ? tr("Disarm first: applying rebuilds the rig")

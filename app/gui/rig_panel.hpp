@@ -9,7 +9,10 @@
 // does, so it is on screen at any window size. Set-points change only on
 // purpose: the wheel only in a focused field, typed values out of range are
 // refused with the range, and a new setpoint while armed waits for "Apply"
-// and a confirmation. The panel never touches a device: it asks through signals.
+// and a confirmation. A lost device (it stopped answering) shows as "lost"
+// with what happened and what to check; Arm and Fire stay off until Reconnect
+// finds every device again. The panel never touches a device: it asks
+// through signals.
 #include <QWidget>
 #include <array>
 
@@ -19,6 +22,7 @@ class QLabel;
 class QPushButton;
 class QTableWidget;
 class QGroupBox;
+class QFrame;
 class QChartView;
 class QLineSeries;
 class QScatterSeries;
@@ -53,12 +57,22 @@ class RigPanel : public QWidget {
   void setShotsDir(const QString& dir, bool usable, bool created = false);
   /// True while a setpoint edited when armed waits for Apply.
   bool setpointPending() const { return pending_; }
+  /// A Reconnect asked for with reconnectRequested finished (the worker's
+  /// reconnectFinished; the window's message bar shows `message`): a failed
+  /// one is noted under the lost devices.
+  void reconnectFinished(bool ok, const QString& message);
+
+ protected:
+  /// Keeps the action bar's messages whole: its height follows its width.
+  bool eventFilter(QObject* watched, QEvent* event) override;
 
  signals:
   void armRequested(std::array<double, 2> speed_m_s);
   void disarmRequested();
   void fireRequested(std::array<double, 2> speed_m_s);
   void cancelRequested();
+  /// Look for the lost devices again (enabled only while one is lost).
+  void reconnectRequested();
   void burstSettingsRequested(collide::gui::BurstSettings settings);
   /// A typed value was refused (the message says which and the allowed range).
   void inputRefused(QString message);
@@ -72,6 +86,8 @@ class RigPanel : public QWidget {
   void confirmSetpoint();
   void updateBurstPending();
   void updateHint();
+  void showLost();
+  void fitActionBar();
 
   ProfilePtr profile_;
   RigStatus status_;
@@ -101,6 +117,12 @@ class RigPanel : public QWidget {
   QPushButton* disarm_ = nullptr;
   QPushButton* fire_ = nullptr;
   QPushButton* cancel_ = nullptr;
+  QPushButton* reconnect_ = nullptr;
+  QFrame* action_bar_ = nullptr;
+  QLabel* lost_ = nullptr;      ///< every lost device's message, and the last Reconnect's result
+  QString reconnect_result_;    ///< when the last Reconnect failed (empty: it did not)
+  QString arm_tip_, fire_tip_;  ///< their tooltips when nothing is lost
+  bool reconnecting_ = false;
   QLabel* state_ = nullptr;
   QLabel* step_ = nullptr;
   bool linking_ = false;

@@ -90,6 +90,11 @@ void RigWorker::requestCameraSettings(double fps, double exposure_us, double gai
       Qt::QueuedConnection);
 }
 
+void RigWorker::requestReconnect() {
+  QMetaObject::invokeMethod(
+      this, [this] { reconnect(); }, Qt::QueuedConnection);
+}
+
 void RigWorker::requestCancel() {
   std::lock_guard lock(cancel_mutex_);
   cancel_.request_stop();
@@ -202,6 +207,12 @@ void RigWorker::arm(std::array<double, 2> speed) {
     emit error(qs(curve.error().message));
     return;
   }
+  // A lost device is refused every call: say so before touching any line.
+  if (Status ready = rig_->health->ready(); !ready) {
+    emit error(tr("Cannot arm: %1").arg(qs(ready.error().message)));
+    emitStatus();
+    return;
+  }
   if (Status up = hw::bringUp(*rig_); !up) {
     emit error(tr("Cannot arm: %1").arg(qs(up.error().message)));
     return;
@@ -235,6 +246,37 @@ void RigWorker::disarm() {
       if (Status s = rig_->regulator->vent(); !s) emit error(qs(s.error().message));
     if (rig_->valves->state() != hw::DeviceState::Closed)
       if (Status s = rig_->valves->closeAll(); !s) emit error(qs(s.error().message));
+  }
+  poll();
+}
+
+void RigWorker::reconnect() {
+  if (!rig_) {
+    emit reconnectFinished(false, tr("No rig: open a rig profile first."));
+    return;
+  }
+  const std::vector<hw::DeviceLoss> lost = rig_->health->lost();
+  if (lost.empty()) {
+    emit reconnectFinished(true, tr("Nothing to reconnect: every device answers."));
+    emitStatus();
+    return;
+  }
+  // A reopened regulator's setpoints are not the armed ones any more.
+  if (rig_->regulator->loss()) status_.armed = status_.settled = false;
+  QStringList names;
+  for (const hw::DeviceLoss& l : lost) names << qs(l.device);
+  const Status found = hw::recheck(*rig_);
+  if (found) {
+    // Reopened devices run again; the camera feeds the live view again.
+    if (Status up = hw::bringUp(*rig_); !up)
+      emit error(tr("The rig did not start after the reconnect: %1").arg(qs(up.error().message)));
+    rig_->camera->setLiveView(true);
+    emit reconnectFinished(
+        true, tr("Reconnected: %1 answer%2 again. Arm when ready.")
+                  .arg(names.join(", "), names.size() == 1 ? QStringLiteral("s") : QString()));
+  } else {
+    emit reconnectFinished(false,
+                           tr("Still lost after Reconnect: %1").arg(qs(found.error().message)));
   }
   poll();
 }
@@ -299,8 +341,10 @@ void RigWorker::emitStatus() {
                       qs(rig_->profile.camera.device)};
     status_.state = {hw::toString(rig_->regulator->state()), hw::toString(rig_->valves->state()),
                      hw::toString(rig_->camera->state())};
+    status_.lost = {rig_->regulator->loss(), rig_->valves->loss(), rig_->camera->loss()};
   } else {
     status_.state = {"none", "none", "none"};
+    status_.lost = {};
   }
   emit status(status_);
 }

@@ -15,6 +15,7 @@
 #include <array>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stop_token>
 #include <vector>
 
@@ -39,6 +40,15 @@ struct RigStatus {
   bool armed = false;
   bool settled = false;  ///< armed and both lines within the profile's tolerance
   bool busy = false;     ///< a shot or campaign is running
+  /// Per device (regulator, valves, camera): why it is lost (it stopped
+  /// answering: hw/device_health.hpp), or none. A lost device is refused
+  /// every call until Reconnect (RigWorker::requestReconnect) finds it again.
+  std::array<std::optional<hw::DeviceLoss>, 3> lost;
+  bool anyLost() const {
+    for (const auto& l : lost)
+      if (l) return true;
+    return false;
+  }
 };
 
 /// What a campaign did, for the user: planned, fired (ok / failed), saved, and
@@ -94,6 +104,10 @@ class RigWorker : public QObject {
   void requestCameraSettings(double fps, double exposure_us, double gain_db);
   /// Cancels the running shot or campaign (between steps / shots).
   void requestCancel();
+  /// Looks for the lost devices again (hw::recheck: each is closed, reopened
+  /// and probed, which can take half a second plus the link's timeouts, here
+  /// on the control thread); reconnectFinished says how it went.
+  void requestReconnect();
 
   /// The rig's control thread (tests check that devices are driven from it).
   QThread* controlThread() { return &thread_; }
@@ -115,6 +129,9 @@ class RigWorker : public QObject {
   /// otherwise `summary` says how many were planned, fired and saved and why
   /// each missing one was not.
   void campaignFinished(QString summary, bool cancelled, bool complete);
+  /// A Reconnect finished: `ok` when no device is lost any more; `message`
+  /// says which devices answer again, or which is still lost and why.
+  void reconnectFinished(bool ok, QString message);
 
  private:
   void loadProfile(const QString& path);
@@ -142,6 +159,7 @@ class RigWorker : public QObject {
   bool beginCampaign();
   /// Takes the devices back after a campaign.
   void endCampaign();
+  void reconnect();
   void poll();
   void shutDownRig();
   void emitStatus();
