@@ -167,6 +167,7 @@ void LiveView::updateCameraControlState() {
   const bool replay = backend == "replay";
   const bool fixed_gain = camera_ && camera_info_.max_gain_db <= 0;
   QString why = !camera_  ? tr("no camera: open a rig profile")
+                : lost_   ? tr("a device is lost: press Reconnect in the rig panel first")
                 : locked_ ? tr("locked while the rig is armed or firing: disarm to change")
                 : replay  ? tr("a replayed recording: exposure, gain and frame rate were fixed "
                                 "when it was recorded")
@@ -179,13 +180,19 @@ void LiveView::updateCameraControlState() {
                         ? tr("this camera (%1 backend) reports no adjustable gain").arg(backend)
                         : why);
   }
-  controls_note_->setText(locked_ ? tr("locked: armed") : QString());
+  controls_note_->setText(lost_     ? tr("locked: a device is lost")
+                          : locked_ ? tr("locked: armed")
+                                    : QString());
 }
 
 void LiveView::setRigStatus(const RigStatus& status) {
-  const bool locked = status.armed || status.busy;
-  if (locked == locked_) return;
+  // Applying rebuilds the rig: not while armed, nor while a device is lost
+  // (the rebuilt rig would not ask it; Reconnect does).
+  const bool lost = status.anyLost();
+  const bool locked = status.armed || status.busy || lost;
+  if (locked == locked_ && lost == lost_) return;
   locked_ = locked;
+  lost_ = lost;
   // Back to what the camera runs with: an edit not yet applied is dropped,
   // not kept for later; the controls' tooltips say why they are off, or their range.
   syncCameraControls();

@@ -93,7 +93,8 @@ class LiveView : public QWidget {
   GuardedDoubleSpinBox* fps_ = nullptr;
   QLabel* controls_note_ = nullptr;
   QTimer* apply_timer_ = nullptr;  ///< one request for several wheel notches
-  bool locked_ = false;
+  bool locked_ = false;            ///< armed, firing or a device lost: camera controls off
+  bool lost_ = false;              ///< a device is lost (the controls say so)
   hw::CameraInfo camera_info_;
   QTimer timer_;
   std::uint64_t last_published_ = 0;

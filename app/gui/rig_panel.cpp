@@ -634,11 +634,14 @@ void RigPanel::updateButtons() {
       lost ? tr("Off while a device is lost: press Reconnect once it is checked.") : QString();
   arm_->setToolTip(lost ? off : arm_tip_);
   fire_->setToolTip(lost ? off : fire_tip_);
-  // Applying rebuilds the rig (lines vented): not while armed, as Live's camera controls.
-  apply_burst_->setEnabled(loaded && !busy && !status_.armed);
+  // Applying rebuilds the rig (lines vented): not while armed, as Live's camera
+  // controls; nor while a device is lost (a rebuilt rig would start with a
+  // clean record without asking the device: Reconnect checks it).
+  apply_burst_->setEnabled(loaded && !busy && !status_.armed && !lost);
   apply_burst_->setToolTip(status_.armed ? tr("Disarm first: applying rebuilds the rig")
+                           : lost        ? tr("A device is lost: press Reconnect first")
                                          : tr("Use these burst and camera settings for the next "
-                                              "shots (the rig is rebuilt, unarmed)"));
+                                                     "shots (the rig is rebuilt, unarmed)"));
   for (int i = 0; i < 2; ++i) {
     speed_[i]->setEnabled(loaded && !busy);
     pressure_[i]->setEnabled(loaded && !busy);

@@ -147,6 +147,14 @@ TEST(DeviceLostGui, ALostRegulatorIsShownAndOnlyReconnectClearsItOnceItAnswers) 
   EXPECT_TRUE(arm->toolTip().contains("lost")) << arm->toolTip().toStdString();
   EXPECT_TRUE(child<QLabel>(panel, "next_step_hint")->text().contains("Reconnect"));
   EXPECT_TRUE(reconnect->isEnabled());
+  // Nothing that rebuilds the rig (and so would forget the loss without
+  // asking the device) is offered either.
+  auto* apply_burst = child<QPushButton>(panel, "apply_burst");
+  auto* exposure = child<QAbstractSpinBox>(&w, "live_exposure_us");
+  EXPECT_FALSE(apply_burst->isEnabled());
+  EXPECT_TRUE(apply_burst->toolTip().contains("Reconnect")) << apply_burst->toolTip().toStdString();
+  EXPECT_FALSE(exposure->isEnabled());
+  EXPECT_TRUE(exposure->toolTip().contains("lost")) << exposure->toolTip().toStdString();
   clickThroughWindow(arm);  // disabled: nothing is armed
   QTest::qWait(300);
   EXPECT_FALSE(panel->lastStatus().armed);
@@ -192,6 +200,8 @@ TEST(DeviceLostGui, ALostRegulatorIsShownAndOnlyReconnectClearsItOnceItAnswers) 
   EXPECT_TRUE(readback->text().contains("kPa")) << readback->text().toStdString();
   EXPECT_TRUE(arm->isEnabled());
   EXPECT_FALSE(reconnect->isEnabled());
+  EXPECT_TRUE(apply_burst->isEnabled());
+  EXPECT_TRUE(exposure->isEnabled());
 
   // And the rig fires again.
   clickThroughWindow(arm);
