@@ -47,8 +47,11 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
     for (int side = 0; side < 2; ++side)
       d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], in.drift[s][side],
                              in.offset[s], rng, nominal);
-  const double tb = nominal ? in.t_before : contactTime(d[0][0], d[1][0], in.contact, in.t_before);
-  const double ta = nominal ? in.t_after : contactTime(d[0][1], d[1][1], in.contact, in.t_after);
+  const double contact =
+      nominal ? in.contact
+              : in.contact + in.contact_sigma * std::normal_distribution<double>()(rng);
+  const double tb = nominal ? in.t_before : contactTime(d[0][0], d[1][0], contact, in.t_before);
+  const double ta = nominal ? in.t_after : contactTime(d[0][1], d[1][1], contact, in.t_after);
   o.t_c = in.w_before * tb + (1 - in.w_before) * ta;
   o.dt_ba = tb - ta;
   ContactState st;

@@ -26,7 +26,13 @@ struct ShotModel {
   std::array<std::array<Vec3, 2>, 2> spin;       ///< [sphere][side], rad/s
   std::array<std::array<Eigen::Matrix3d, 2>, 2> spin_cov;
   std::array<double, 2> diameter{}, mass{};
-  double contact = 0;                ///< contact distance, m
+  double contact = 0;  ///< contact distance, m
+  /// Its uncertainty where the centres are measured, m: the centres of two
+  /// touching spheres lie that much nearer or further apart than the
+  /// diameters say (e.g. a radius bias on a shaded limb). At grazing
+  /// incidence it moves the contact instant, and so the line of centres,
+  /// most.
+  double contact_sigma = 0;
   double t_before = 0, t_after = 0;  ///< the nominal instants (pre-, post-impact fits)
   double w_before = 0.5;             ///< weight of the pre-impact instant in t_c
   /// What is known of the line of centres' z part before the spins speak:

@@ -40,6 +40,7 @@ vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
     s.line_of_centres_z_sigma =
         std::sin(profile->analysis.line_of_centres_tilt_deg * std::numbers::pi / 180.0);
     s.out_of_plane_speed_fraction = profile->analysis.launch_out_of_plane_fraction;
+    s.contact_distance_sigma_px = profile->analysis.contact_distance_sigma_px;
   }
   return s;
 }

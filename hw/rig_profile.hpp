@@ -153,6 +153,12 @@ struct AnalysisProfile {
   /// Each launch's velocity out of the image plane (standard deviation, as a
   /// fraction of its speed): the tubes' alignment with the plane.
   double launch_out_of_plane_fraction = 0.005;
+  /// How far apart, beyond the diameters, the measured centres of two
+  /// touching spheres may lie (standard deviation, pixels): the detector's
+  /// radius bias under this rig's light, e.g. a shaded limb under one-sided
+  /// front light. At grazing incidence it moves the contact instant and so
+  /// the line of centres; 0: no such bias (even or back light).
+  double contact_distance_sigma_px = 0.0;
 };
 
 struct RigProfile {

@@ -194,6 +194,7 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
   ShotModel in;
   const std::array<double, 2>& diam = set.diameter_m;
   in.contact = 0.5 * (diam[0] + diam[1]);
+  in.contact_sigma = std::max(0.0, set.contact_distance_sigma_px) * px;
   in.nz_sigma = set.line_of_centres_z_sigma;
   in.vz_fraction = std::max(0.0, set.out_of_plane_speed_fraction);
   in.diameter = diam;

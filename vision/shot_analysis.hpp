@@ -72,6 +72,10 @@ struct AnalysisSettings {
   /// the radius bias may change along a track (v_z from the size: Z0 sigma /
   /// (r T)) and differ between the two spheres (n_z from the sizes).
   double radius_systematic_px = 0.1;
+  /// Standard deviation of the measured centres' distance at contact beyond
+  /// the diameters, px (the rig profile's [analysis] contact_distance_sigma_px):
+  /// drawn in the Monte Carlo, so the sigmas at grazing incidence carry it.
+  double contact_distance_sigma_px = 0.0;
   /// Distance from the camera's projection centre to the object plane (where
   /// pixel_size_m holds), m. When > 0 the apparent radius's change along each
   /// track gives the sphere's velocity towards the camera
