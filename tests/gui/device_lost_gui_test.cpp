@@ -52,15 +52,6 @@ std::string silentRegulatorProfile(const std::string& dir, int setpoints, int ti
   return path;
 }
 
-QPoint centreInWindow(QWidget* widget) {
-  return widget->mapTo(widget->window(), widget->rect().center());
-}
-
-// A left click where `widget` is on screen, as the platform delivers it.
-void clickThroughWindow(QWidget* widget) {
-  QTest::mouseClick(widget->window()->windowHandle(), Qt::LeftButton, {}, centreInWindow(widget));
-}
-
 QString regulatorStateCell(RigPanel* panel) {
   QTableWidgetItem* item = child<QTableWidget>(panel, "device_table")->item(0, 2);
   return item ? item->text() : QString();

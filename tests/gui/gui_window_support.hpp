@@ -6,6 +6,7 @@
 #include <QLineEdit>
 #include <QTest>
 #include <QWheelEvent>
+#include <QWindow>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
@@ -53,6 +54,17 @@ inline void wheel(QWidget* widget, int notches) {
     QApplication::sendEvent(widget, &e);
   }
   QApplication::processEvents();
+}
+
+/// The centre of `widget` in its window's coordinates.
+inline QPoint centreInWindow(QWidget* widget) {
+  return widget->mapTo(widget->window(), widget->rect().center());
+}
+
+/// A left click where `widget` is on screen, delivered to the window as the
+/// platform would: it reaches `widget` only if nothing covers it there.
+inline void clickThroughWindow(QWidget* widget) {
+  QTest::mouseClick(widget->window()->windowHandle(), Qt::LeftButton, {}, centreInWindow(widget));
 }
 
 /// Options for a window on `profile` saving into `shots`, without QSettings.

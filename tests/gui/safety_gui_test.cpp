@@ -54,17 +54,6 @@ std::string simProfileWith(const std::string& dir, const std::vector<Edit>& edit
   return path;
 }
 
-// The centre of `widget` in its window's coordinates.
-QPoint centreInWindow(QWidget* widget) {
-  return widget->mapTo(widget->window(), widget->rect().center());
-}
-
-// A left click where `widget` is on screen, delivered to the window as the
-// platform would: it reaches `widget` only if nothing covers it there.
-void clickThroughWindow(QWidget* widget) {
-  QTest::mouseClick(widget->window()->windowHandle(), Qt::LeftButton, {}, centreInWindow(widget));
-}
-
 bool armAndSettle(MainWindow& w) {
   clickThroughWindow(child<QPushButton>(w.rigPanel(), "arm_button"));
   return QTest::qWaitFor(

@@ -12,6 +12,7 @@
 #include "profile_text.hpp"
 
 using namespace collide::hw;
+using collide::hw::testing::rigFrom;
 using collide::hw::testing::simProfileText;
 using collide::hw::testing::withKey;
 using ::testing::ElementsAre;
@@ -19,14 +20,6 @@ using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
 namespace {
-
-Rig rigFrom(const std::string& text) {
-  auto profile = parseRigProfile(text, "sim.toml");
-  if (!profile) throw std::runtime_error(profile.error().message);
-  auto rig = makeRig(*profile);
-  if (!rig) throw std::runtime_error(rig.error().message);
-  return std::move(rig).value();
-}
 
 // sim.toml with a regulator (device `device`) that answers `setpoints`
 // setpoints, then goes silent.

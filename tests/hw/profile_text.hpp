@@ -8,6 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "hw/rig.hpp"
+#include "hw/rig_profile.hpp"
+
 namespace collide::hw::testing {
 
 inline std::vector<std::string> splitLines(const std::string& text) {
@@ -94,6 +97,16 @@ inline std::string withoutKey(const std::string& text, const std::string& sectio
     }
   }
   throw std::runtime_error("no key " + key + " in [" + section + "]");
+}
+
+/// The rig `text` (a whole profile) describes, built (closed); throws (failing
+/// the test) on a profile or backend error.
+inline Rig rigFrom(const std::string& text) {
+  auto profile = parseRigProfile(text, "sim.toml");
+  if (!profile) throw std::runtime_error(profile.error().message);
+  auto rig = makeRig(*profile);
+  if (!rig) throw std::runtime_error(rig.error().message);
+  return std::move(rig).value();
 }
 
 }  // namespace collide::hw::testing

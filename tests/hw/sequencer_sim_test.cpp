@@ -12,20 +12,13 @@
 #include "profile_text.hpp"
 
 using namespace collide::hw;
+using collide::hw::testing::rigFrom;
 using collide::hw::testing::simProfileText;
 using collide::hw::testing::withKey;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
 namespace {
-
-Rig rigFrom(const std::string& text) {
-  auto profile = parseRigProfile(text, "sim.toml");
-  if (!profile) throw std::runtime_error(profile.error().message);
-  auto rig = makeRig(*profile);
-  if (!rig) throw std::runtime_error(rig.error().message);
-  return std::move(rig).value();
-}
 
 std::string thesisProfileText() {
   return collide::hw::testing::readFile(std::string(COLLIDE_SOURCE_DIR) +
