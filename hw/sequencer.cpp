@@ -264,9 +264,15 @@ class ShotRun {
                                   std::llround(p_.sequencer.collect_timeout_s * 1e9);
     COLLIDE_RETURN_IF_ERROR(collect(deadline));
     COLLIDE_RETURN_IF_ERROR(takeBurst());
-    if (shot_.burst.frames.empty() && !shot_.burst.complete)
+    // Nothing after the trigger within the whole collect window (its slack
+    // included): the camera has stopped answering, whatever its ring held
+    // from before the trigger.
+    const bool none_after_trigger =
+        std::none_of(shot_.burst.frames.begin(), shot_.burst.frames.end(),
+                     [](const vision::Frame& f) { return f.id >= 0; });
+    if (none_after_trigger && !shot_.burst.complete)
       return rig_.camera->markLost(
-          "it delivered no frame at all, by " +
+          "it delivered no frame after the trigger, by " +
               ms(std::max<std::int64_t>(0, rig_.clock->nowNs() - t_contact)) + " after the trigger",
           "the camera's power and cable, and that camera.device still names it");
     const vision::BurstStats& st = shot_.burst.stats;

@@ -12,7 +12,7 @@
 // stops safely: valves closed, pressure vented to 0 kPa if safety.vent_on_failure,
 // camera stopped; the Shot comes back with status Failed, the reason, and the
 // frames that did arrive. A device that stopped answering (a call timed out,
-// the connection failed, the camera delivered no frame at all) is marked lost
+// the connection failed, the camera delivered no frame after the trigger) is marked lost
 // in the rig's DeviceHealth; while any device is lost, fire() refuses at once
 // (status Failed, reason "refused: <device> is lost ...", step "refused"),
 // before asking anything of any device, until recheck() finds it again.

@@ -111,7 +111,7 @@ TEST(CampaignDeviceLost, ACameraSilentMidCampaignStopsItBeforeTheNextShot) {
   EXPECT_EQ(report->not_fired, 2);
   EXPECT_EQ(report->stopped_because.rfind(
                 "the next shot was refused: camera \"campaign-lost-camera\" is lost (it "
-                "delivered no frame at all",
+                "delivered no frame after the trigger",
                 0),
             0u)
       << report->stopped_because;

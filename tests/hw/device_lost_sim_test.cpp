@@ -131,8 +131,9 @@ TEST(DeviceLostSim, ACameraThatDeliversNothingIsLostTheNextShotRefusedAndRecheck
 
   const Shot second = sequencer.fire(ShotRequest::atSpeeds(2.0, 2.0));
   ASSERT_EQ(second.status, ShotStatus::Failed);
-  EXPECT_THAT(second.failure_reason,
-              StartsWith("camera \"lost-camera-1\" is lost (it delivered no frame at all"));
+  EXPECT_THAT(
+      second.failure_reason,
+      StartsWith("camera \"lost-camera-1\" is lost (it delivered no frame after the trigger"));
   EXPECT_THAT(second.failure_reason, HasSubstr("retrying will not help"));
   EXPECT_EQ(hardware->unanswered(), 1);
   ASSERT_TRUE(rig.camera->loss());
