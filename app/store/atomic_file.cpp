@@ -250,10 +250,7 @@ Result<AtomicFile::Outcome> AtomicFile::commitIfAbsent() {
   return Outcome::Committed;
 }
 
-namespace {
-
-/// Writes all of `text` to the open descriptor; 0 or errno.
-int writeAll(int fd, const std::string& text) {
+int writeAllToFd(int fd, const std::string& text) {
   for (std::size_t done = 0; done < text.size();) {
     const ssize_t w = ::write(fd, text.data() + done, text.size() - done);
     if (w < 0 && errno == EINTR) continue;
@@ -263,11 +260,13 @@ int writeAll(int fd, const std::string& text) {
   return 0;
 }
 
+namespace {
+
 Status writeThrough(const std::string& path, const std::string& text) {
   // No O_CREAT, no O_TRUNC: the node exists and is not ours to replace.
   const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NOCTTY);
   if (fd < 0) return ioError(errno, "opening", path);
-  int err = writeAll(fd, text);
+  int err = writeAllToFd(fd, text);
   if (::close(fd) != 0 && err == 0) err = errno;
   if (err != 0) return ioError(err, "writing", path);
   return Ok{};
@@ -278,7 +277,7 @@ Status replaceRegular(const std::string& path, const std::string& text) {
   if (!file) return file.error();
   const int fd = ::open(file->tempPath().c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
   if (fd < 0) return ioError(errno, "writing", path);
-  int err = writeAll(fd, text);
+  int err = writeAllToFd(fd, text);
   if (::close(fd) != 0 && err == 0) err = errno;
   if (err != 0) return ioError(err, "writing", path);
   return file->commit();

@@ -116,6 +116,10 @@ std::string storeLockPath(const std::string& folder);
 /// to do (disk full, permission denied, ...).
 Status writeTextFile(const std::string& path, const std::string& text);
 
+/// Writes all of `text` to the open descriptor `fd` (short writes and EINTR
+/// retried); 0, or the errno of the write that failed.
+int writeAllToFd(int fd, const std::string& text);
+
 /// Ok if `folder` has at least `bytes` free for this user; otherwise "not
 /// enough space to <what>: it needs X, Y are free: free space or choose
 /// another folder (--out)". Ok too when the free space cannot be read (the

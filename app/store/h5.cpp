@@ -537,16 +537,9 @@ namespace {
 
 constexpr char kJournalMagic[8] = {'C', 'O', 'L', 'V', 'J', 'N', 'L', '1'};
 
-bool writeAll(int fd, const void* data, std::size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::write(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    size -= static_cast<std::size_t>(n);
-  }
-  return true;
+template <class T>
+void append(std::string& out, const T& value) {
+  out.append(reinterpret_cast<const char*>(&value), sizeof value);
 }
 
 bool readAll(int fd, void* data, std::size_t size) {
@@ -561,9 +554,9 @@ bool readAll(int fd, void* data, std::size_t size) {
   return true;
 }
 
-bool writeText(int fd, const std::string& text) {
-  const std::uint64_t size = text.size();
-  return writeAll(fd, &size, sizeof size) && writeAll(fd, text.data(), text.size());
+void appendText(std::string& out, const std::string& text) {
+  append(out, static_cast<std::uint64_t>(text.size()));
+  out += text;
 }
 
 bool readText(int fd, std::uint64_t left, std::string& text) {
@@ -576,19 +569,15 @@ bool readText(int fd, std::uint64_t left, std::string& text) {
 }  // namespace
 
 bool VlenJournal::save(int fd) const {
-  if (::lseek(fd, 0, SEEK_SET) != 0 || !writeAll(fd, kJournalMagic, sizeof kJournalMagic))
-    return false;
-  const std::uint64_t n = reads.size();
-  if (!writeAll(fd, &n, sizeof n)) return false;
+  std::string out(kJournalMagic, sizeof kJournalMagic);
+  append(out, static_cast<std::uint64_t>(reads.size()));
   for (const Read& r : reads) {
-    const std::uint8_t failed = r.failed ? 1 : 0;
-    const std::uint64_t count = r.strings.size();
-    if (!writeAll(fd, &failed, 1) || !writeText(fd, r.cause) || !writeAll(fd, &count, sizeof count))
-      return false;
-    for (const auto& s : r.strings)
-      if (!writeText(fd, s)) return false;
+    append(out, static_cast<std::uint8_t>(r.failed ? 1 : 0));
+    appendText(out, r.cause);
+    append(out, static_cast<std::uint64_t>(r.strings.size()));
+    for (const auto& s : r.strings) appendText(out, s);
   }
-  return true;
+  return ::lseek(fd, 0, SEEK_SET) == 0 && writeAllToFd(fd, out) == 0;
 }
 
 std::optional<VlenJournal> VlenJournal::load(int fd) {
