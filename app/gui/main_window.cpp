@@ -578,24 +578,25 @@ bool MainWindow::beginCampaign(int shots, const QString& title) {
   return true;
 }
 
-void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double angle_max) {
+app::CampaignOptions MainWindow::campaignOptions(int shots, quint64 seed, double angle_min,
+                                                 double angle_max) const {
   app::CampaignOptions o;
   o.shots = shots;
   o.seed = seed;
   o.angle_min_deg = angle_min;
   o.angle_max_deg = angle_max;
   o.out_dir = shots_dir_.toStdString();
+  return o;
+}
+
+void MainWindow::startCampaign(int shots, quint64 seed, double angle_min, double angle_max) {
+  const app::CampaignOptions o = campaignOptions(shots, seed, angle_min, angle_max);
   if (beginCampaign(shots, tr("Firing the campaign"))) worker_->requestCampaign(o);
 }
 
 void MainWindow::startAdaptiveCampaign(int budget, quint64 seed, double angle_min, double angle_max,
                                        double target_sigma_mu, double target_sigma_beta0) {
-  app::CampaignOptions o;
-  o.shots = budget;
-  o.seed = seed;
-  o.angle_min_deg = angle_min;
-  o.angle_max_deg = angle_max;
-  o.out_dir = shots_dir_.toStdString();
+  const app::CampaignOptions o = campaignOptions(budget, seed, angle_min, angle_max);
   AdaptiveOptions design;
   design.target_sigma_mu = target_sigma_mu;
   design.target_sigma_beta0 = target_sigma_beta0;

@@ -117,6 +117,9 @@ class MainWindow : public QMainWindow {
   /// The shot folder checked and the progress dialog up; false (and said
   /// why) when the folder cannot take shots.
   bool beginCampaign(int shots, const QString& title);
+  /// A campaign of `shots` (or at most, adaptive) into this window's shot folder.
+  app::CampaignOptions campaignOptions(int shots, quint64 seed, double angle_min,
+                                       double angle_max) const;
   void onAdaptiveProgress(AdaptiveStepPtr step);
   /// Writes the results JSON into the shot's file and catalog row (worker thread).
   void storeResults(const QString& file, const std::string& id, std::string results_json);
