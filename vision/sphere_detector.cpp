@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <opencv2/imgproc.hpp>
 
+#include "vision/silhouette_fit.hpp"
+
 namespace collide::vision {
 namespace {
 
@@ -793,6 +795,28 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   }
 }
 
+// Spheres up to SphereDetectorSettings::silhouette_fit_max_radius_px across
+// are measured again by fitting their whole image (vision/silhouette_fit.hpp);
+// the circle from the edge profiles is the start, and stays when that fit
+// fails. Spheres cut by the border keep the profiles' circle.
+void refineSmallSpheres(const cv::Mat& img, const SphereDetectorSettings& set,
+                        std::vector<SphereMeasurement>& spheres) {
+  std::vector<CircleFit> others;
+  for (std::size_t i = 0; i < spheres.size(); ++i) {
+    SphereMeasurement& m = spheres[i];
+    if (m.cut_by_border || m.circle.radius > set.silhouette_fit_max_radius_px) continue;
+    others.clear();
+    for (std::size_t j = 0; j < spheres.size(); ++j)
+      if (j != i) others.push_back(spheres[j].circle);
+    const std::optional<SilhouetteFit> fit = fitSilhouette(img, m.circle, others);
+    if (!fit) continue;
+    m.circle.u = fit->circle.u, m.circle.v = fit->circle.v, m.circle.radius = fit->circle.radius;
+    m.circle.sigma_u = fit->circle.sigma_u, m.circle.sigma_v = fit->circle.sigma_v;
+    m.circle.sigma_radius = fit->circle.sigma_radius;
+    m.silhouette_fit = true;
+  }
+}
+
 template <class T>
 FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetectorSettings& set) {
   FrameSpheres out;
@@ -927,6 +951,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
       if (std::hypot(a.u - b.u, a.v - b.v) < a.radius + b.radius + std::max(2.0, 1.0 * step))
         out.spheres[i].touching = out.spheres[j].touching = true;
     }
+  refineSmallSpheres(img, set, out.spheres);
   std::sort(out.spheres.begin(), out.spheres.end(),
             [](const SphereMeasurement& a, const SphereMeasurement& b) {
               return a.circle.u < b.circle.u;

@@ -28,16 +28,25 @@
 // cancels. Profiles that meet a dot, the other sphere, a highlight clipped
 // at full scale or the frame border are rejected. (4) An algebraic circle fit
 // then a geometric (Gauss-Newton) one with iterative outlier rejection; the
-// covariance gives each sphere's uncertainty.
+// covariance gives each sphere's uncertainty. (5) Small spheres (radius up to
+// settings().silhouette_fit_max_radius_px, 30 px) are measured again by
+// fitting every pixel around their outline with the image of a matte sphere
+// under one lamp on a planar background (vision/silhouette_fit.hpp), started
+// from the circle of (4), which stays if that fit fails: with 3-5 samples
+// inside the limb the profiles' shading shapes flip with the noise.
 //
 // Backlit frames (dark silhouettes on a bright field, settings().polarity)
 // are measured as their negative; their levels (background, rim) are
 // reported in the frame's own grey levels.
 //
 // Limits (issue 12): on shaded 60 px spheres the radius comes out ~0.04-0.07
-// px small (a sqrt-shaped limb is extrapolated only approximately); on 18 px
-// shaded spheres centres are off by ~0.3 px RMS; a limb darker than the
-// backdrop is not handled.
+// px small (a sqrt-shaped limb is extrapolated only approximately); the
+// whole-image fit of (5) removes that (0.009 px centre, 0.007 px radius RMS
+// on those frames) but costs ~3 times the detector's time at 60 px and made
+// the lab preset's e worse (perspective and 1.5 px of blur are not in its
+// model), so it is not used there; on 18 px shaded spheres it gives 0.016 px
+// centre RMS where the profiles gave 0.33. A limb darker than the backdrop is
+// not handled.
 //
 // Image coordinates: u right, v down, origin at the top-left pixel's centre.
 #include <opencv2/core.hpp>
@@ -91,16 +100,22 @@ struct SphereDetectorSettings {
   /// Edge points on every n-th row and column; 0: automatic (radius / 30,
   /// at least 1), which keeps ~170 points on a 60 px sphere.
   int line_stride = 0;
+  /// Spheres up to this radius (pixels) are measured again by fitting their
+  /// whole image, a matte sphere under one lamp on its background
+  /// (vision/silhouette_fit.hpp): on small spheres the edge profiles have too
+  /// few samples inside the limb to place a shaded edge. 0: never.
+  double silhouette_fit_max_radius_px = 30.0;
 };
 
 /// One sphere found in one frame (pixels).
 struct SphereMeasurement {
   CircleFit circle;
-  bool cut_by_border = false;  ///< the outline runs off the frame
-  bool touching = false;       ///< its blob was merged with another sphere's
-  double background = 0;       ///< local background level, grey levels
-  double rim_level = 0;        ///< mean brightness at the limb, grey levels
-  int saturated_pixels = 0;    ///< pixels at full scale seen on its profiles
+  bool cut_by_border = false;   ///< the outline runs off the frame
+  bool touching = false;        ///< its blob was merged with another sphere's
+  double background = 0;        ///< local background level, grey levels
+  double rim_level = 0;         ///< mean brightness at the limb, grey levels
+  int saturated_pixels = 0;     ///< pixels at full scale seen on its profiles
+  bool silhouette_fit = false;  ///< the circle is from the whole-image fit (small spheres)
 };
 
 struct FrameSpheres {
