@@ -474,24 +474,14 @@ void flagGravity(ShotAnalysis& out, const FlagInputs& q) {
   }
 }
 
-// A measured spin no better known than an unmeasured one (an axis' sigma
-// above kUnknownSpinSigma): beta and gamma rest on the contact point's
-// velocity, and a wrong dot match gives errors of hundreds of rad/s that the
-// sigmas understate (simulated thesis-like shots: 130-480 rad/s sigma against
-// at most 22 on every other shot).
+// A measured spin no better known than an unmeasured one (simulated
+// thesis-like shots: 130-480 rad/s sigma against at most 22 on every other
+// shot): beta and gamma rest on the contact point's velocity.
 void flagPoorSpins(ShotAnalysis& out, const ShotSpins& spins) {
-  for (int s = 0; s < 2; ++s)
-    for (int side = 0; side < 2; ++side) {
-      const SideSpin& sp = spins.side[s][side];
-      if (sp.unknown_reason || !(sp.sigma.maxCoeff() > kUnknownSpinSigma)) continue;
-      addFlag(out, "spin_poorly_measured");
-      out.notes.push_back("sphere " + std::to_string(s + 1) + ", " +
-                          (side == 0 ? "before" : "after") + " the impact: the spin's sigma is " +
-                          fmt("%.0f", sp.sigma.maxCoeff()) + " rad/s (worse than the " +
-                          fmt("%.0f", kUnknownSpinSigma) +
-                          " rad/s given to an unmeasured spin): the dots were followed too "
-                          "briefly or matched badly; beta and gamma rest on it");
-    }
+  const std::vector<std::string> notes = poorlyMeasuredSpins(spins);
+  if (notes.empty()) return;
+  addFlag(out, "spin_poorly_measured");
+  out.notes.insert(out.notes.end(), notes.begin(), notes.end());
 }
 
 void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {

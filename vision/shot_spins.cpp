@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "vision/shot_tracking.hpp"
 #include "vision/spin_fit.hpp"
 
 namespace collide::vision {
@@ -66,6 +67,21 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
       }
     }
   return out;
+}
+
+std::vector<std::string> poorlyMeasuredSpins(const ShotSpins& spins) {
+  std::vector<std::string> notes;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      const SideSpin& sp = spins.side[s][side];
+      if (sp.unknown_reason || !(sp.sigma.maxCoeff() > kUnknownSpinSigma)) continue;
+      notes.push_back("sphere " + std::to_string(s + 1) + ", " + (side == 0 ? "before" : "after") +
+                      " the impact: the spin's sigma is " + fmt("%.0f", sp.sigma.maxCoeff()) +
+                      " rad/s (worse than the " + fmt("%.0f", kUnknownSpinSigma) +
+                      " rad/s given to an unmeasured spin): the dots were followed too "
+                      "briefly or matched badly; beta and gamma rest on it");
+    }
+  return notes;
 }
 
 }  // namespace collide::vision

@@ -41,6 +41,14 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const CollisionFits& fits, const std::array<double, 2>& r_med_px,
                        int max_value, const PixelScale* scale = nullptr);
 
+/// The measured spins no better known than an unmeasured one: an axis' sigma
+/// above kUnknownSpinSigma (a dot matched badly or followed too briefly; the
+/// sigmas then understate errors of hundreds of rad/s). One note per such
+/// spin, naming the sphere and the side; empty when there is none. Unknown
+/// spins are not counted (they carry their own no_spin_* flags). The shot's
+/// "spin_poorly_measured" flag.
+std::vector<std::string> poorlyMeasuredSpins(const ShotSpins& spins);
+
 /// Where pixel (u, v)'s ray meets a sphere of radius `radius_m` centred at
 /// `centre_m` (world) nearest the camera, as a unit vector from the centre
 /// (world axes: x right, y up, z towards the camera); a ray that misses it is

@@ -129,5 +129,33 @@ TEST(MeasureSpins, SpinsOfBothSidesMatchTheTruth) {
     }
 }
 
+// spin_poorly_measured fires when, and only when, a measured spin's sigma on
+// some axis is above the kUnknownSpinSigma an unmeasured spin is given.
+TEST(PoorlyMeasuredSpins, WhenAndOnlyWhenASigmaExceedsThatOfAnUnknownSpin) {
+  ShotSpins spins;
+  for (auto& sphere : spins.side)
+    for (SideSpin& sp : sphere) sp.sigma = Vec3(3, 22, 8);
+  EXPECT_TRUE(poorlyMeasuredSpins(spins).empty());
+  // At the line: not above it.
+  spins.side[1][1].sigma = Vec3(5, kUnknownSpinSigma, 5);
+  EXPECT_TRUE(poorlyMeasuredSpins(spins).empty());
+  // Above it on one axis of sphere 2 after the impact: one note, naming it.
+  spins.side[1][1].sigma = Vec3(5, kUnknownSpinSigma + 1, 5);
+  std::vector<std::string> notes = poorlyMeasuredSpins(spins);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("sphere 2, after"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[0].find("51 rad/s"), std::string::npos) << notes[0];
+  // An unknown spin (its own no_spin_* flag) is not a poorly measured one.
+  spins.side[1][1].unknown_reason = "no dots found";
+  EXPECT_TRUE(poorlyMeasuredSpins(spins).empty());
+  // Two at once: two notes.
+  spins.side[0][0].sigma = Vec3(400, 20, 20);
+  spins.side[1][0].sigma = Vec3(20, 20, 130);
+  notes = poorlyMeasuredSpins(spins);
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_NE(notes[0].find("sphere 1, before"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[1].find("sphere 2, before"), std::string::npos) << notes[1];
+}
+
 }  // namespace
 }  // namespace collide::vision
