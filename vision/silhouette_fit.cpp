@@ -60,6 +60,15 @@ double pixelModel(const Pixel& p, const Vec& q, double u0, double v0, Vec& jac) 
   const double inv_n = 1.0 / n, w = inv_n * inv_n;
   double value = 0;
   jac.setZero();
+  // Wholly outside (no sample within half a sample of the outline): the
+  // background plane, whose mean over the pixel is its value at the centre.
+  const double cx = p.x - u, cy = p.y - v, outside = R + 0.5 * inv_n + 0.7072 * (1 - inv_n);
+  if (cx * cx + cy * cy > outside * outside) {
+    jac(3) = 1;
+    jac(4) = p.x - u0;
+    jac(5) = p.y - v0;
+    return bg + gx * jac(4) + gy * jac(5);
+  }
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       const double xs = p.x + (i + 0.5) * inv_n - 0.5, ys = p.y + (j + 0.5) * inv_n - 0.5;
@@ -105,14 +114,17 @@ double pixelModel(const Pixel& p, const Vec& q, double u0, double v0, Vec& jac) 
 // derivatives, one row per pixel.
 struct Evaluation {
   std::vector<double> res;
-  std::vector<Vec> jac;
+  Eigen::Matrix<double, Eigen::Dynamic, kParams> jac;
 };
 
 void evaluate(const std::vector<Pixel>& px, const Vec& q, double u0, double v0, Evaluation& e) {
   e.res.resize(px.size());
-  e.jac.resize(px.size());
-  for (std::size_t k = 0; k < px.size(); ++k)
-    e.res[k] = px[k].value - pixelModel(px[k], q, u0, v0, e.jac[k]);
+  e.jac.resize(static_cast<Eigen::Index>(px.size()), kParams);
+  Vec j;
+  for (std::size_t k = 0; k < px.size(); ++k) {
+    e.res[k] = px[k].value - pixelModel(px[k], q, u0, v0, j);
+    e.jac.row(static_cast<Eigen::Index>(k)) = j.transpose();
+  }
 }
 
 double weightedCost(const Evaluation& e, const std::vector<double>& w) {
@@ -128,19 +140,18 @@ struct Normal {
 };
 
 Normal accumulate(const Evaluation& e, const std::vector<double>& w, int fixed) {
+  const Eigen::Index n = e.jac.rows();
+  const Eigen::Map<const Eigen::VectorXd> wv(w.data(), n), rv(e.res.data(), n);
+  const Eigen::Matrix<double, Eigen::Dynamic, kParams> wj = e.jac.array().colwise() * wv.array();
   Normal ne;
-  for (std::size_t k = 0; k < e.res.size(); ++k) {
-    if (w[k] == 0) continue;
-    const Vec& j = e.jac[k];
-    for (int a = fixed; a < kParams; ++a) {
-      const double wa = w[k] * j(a);
-      ne.jtr(a) += wa * e.res[k];
-      for (int b = a; b < kParams; ++b) ne.jtj(a, b) += wa * j(b);
-    }
+  ne.jtj = e.jac.transpose() * wj;
+  ne.jtr = wj.transpose() * rv;
+  for (int a = 0; a < fixed; ++a) {
+    ne.jtj.row(a).setZero();
+    ne.jtj.col(a).setZero();
+    ne.jtj(a, a) = 1;
+    ne.jtr(a) = 0;
   }
-  for (int a = 0; a < kParams; ++a)
-    for (int b = 0; b < a; ++b) ne.jtj(a, b) = ne.jtj(b, a);
-  for (int a = 0; a < fixed; ++a) ne.jtj(a, a) = 1;
   return ne;
 }
 
@@ -196,7 +207,8 @@ void solve(const std::vector<Pixel>& px, Vec& q, double u0, double v0, Evaluatio
     Mat a = ne.jtj;
     for (int i = 0; i < kParams; ++i) a(i, i) += lambda * a(i, i) + 1e-12;
     const Vec step = a.ldlt().solve(ne.jtr);
-    if (!step.allFinite()) break;
+    // A step this small is not worth a model evaluation: the circle is found.
+    if (!step.allFinite() || step.head<3>().norm() < 2e-3) break;
     const Vec trial = q + step;
     if (!(trial(2) > 1)) {
       lambda *= 10;
@@ -205,9 +217,6 @@ void solve(const std::vector<Pixel>& px, Vec& q, double u0, double v0, Evaluatio
     evaluate(px, trial, u0, v0, trial_e);
     const double trial_cost = weightedCost(trial_e, w);
     if (trial_cost > cost) {
-      // A step this small that does not lower the cost: at the minimum, to
-      // within the noise.
-      if (step.head<3>().norm() < 2e-3) break;
       lambda *= 10;
       if (lambda > 1e6) break;
       continue;
@@ -215,7 +224,6 @@ void solve(const std::vector<Pixel>& px, Vec& q, double u0, double v0, Evaluatio
     q = trial;
     std::swap(e, trial_e);
     lambda = std::max(1e-6, lambda * 0.3);
-    if (step.head<3>().norm() < 2e-3) break;
     ne = accumulate(e, w, 0);
     cost = weightedCost(e, w);
   }
@@ -254,6 +262,7 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
   std::vector<double> w(px.size(), 1.0);
   const Normal lin = accumulate(e, w, 3);
   q += lin.jtj.ldlt().solve(lin.jtr);
+  evaluate(px, q, u0, v0, e);
   for (int round = 0; round < 3; ++round) {
     if (round == 1) {
       // The pixels the outline crosses, subsampled, from the circle found so far.
@@ -262,8 +271,9 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
       px = image.depth() == CV_8U ? gatherPixels<std::uint8_t>(image, now, others, settings)
                                   : gatherPixels<std::uint16_t>(image, now, others, settings);
       if (px.size() < 4 * kParams) return std::nullopt;
+      evaluate(px, q, u0, v0, e);
     }
-    evaluate(px, q, u0, v0, e);
+    // (Otherwise e holds the evaluation at q already.)
     tukeyWeights(px, e.res, modelFloor(q), w);
     solve(px, q, u0, v0, e, w, settings.iterations);
   }
