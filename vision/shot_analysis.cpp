@@ -508,7 +508,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
     return fail("the sphere diameters must be given and > 0 (got " + fmt("%g", diam[0]) + " and " +
                 fmt("%g", diam[1]) + " m)");
   const int saturated = detectSpheres(burst, data, diam, set.pixel_size_m, frames->max_value,
-                                      set.progress, set.polarity);
+                                      set.progress, set.polarity, set.camera);
   auto blobs = selectSphereBlobs(data, diam, set.pixel_size_m);
   if (!blobs) return blobs.error();
   if (auto st = trackSpheres(data, *blobs, diam); !st) return st.error();

@@ -145,9 +145,11 @@ Result<BurstFrames> prepareFrames(const Burst& burst, double fps_setting) {
 int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
                   const std::array<double, 2>& diam, double pixel_size_m, int max_value,
                   const std::function<void(int, int)>& progress,
-                  SphereDetectorSettings::Polarity polarity) {
+                  SphereDetectorSettings::Polarity polarity,
+                  const std::optional<PinholeCamera>& camera) {
   SphereDetectorSettings ds;
   ds.polarity = polarity;
+  ds.camera = camera;
   if (pixel_size_m > 0) {
     // Generous bounds: a wrong diameter must still be measured, to be reported.
     ds.min_radius_px = 0.15 * std::min(diam[0], diam[1]) / pixel_size_m;

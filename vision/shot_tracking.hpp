@@ -49,7 +49,8 @@ Result<BurstFrames> prepareFrames(const Burst& burst, double fps);
 int detectSpheres(
     const Burst& burst, std::vector<FrameData>& data, const std::array<double, 2>& diameter_m,
     double pixel_size_m, int max_value, const std::function<void(int, int)>& progress,
-    SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto);
+    SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto,
+    const std::optional<PinholeCamera>& camera = std::nullopt);
 
 /// Which blobs are spheres: the expected radius of each (one, or two for two
 /// sizes), checked against a given pixel size; every blob within 15 % of it

@@ -20,6 +20,33 @@ struct Pixel {
   int sub;  // subsamples per axis
 };
 
+// Where the model is written: the start centre (u0, v0), about which the
+// background plane is, and M, the symmetric map that makes the outline a
+// circle: the identity, or under a pinhole lens, a shrink by cos(theta) along
+// the direction away from the principal point (a sphere theta off the
+// optical axis is seen as an ellipse 1 / cos(theta) longer that way).
+struct Outline {
+  double u0 = 0, v0 = 0;
+  double m00 = 1, m01 = 0, m11 = 1;
+  double cos_theta = 1;
+};
+
+Outline outlineAt(double u, double v, const std::optional<PinholeCamera>& camera) {
+  Outline o;
+  o.u0 = u, o.v0 = v;
+  if (!camera) return o;
+  const Eigen::Vector2d xy = camera->normalised(u, v);
+  const Eigen::Vector2d d(u - camera->principal_u_px, v - camera->principal_v_px);
+  if (!xy.allFinite() || !(d.norm() > 1e-9)) return o;
+  o.cos_theta = 1 / std::sqrt(1 + xy.squaredNorm());
+  const Eigen::Vector2d e = d.normalized();
+  const double shrink = 1 - o.cos_theta;  // M = I - (1 - cos theta) e e'
+  o.m00 = 1 - shrink * e.x() * e.x();
+  o.m01 = -shrink * e.x() * e.y();
+  o.m11 = 1 - shrink * e.y() * e.y();
+  return o;
+}
+
 // The pixels of the annulus around `start`, away from the other spheres.
 template <class T>
 std::vector<Pixel> gatherPixels(const cv::Mat& img, const CircleFit& start,
@@ -50,19 +77,21 @@ std::vector<Pixel> gatherPixels(const cv::Mat& img, const CircleFit& start,
   return px;
 }
 
-// The model's level over one pixel's area, and its derivatives in the ten
-// parameters (`jac`). u0, v0: the start centre the background plane is
-// written about.
-double pixelModel(const Pixel& p, const Vec& q, double u0, double v0, Vec& jac) {
+// The model's level over one pixel's area, and its derivatives in the eleven
+// parameters (`jac`). q(2) is the outline's radius in the frame where M makes
+// it a circle (its semi-axis across the direction away from the axis).
+double pixelModel(const Pixel& p, const Vec& q, const Outline& o, Vec& jac) {
   const double u = q(0), v = q(1), R = q(2), bg = q(3), gx = q(4), gy = q(5), A = q(6), Bx = q(7),
                By = q(8), C = q(9), E = q(10);
+  const double u0 = o.u0, v0 = o.v0, m00 = o.m00, m01 = o.m01, m11 = o.m11;
   const int n = p.sub;
   const double inv_n = 1.0 / n, w = inv_n * inv_n;
   double value = 0;
   jac.setZero();
   // Wholly outside (no sample within half a sample of the outline): the
   // background plane, whose mean over the pixel is its value at the centre.
-  const double cx = p.x - u, cy = p.y - v, outside = R + 0.5 * inv_n + 0.7072 * (1 - inv_n);
+  const double cx = m00 * (p.x - u) + m01 * (p.y - v), cy = m01 * (p.x - u) + m11 * (p.y - v);
+  const double outside = R + 0.5 * inv_n + 0.7072 * (1 - inv_n);
   if (cx * cx + cy * cy > outside * outside) {
     jac(3) = 1;
     jac(4) = p.x - u0;
@@ -72,29 +101,33 @@ double pixelModel(const Pixel& p, const Vec& q, double u0, double v0, Vec& jac) 
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
       const double xs = p.x + (i + 0.5) * inv_n - 0.5, ys = p.y + (j + 0.5) * inv_n - 0.5;
-      const double dx = xs - u, dy = ys - v, r = std::max(1e-9, std::sqrt(dx * dx + dy * dy));
+      const double dx = xs - u, dy = ys - v;
+      const double dxp = m00 * dx + m01 * dy, dyp = m01 * dx + m11 * dy;  // outline a circle
+      const double r = std::max(1e-9, std::sqrt(dxp * dxp + dyp * dyp));
       // Coverage: a ramp one subsample wide across the outline (one pixel wide
       // for a pixel not subsampled).
       const double t = 0.5 + (R - r) * n;
       const double c = std::clamp(t, 0.0, 1.0), dc = t > 0 && t < 1 ? n : 0.0;
       const double out = bg + gx * (xs - u0) + gy * (ys - v0);
-      const double rx = dx / R, ry = dy / R, qq = rx * rx + ry * ry;
+      const double rx = dxp / R, ry = dyp / R, qq = rx * rx + ry * ry;
       const double s = std::sqrt(std::max(0.0, 1.0 - qq));
       const double lit_term = Bx * rx + By * ry + C * s;
       const bool lit = lit_term > 0;
       const double in = A + E * s * s + (lit ? lit_term : 0.0);
       value += w * (out + c * (in - out));
       // d/du, d/dv, d/dR of the inside level (where lit), s kept off zero.
-      double din_du = 2 * E * rx / R, din_dv = 2 * E * ry / R, din_dR = 2 * E * qq / R;
+      // (rx, ry) move by -(m00, m01) / R with u and -(m01, m11) / R with v.
+      const double qu = rx * m00 + ry * m01, qv = rx * m01 + ry * m11;
+      double din_du = 2 * E * qu / R, din_dv = 2 * E * qv / R, din_dR = 2 * E * qq / R;
       if (lit) {
         const double se = std::max(s, 0.1);
-        din_du += (-Bx + C * rx / se) / R;
-        din_dv += (-By + C * ry / se) / R;
+        din_du += (-Bx * m00 - By * m01 + C * qu / se) / R;
+        din_dv += (-Bx * m01 - By * m11 + C * qv / se) / R;
         din_dR += (-(Bx * rx + By * ry) + C * qq / se) / R;
       }
       const double step = dc * (in - out);
-      jac(0) += w * (step * dx / r + c * din_du);
-      jac(1) += w * (step * dy / r + c * din_dv);
+      jac(0) += w * (step * (dxp * m00 + dyp * m01) / r + c * din_du);
+      jac(1) += w * (step * (dxp * m01 + dyp * m11) / r + c * din_dv);
       jac(2) += w * (step + c * din_dR);
       jac(3) += w * (1 - c);
       jac(4) += w * (1 - c) * (xs - u0);
@@ -117,12 +150,12 @@ struct Evaluation {
   Eigen::Matrix<double, Eigen::Dynamic, kParams> jac;
 };
 
-void evaluate(const std::vector<Pixel>& px, const Vec& q, double u0, double v0, Evaluation& e) {
+void evaluate(const std::vector<Pixel>& px, const Vec& q, const Outline& o, Evaluation& e) {
   e.res.resize(px.size());
   e.jac.resize(static_cast<Eigen::Index>(px.size()), kParams);
   Vec j;
   for (std::size_t k = 0; k < px.size(); ++k) {
-    e.res[k] = px[k].value - pixelModel(px[k], q, u0, v0, j);
+    e.res[k] = px[k].value - pixelModel(px[k], q, o, j);
     e.jac.row(static_cast<Eigen::Index>(k)) = j.transpose();
   }
 }
@@ -198,7 +231,7 @@ double modelFloor(const Vec& q) {
 
 // Levenberg-damped Gauss-Newton at fixed weights. `e` holds the evaluation at
 // q on entry and on return.
-void solve(const std::vector<Pixel>& px, Vec& q, double u0, double v0, Evaluation& e,
+void solve(const std::vector<Pixel>& px, Vec& q, const Outline& o, Evaluation& e,
            const std::vector<double>& w, int iterations) {
   Normal ne = accumulate(e, w, 0);
   double cost = weightedCost(e, w), lambda = 1e-3;
@@ -214,7 +247,7 @@ void solve(const std::vector<Pixel>& px, Vec& q, double u0, double v0, Evaluatio
       lambda *= 10;
       continue;
     }
-    evaluate(px, trial, u0, v0, trial_e);
+    evaluate(px, trial, o, trial_e);
     const double trial_cost = weightedCost(trial_e, w);
     if (trial_cost > cost) {
       lambda *= 10;
@@ -240,6 +273,9 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
                               : gatherPixels<std::uint16_t>(image, start, others, settings);
   if (px.size() < 4 * kParams) return std::nullopt;
   const double u0 = start.u, v0 = start.v;
+  const Outline o = outlineAt(start.u, start.v, settings.camera);
+  // The profiles' circle fit reports the mean of the ellipse's semi-axes.
+  const double to_mean = 0.5 * (1 + 1 / std::max(o.cos_theta, 0.5));
   // Start: the given circle, levels from the pixels well outside and inside.
   double out_sum = 0, in_sum = 0;
   int out_n = 0, in_n = 0;
@@ -254,35 +290,36 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
   // term the lamp's parameters would have no derivative.
   const double out_level = out_sum / out_n, in_level = in_sum / in_n;
   const double lit = 0.5 * (in_level - out_level);
-  q << start.u, start.v, start.radius, out_level, 0, 0, in_level - 0.8 * lit, 0, 0, lit, 0;
+  q << start.u, start.v, start.radius / to_mean, out_level, 0, 0, in_level - 0.8 * lit, 0, 0, lit,
+      0;
   // The levels first (the circle held, one exact linear step), then
   // everything, with weights from the residuals.
   Evaluation e;
-  evaluate(px, q, u0, v0, e);
+  evaluate(px, q, o, e);
   std::vector<double> w(px.size(), 1.0);
   const Normal lin = accumulate(e, w, 3);
   q += lin.jtj.ldlt().solve(lin.jtr);
-  evaluate(px, q, u0, v0, e);
+  evaluate(px, q, o, e);
   for (int round = 0; round < 3; ++round) {
     if (round == 1) {
       // The pixels the outline crosses, subsampled, from the circle found so far.
       CircleFit now = start;
-      now.u = q(0), now.v = q(1), now.radius = q(2);
+      now.u = q(0), now.v = q(1), now.radius = q(2) * to_mean;
       px = image.depth() == CV_8U ? gatherPixels<std::uint8_t>(image, now, others, settings)
                                   : gatherPixels<std::uint16_t>(image, now, others, settings);
       if (px.size() < 4 * kParams) return std::nullopt;
-      evaluate(px, q, u0, v0, e);
+      evaluate(px, q, o, e);
     }
     // (Otherwise e holds the evaluation at q already.)
     tukeyWeights(px, e.res, modelFloor(q), w);
-    solve(px, q, u0, v0, e, w, settings.iterations);
+    solve(px, q, o, e, w, settings.iterations);
   }
   const Normal ne = accumulate(e, w, 0);
   double wsum = 0;
   int zero = 0;
   for (double wk : w) wsum += wk, zero += wk == 0;
   if (!q.allFinite() || std::hypot(q(0) - start.u, q(1) - start.v) > settings.max_shift_px ||
-      std::abs(q(2) - start.radius) > settings.max_shift_px)
+      std::abs(q(2) * to_mean - start.radius) > settings.max_shift_px)
     return std::nullopt;
   // The sphere must stand off its background at its limb: on average round
   // the outline (A + |B| / pi above the background) by more than the noise.
@@ -292,11 +329,11 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
   if (!(limb_step > 3 * std::sqrt(var) + 2.0)) return std::nullopt;
   SilhouetteFit fit;
   fit.circle = start;
-  fit.circle.u = q(0), fit.circle.v = q(1), fit.circle.radius = q(2);
+  fit.circle.u = q(0), fit.circle.v = q(1), fit.circle.radius = q(2) * to_mean;
   const Mat cov = ne.jtj.ldlt().solve(Mat::Identity()) * var;
   fit.circle.sigma_u = std::sqrt(std::max(0.0, cov(0, 0)));
   fit.circle.sigma_v = std::sqrt(std::max(0.0, cov(1, 1)));
-  fit.circle.sigma_radius = std::sqrt(std::max(0.0, cov(2, 2)));
+  fit.circle.sigma_radius = to_mean * std::sqrt(std::max(0.0, cov(2, 2)));
   fit.circle.residual_rms = std::sqrt(var);
   fit.background = q(3);
   fit.ambient_level = q(6);

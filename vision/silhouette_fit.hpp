@@ -29,6 +29,7 @@
 #include <optional>
 #include <span>
 
+#include "analysis/camera_model.hpp"
 #include "vision/sphere_detector.hpp"
 
 namespace collide::vision {
@@ -42,6 +43,11 @@ struct SilhouetteFitSettings {
   /// A fit that moves the centre or the radius further than this from the
   /// start is not trusted (the start is kept).
   double max_shift_px = 1.5;
+  /// The camera's pinhole, when known: a sphere theta off the optical axis is
+  /// then fitted as the ellipse it is (1 / cos(theta) longer away from the
+  /// principal point); its centre and the mean of its semi-axes are reported,
+  /// as the profiles' circle fit reports them. nullopt: a circle.
+  std::optional<PinholeCamera> camera;
 };
 
 struct SilhouetteFit {

@@ -808,7 +808,9 @@ void refineSmallSpheres(const cv::Mat& img, const SphereDetectorSettings& set,
     others.clear();
     for (std::size_t j = 0; j < spheres.size(); ++j)
       if (j != i) others.push_back(spheres[j].circle);
-    const std::optional<SilhouetteFit> fit = fitSilhouette(img, m.circle, others);
+    SilhouetteFitSettings fs;
+    fs.camera = set.camera;
+    const std::optional<SilhouetteFit> fit = fitSilhouette(img, m.circle, others, fs);
     if (!fit) continue;
     m.circle.u = fit->circle.u, m.circle.v = fit->circle.v, m.circle.radius = fit->circle.radius;
     m.circle.sigma_u = fit->circle.sigma_u, m.circle.sigma_v = fit->circle.sigma_v;

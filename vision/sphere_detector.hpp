@@ -42,17 +42,21 @@
 // Limits (issue 12): on shaded 60 px spheres the radius comes out ~0.04-0.07
 // px small (a sqrt-shaped limb is extrapolated only approximately); the
 // whole-image fit of (5) removes that (0.009 px centre, 0.007 px radius RMS
-// on those frames) but costs ~3 times the detector's time at 60 px and made
-// the lab preset's e worse (perspective and 1.5 px of blur are not in its
-// model), so it is not used there; on 18 px shaded spheres it gives 0.016 px
+// on those frames) but costs ~3 times the detector's time at 60 px and, in
+// the lab preset's whole chain (60 px spheres under a 50 mm lens at 0.53 m),
+// made e worse (RMS 0.017 against 0.006-0.009) even fitting the perspective
+// ellipse, for a reason not yet found (the same imaging made orthographic was
+// fine), so it is not used there; on 18 px shaded spheres it gives 0.016 px
 // centre RMS where the profiles gave 0.33. A limb darker than the backdrop is
 // not handled.
 //
 // Image coordinates: u right, v down, origin at the top-left pixel's centre.
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 
 namespace collide::vision {
@@ -105,6 +109,9 @@ struct SphereDetectorSettings {
   /// (vision/silhouette_fit.hpp): on small spheres the edge profiles have too
   /// few samples inside the limb to place a shaded edge. 0: never.
   double silhouette_fit_max_radius_px = 30.0;
+  /// The camera's pinhole, when known, for that fit: off-axis spheres are
+  /// ellipses under perspective (vision/silhouette_fit.hpp).
+  std::optional<PinholeCamera> camera;
 };
 
 /// One sphere found in one frame (pixels).

@@ -133,5 +133,64 @@ TEST(SilhouetteFit, NothingToFitGivesNoFit) {
   EXPECT_FALSE(fitSilhouette(cv::Mat(), startAt(80, 60, 18.5), {}));
 }
 
+// Under a pinhole lens a sphere off the optical axis is an ellipse, longer
+// away from the principal point. A 60 px sphere 6.8 degrees off the axis
+// (0.7 % longer that way, 0.4 px), lit from four sides: given the camera, the
+// fit's centre, mapped to the world by PinholeCamera::sphereCentre, lands on
+// the sphere's centre, and its radius is the mean of the ellipse's
+// semi-axes, both from the cone's geometry (truth not computed by the fit).
+TEST(SilhouetteFit, UnderPerspectiveTheEllipseIsFittedGivenTheCamera) {
+  RenderSettings rs;
+  rs.width = 1000, rs.height = 600;
+  Imaging im;
+  im.optics.perspective = true;
+  im.optics.focal_px = 2500;
+  im.optics.principal_u_px = 499.5;
+  im.optics.principal_v_px = 299.5;
+  im.optics.centre_m = Vec3(0, 0, 0.53);
+  im.lighting.ambient = 0.15;
+  im.lighting.backdrop_level = 0.03;
+  im.samples_per_pixel = 4;
+  const PinholeCamera cam = im.optics.pinhole();
+  const double radius_m = 0.0127;
+  const Vec3 centre(0.06, 0.02, 0);
+  SphereView view;
+  view.radius_m = radius_m;
+  view.centre_m = centre;
+  // The outline from the tangent cone: theta off the axis, half-angle alpha.
+  const double depth = 0.53, off = std::hypot(centre.x(), centre.y());
+  const double theta = std::atan(off / depth), alpha = std::asin(radius_m / std::hypot(off, depth));
+  const double along = 0.5 * cam.focal_px * (std::tan(theta + alpha) - std::tan(theta - alpha));
+  const double across =
+      cam.focal_px * std::sin(alpha) /
+      std::sqrt(std::cos(theta) * std::cos(theta) - std::sin(alpha) * std::sin(alpha));
+  const double mean_radius = 0.5 * (along + across);
+  const Eigen::Vector2d seen = cam.project(centre);
+  for (int k = 0; k < 4; ++k) {
+    const double az = std::numbers::pi / 2 * k + 0.3;
+    im.lighting.lamp_direction = Vec3(0.6 * std::cos(az), 0.6 * std::sin(az), 0.8);
+    rs.imaging = im;
+    const cv::Mat img = Renderer(rs).render({view}, 0);
+    SilhouetteFitSettings with;
+    with.camera = cam;
+    const auto fit =
+        fitSilhouette(img, startAt(seen.x() + 0.4, seen.y() - 0.2, mean_radius - 0.3), {}, with);
+    const auto circle =
+        fitSilhouette(img, startAt(seen.x() + 0.4, seen.y() - 0.2, mean_radius - 0.3), {});
+    ASSERT_TRUE(fit && circle) << "lamp " << k;
+    const auto offPx = [&](const SilhouetteFit& f) {
+      const Vec3 c = cam.sphereCentre(f.circle.u, f.circle.v, radius_m, 0.0);
+      return (c - centre).head<2>().norm() * cam.focal_px / depth;
+    };
+    std::printf(
+        "lamp %d: centre off by %.4f px as an ellipse, %.4f px as a circle; radius %+.4f px\n", k,
+        offPx(*fit), offPx(*circle), fit->circle.radius - mean_radius);
+    EXPECT_LT(offPx(*fit), 0.03) << "lamp " << k;
+    // What the ellipse is for: a circle puts the centre where the lit side pulls it.
+    EXPECT_GT(offPx(*circle), 0.05) << "lamp " << k;
+    EXPECT_NEAR(fit->circle.radius, mean_radius, 0.03) << "lamp " << k;
+  }
+}
+
 }  // namespace
 }  // namespace collide::vision
