@@ -272,7 +272,6 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
                               ? gatherPixels<std::uint8_t>(image, start, others, settings)
                               : gatherPixels<std::uint16_t>(image, start, others, settings);
   if (px.size() < 4 * kParams) return std::nullopt;
-  const double u0 = start.u, v0 = start.v;
   const Outline o = outlineAt(start.u, start.v, settings.camera);
   // The profiles' circle fit reports the mean of the ellipse's semi-axes.
   const double to_mean = 0.5 * (1 + 1 / std::max(o.cos_theta, 0.5));
@@ -280,7 +279,7 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
   double out_sum = 0, in_sum = 0;
   int out_n = 0, in_n = 0;
   for (const Pixel& p : px) {
-    const double r = std::hypot(p.x - u0, p.y - v0);
+    const double r = std::hypot(p.x - o.u0, p.y - o.v0);
     if (r > start.radius + 1.5) out_sum += p.value, ++out_n;
     if (r < start.radius - 1.5) in_sum += p.value, ++in_n;
   }

@@ -801,6 +801,8 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
 // fails. Spheres cut by the border keep the profiles' circle.
 void refineSmallSpheres(const cv::Mat& img, const SphereDetectorSettings& set,
                         std::vector<SphereMeasurement>& spheres) {
+  SilhouetteFitSettings fs;
+  fs.camera = set.camera;
   std::vector<CircleFit> others;
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     SphereMeasurement& m = spheres[i];
@@ -808,8 +810,6 @@ void refineSmallSpheres(const cv::Mat& img, const SphereDetectorSettings& set,
     others.clear();
     for (std::size_t j = 0; j < spheres.size(); ++j)
       if (j != i) others.push_back(spheres[j].circle);
-    SilhouetteFitSettings fs;
-    fs.camera = set.camera;
     const std::optional<SilhouetteFit> fit = fitSilhouette(img, m.circle, others, fs);
     if (!fit) continue;
     m.circle.u = fit->circle.u, m.circle.v = fit->circle.v, m.circle.radius = fit->circle.radius;
