@@ -193,8 +193,8 @@ std::string stopReason(const CampaignOptions& o, int failed_in_a_row,
   if (o.max_consecutive_failures <= 0 || failed_in_a_row < o.max_consecutive_failures) return "";
   return std::to_string(failed_in_a_row) +
          " shots in a row failed on the rig (last: " + report.failures.back() +
-         "): check the devices, then fire the remaining shots (firing on unchanged will not "
-         "help)";
+         "): check the devices, then fire the remaining shots (firing again with nothing changed "
+         "will not help)";
 }
 
 Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,

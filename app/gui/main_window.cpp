@@ -44,10 +44,22 @@ QString qs(const std::string& s) {
 
 }  // namespace
 
+QString firstSentence(const QString& message) {
+  // Decimal points are not followed by a space.
+  const qsizetype stop = message.indexOf(". ");
+  return stop > 0 ? message.left(stop + 1) : message;
+}
+
+QString campaignHeadline(const QString& summary) {
+  const QString first = firstSentence(summary);
+  if (first.size() == summary.size()) return summary;
+  return first + ' ' +
+         QObject::tr(
+             "The whole report (what was not fired or failed, and why) is in the Campaign view.");
+}
+
 QString statusBarLine(const QString& message, const QFontMetrics& metrics, int width_px) {
-  // The first sentence (decimal points are not followed by a space).
-  QString line = message;
-  if (const qsizetype stop = line.indexOf(". "); stop > 0) line = line.left(stop + 1);
+  const QString line = firstSentence(message);
   if (metrics.horizontalAdvance(line) <= width_px) return line;
   // Whole words that fit, then an ellipsis: never cut mid-word.
   const QString ellipsis = QString::fromUtf8("…");
@@ -222,8 +234,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
             campaign_view_->setCampaignRunning(false);
             if (progress_) progress_->reset();
             // Anything short of every planned shot fired, saved and ok is a
-            // warning: the summary says what is missing and why.
-            showMessage(summary, complete && !cancelled ? MessageKind::Info : MessageKind::Warning,
+            // warning. The whole summary (what is missing and why) goes into
+            // the Campaign view; the message bar carries its first sentence.
+            showMessage(campaignHeadline(summary),
+                        complete && !cancelled ? MessageKind::Info : MessageKind::Warning,
                         summary.startsWith(tr("Campaign not started: no rig"))
                             ? MessageTopic::Profile
                             : MessageTopic::Other);

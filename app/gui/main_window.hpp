@@ -23,6 +23,12 @@ class QPushButton;
 
 namespace collide::gui {
 
+/// A message's first sentence (up to the first ". "), or all of it.
+QString firstSentence(const QString& message);
+/// What the message bar says when a campaign ends: the summary's first
+/// sentence (planned, fired, saved) and, when the summary says more, where
+/// the rest is (the Campaign view shows the whole summary).
+QString campaignHeadline(const QString& summary);
 /// What the status bar shows of a message (the message bar shows it whole):
 /// its first sentence, cut at a word boundary with an ellipsis when wider
 /// than `width_px` in `metrics`.

@@ -354,6 +354,13 @@ TEST(SafetyGui, ACampaignsMissingShotsAreExplained) {
   EXPECT_TRUE(report.contains("in a row failed")) << report.toStdString();
   EXPECT_EQ(w.lastMessageKind(), MainWindow::MessageKind::Warning);
   EXPECT_TRUE(child<QLabel>(view, "campaign_report")->styleSheet().contains("#fff0c2"));
+  // The report is shown once, in the Campaign view: the message bar gives the
+  // counts and says where the reasons are, without repeating them.
+  const QString bar = w.messages().last();
+  EXPECT_TRUE(bar.contains("6 planned, 3 fired")) << bar.toStdString();
+  EXPECT_TRUE(bar.contains("Campaign view")) << bar.toStdString();
+  EXPECT_FALSE(bar.contains("in a row failed")) << bar.toStdString();
+  EXPECT_LT(bar.size(), report.size() / 2) << bar.toStdString();
   // The folder's summary follows the saved (failed) shots: reloaded after the campaign.
   EXPECT_TRUE(QTest::qWaitFor([&] { return !view->summary().contains("no shot files"); }, 10000))
       << view->summary().toStdString();
