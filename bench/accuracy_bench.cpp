@@ -48,7 +48,7 @@ using collide::bench::truthAtContact;
 namespace {
 
 bool g_verbose = false;
-std::string g_save_bad;  // --save-bad DIR: shots with an error beyond 5 sigma are saved there
+std::string g_save_bad;  // --save-bad DIR: shots flagged or with an error beyond 4 sigma are saved there
 
 void saveBad(const hw::Shot& shot, const std::string& why) {
   if (g_save_bad.empty()) return;
@@ -268,6 +268,7 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
     const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||
                      (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
     if (bad) saveBad(shot, "error beyond 4 sigma");
+    else if (!r->quality_flags.empty()) saveBad(shot, "flagged " + r->quality_flags.front());
     if (g_verbose || bad) {
       std::printf(
           "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "

@@ -16,6 +16,7 @@
 
 #include "analysis/depth_from_size.hpp"
 #include "analysis/error_model.hpp"
+#include "analysis/residual_structure.hpp"
 #include "analysis/shot_uncertainty.hpp"
 #include "vision/shot_fits.hpp"
 #include "vision/shot_spins.hpp"
@@ -410,6 +411,7 @@ void flagTracks(ShotAnalysis& out, const FlagInputs& q) {
   const CollisionFits& fits = *q.fits;
   const double px = q.scale.px;
   double resid_px = 0;
+  bool structured = false;  // some track's residuals have order (residual_structure.hpp)
   std::vector<double> det_sigma;
   for (const FrameData& fd : q.frames->data)
     for (int s = 0; s < 2; ++s)
@@ -422,9 +424,15 @@ void flagTracks(ShotAnalysis& out, const FlagInputs& q) {
       for (int k = 0; k < 2; ++k) {
         const LinearFit& af = fits.fit[s][side]->fit.axisFit(k);
         resid_px = std::max(resid_px, std::sqrt(af.chi2 / af.weights.sum()) / px);
+        structured = structured || residualsStructured(af);
       }
+  // Scatter beyond the detector's word only widens the fits' sigmas (their
+  // chi^2 scales them): a fast-spinning, motion-blurred sphere's dots move its
+  // outline by 0.2-0.3 px from frame to frame. A misfit with order (a bend, an
+  // alternating offset) or a pixel of scatter is what cannot be trusted.
   const double typical_sigma = median(det_sigma);
-  if (resid_px > std::max(0.1, 10 * typical_sigma)) addFlag(out, "large_residuals");
+  if (resid_px > std::max(0.1, 10 * typical_sigma) && (structured || resid_px > 1.0))
+    addFlag(out, "large_residuals");
   ImagingGeometry g;
   g.position_sigma_px = std::max(resid_px, 0.01);
   g.pixels_per_diameter = 2 * 0.5 * (q.r_med[0] + q.r_med[1]);

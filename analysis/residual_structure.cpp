@@ -1,0 +1,86 @@
+#include "analysis/residual_structure.hpp"
+
+#include <Eigen/QR>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace collide {
+
+namespace {
+
+// sqrt(w_i) r_i for the observations with w_i > 0, in order.
+std::vector<double> weightedResiduals(const LinearFit& fit) {
+  std::vector<double> e;
+  e.reserve(static_cast<std::size_t>(fit.residuals.size()));
+  for (Eigen::Index i = 0; i < fit.residuals.size(); ++i) {
+    const double w = fit.weights.size() == fit.residuals.size() ? fit.weights[i] : 1.0;
+    if (w > 0) e.push_back(std::sqrt(w) * fit.residuals[i]);
+  }
+  return e;
+}
+
+}  // namespace
+
+double residualLag1Correlation(const LinearFit& fit) {
+  const std::vector<double> e = weightedResiduals(fit);
+  if (e.size() < 3 || fit.dof < 3) return std::numeric_limits<double>::quiet_NaN();
+  double lag1 = 0, sum2 = 0;
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    sum2 += e[i] * e[i];
+    if (i + 1 < e.size()) lag1 += e[i] * e[i + 1];
+  }
+  return sum2 > 0 ? lag1 / sum2 : std::numeric_limits<double>::quiet_NaN();
+}
+
+double residualTrendF(const LinearFit& fit) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> r;
+  for (Eigen::Index i = 0; i < fit.residuals.size(); ++i)
+    if (fit.weights.size() != fit.residuals.size() || fit.weights[i] > 0)
+      r.push_back(fit.residuals[i]);
+  const auto n = static_cast<Eigen::Index>(r.size());
+  if (n < 6) return kNaN;
+  // [1, x, x^2, x^3] with x the centred, scaled sample index; the quadratic
+  // part is fitted too, as the residuals are unweighted here.
+  Eigen::MatrixXd a(n, 4);
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(r.data(), n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double x =
+        (2.0 * static_cast<double>(i) - static_cast<double>(n - 1)) / static_cast<double>(n - 1);
+    a.row(i) << 1, x, x * x, x * x * x;
+  }
+  const auto chi2 = [&](int columns) {
+    const Eigen::MatrixXd part = a.leftCols(columns);
+    const Eigen::VectorXd c = part.colPivHouseholderQr().solve(y);
+    return (y - part * c).squaredNorm();
+  };
+  const double quadratic = chi2(3), cubic = chi2(4);
+  if (!(cubic > 0) || !(quadratic > 0)) return kNaN;
+  return (quadratic - cubic) / (cubic / static_cast<double>(n - 4));
+}
+
+namespace {
+
+// Student's t quantile at the normal quantile z for nu degrees of freedom
+// (Cornish-Fisher expansion, a few per cent at nu >= 5).
+double studentQuantile(double z, double nu) {
+  const double z3 = z * z * z, z5 = z3 * z * z;
+  return z + (z3 + z) / (4 * nu) + (5 * z5 + 16 * z3 + 3 * z) / (96 * nu * nu);
+}
+
+}  // namespace
+
+bool residualsStructured(const LinearFit& fit, double z) {
+  const double n = static_cast<double>(weightedResiduals(fit).size());
+  if (const double r1 = residualLag1Correlation(fit);
+      std::isfinite(r1) && std::abs(r1 + 1.0 / n) > z / std::sqrt(n))
+    return true;
+  if (const double f = residualTrendF(fit); std::isfinite(f)) {
+    const double t = studentQuantile(z, n - 4);
+    return f > t * t;
+  }
+  return false;
+}
+
+}  // namespace collide

@@ -1,0 +1,48 @@
+#pragma once
+// Whether a fit's residuals have order in them, or are scatter (used by the
+// shot analysis' `large_residuals` flag, vision/shot_analysis.hpp).
+//
+// Residuals that are independent from one observation to the next (detector
+// noise, a sphere's dots crossing its blurred outline) only widen the fit's
+// uncertainty, which the fit's chi^2 already scales. Residuals with order
+// mean the model or the data are wrong: a smooth run of one sign (a track
+// that bends, a contact inside the segment, a mismatched sphere) or an
+// alternating pattern (a camera shaking every other frame).
+//
+// Two tests on the weighted residuals in observation order,
+// e_i = sqrt(w_i) r_i over the observations with w_i > 0 (samples taken at
+// even intervals, as a track's frames are):
+//  - order from one sample to the next: the lag-1 autocorrelation
+//      r1 = sum_i e_i e_{i+1} / sum_i e_i^2,
+//    about -1/n with a standard deviation of about 1/sqrt(n) for n
+//    independent errors (Box and Jenkins; Durbin-Watson is about 2 (1 - r1)).
+//    An alternating offset drives it towards -1, a smooth misfit towards +1;
+//  - a smooth trend: the residuals fitted with a cubic in the sample index
+//    (weights w_i), F = (chi2 before - chi2 after) / (chi2 after / (n - 4)).
+//    The residuals of a quadratic fit have no part along 1, i, i^2, so the
+//    drop is the cubic's, one degree of freedom: F is Student's t^2 with
+//    n - 4 degrees of freedom for independent errors of any scale. This one
+//    sees a track that bends away from a parabola, which r1 alone at n = 16
+//    does not (r1 of a pure cubic misfit is only about 0.56 there).
+// Both are independent of the residuals' scale: they ask about order, not size.
+#include "analysis/least_squares.hpp"
+
+namespace collide {
+
+/// r1 of `fit`'s weighted residuals, in observation order; NaN when the fit
+/// has fewer than 3 degrees of freedom (its residuals say nothing about
+/// order) or all residuals are zero.
+double residualLag1Correlation(const LinearFit& fit);
+
+/// F of a cubic trend in the weighted residuals (sample index as abscissa);
+/// NaN with fewer than 6 observations of positive weight or residuals a cubic
+/// fits exactly.
+double residualTrendF(const LinearFit& fit);
+
+/// Either test beyond its critical value at two-sided normal quantile `z`
+/// (3.29: a 1 in 1000 chance each for independent errors): |r1 + 1/n| >
+/// z / sqrt(n), or F > t^2 with t Student's quantile for n - 4 degrees of
+/// freedom at the same probability. False when neither can be computed.
+bool residualsStructured(const LinearFit& fit, double z = 3.29);
+
+}  // namespace collide
