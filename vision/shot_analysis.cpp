@@ -411,7 +411,6 @@ void flagTracks(ShotAnalysis& out, const FlagInputs& q) {
   const CollisionFits& fits = *q.fits;
   const double px = q.scale.px;
   double resid_px = 0;
-  bool structured = false;  // some track's residuals have order (residual_structure.hpp)
   std::vector<double> det_sigma;
   for (const FrameData& fd : q.frames->data)
     for (int s = 0; s < 2; ++s)
@@ -419,20 +418,22 @@ void flagTracks(ShotAnalysis& out, const FlagInputs& q) {
         det_sigma.push_back(std::max(m->circle.sigma_u, m->circle.sigma_v));
   // Weighted residual RMS (frames weighted by their detection uncertainty, as
   // in the fits), in pixels: poorly measured frames at the border count less.
+  // Scatter beyond the detector's word only widens the fits' sigmas (their
+  // chi^2 scales them): a fast-spinning, motion-blurred sphere's dots move its
+  // outline by 0.2-0.3 px from frame to frame. What cannot be trusted is a
+  // track whose large residuals have order (a bend, an alternating offset;
+  // residual_structure.hpp), or that scatters by more than a pixel.
+  const double large_px = std::max(0.1, 10 * median(det_sigma));
+  bool misfit = false;
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side)
       for (int k = 0; k < 2; ++k) {
         const LinearFit& af = fits.fit[s][side]->fit.axisFit(k);
-        resid_px = std::max(resid_px, std::sqrt(af.chi2 / af.weights.sum()) / px);
-        structured = structured || residualsStructured(af);
+        const double rms_px = std::sqrt(af.chi2 / af.weights.sum()) / px;
+        resid_px = std::max(resid_px, rms_px);
+        misfit = misfit || (rms_px > large_px && (rms_px > 1.0 || residualsStructured(af)));
       }
-  // Scatter beyond the detector's word only widens the fits' sigmas (their
-  // chi^2 scales them): a fast-spinning, motion-blurred sphere's dots move its
-  // outline by 0.2-0.3 px from frame to frame. A misfit with order (a bend, an
-  // alternating offset) or a pixel of scatter is what cannot be trusted.
-  const double typical_sigma = median(det_sigma);
-  if (resid_px > std::max(0.1, 10 * typical_sigma) && (structured || resid_px > 1.0))
-    addFlag(out, "large_residuals");
+  if (misfit) addFlag(out, "large_residuals");
   ImagingGeometry g;
   g.position_sigma_px = std::max(resid_px, 0.01);
   g.pixels_per_diameter = 2 * 0.5 * (q.r_med[0] + q.r_med[1]);

@@ -176,10 +176,10 @@ struct ShotAnalysis {
   ///  "unphysical": a value physics forbids, beyond 3 of its sigmas: e > 1 or
   ///    e < 0, beta outside [-1, 1], or kinetic energy gained (translational +
   ///    rotational, after minus before > 0); the notes say which;
-  ///  "large_residuals": a track's weighted residual RMS exceeds 0.1 px and 10
-  ///    times the detector's typical centre uncertainty, and either some
-  ///    track's residuals have order (a smooth bend or an alternating offset,
-  ///    analysis/residual_structure.hpp) or the RMS exceeds 1 px. Independent
+  ///  "large_residuals": a track's weighted residual RMS (one axis, one side)
+  ///    exceeds 0.1 px and 10 times the detector's typical centre uncertainty,
+  ///    and those residuals have order (a smooth bend or an alternating
+  ///    offset, analysis/residual_structure.hpp) or exceed 1 px. Independent
   ///    scatter below 1 px only widens the fits' sigmas (scaled by chi^2);
   ///  "e_untrustworthy_geometry", "beta_untrustworthy_geometry": SPEC eq. 5.1
   ///    (with the residual scatter as s) gives |v_n| or v_s a relative error > 5 %;

@@ -10,9 +10,19 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Position of `track` predicted at time t from its last two (or one) points.
-bool predict(const std::vector<FrameData>& frames, const std::vector<int>& order, int upto,
-             int track, double t, Eigen::Vector2d& out) {
+// Where a track is expected in the next frame, from its last two (or one)
+// points: constant velocity in the image.
+struct Prediction {
+  bool have = false;
+  Eigen::Vector2d at{0, 0};        ///< px, at the frame's time
+  Eigen::Vector2d last{0, 0};      ///< px, the last point seen
+  Eigen::Vector2d velocity{0, 0};  ///< px/s (zero from a single point)
+  double t_last = 0;               ///< s, when it was last seen
+};
+
+Prediction predict(const std::vector<FrameData>& frames, const std::vector<int>& order, int upto,
+                   int track, double t) {
+  Prediction out;
   int seen = 0;
   Eigen::Vector2d p[2];
   double tt[2] = {0, 0};
@@ -24,29 +34,42 @@ bool predict(const std::vector<FrameData>& frames, const std::vector<int>& order
       ++seen;
     }
   }
-  if (seen == 0) return false;
-  if (seen == 1 || tt[0] == tt[1]) {
-    out = p[0];
-    return true;
-  }
-  out = p[0] + (p[0] - p[1]) * ((t - tt[0]) / (tt[0] - tt[1]));
-  return true;
+  if (seen == 0) return out;
+  out.have = true;
+  out.last = p[0];
+  out.t_last = tt[0];
+  if (seen == 2 && tt[0] != tt[1]) out.velocity = (p[0] - p[1]) / (tt[0] - tt[1]);
+  out.at = p[0] + out.velocity * (t - tt[0]);
+  return out;
+}
+
+// How far from its prediction each track's sphere may be found. At contact
+// the velocities change by up to (1 + e) |v_rel| <= 2 |v_rel| (the relative
+// velocity of the centres), so a track last seen touching the other one may
+// be that much further off per second since; elsewhere `gate`.
+std::array<double, 2> gates(const std::array<Prediction, 2>& p, double t, double gate,
+                            double contact_px) {
+  std::array<double, 2> g{gate, gate};
+  if (!p[0].have || !p[1].have || contact_px <= 0) return g;
+  if ((p[0].last - p[1].last).norm() > 1.2 * contact_px) return g;
+  const double dv = (p[0].velocity - p[1].velocity).norm();
+  for (int k = 0; k < 2; ++k) g[k] += 2 * dv * std::max(0.0, t - p[k].t_last);
+  return g;
 }
 
 // Assigns each frame's candidates to the two tracks, walking away from the
 // seed frame in the given direction.
-void track(std::vector<FrameData>& frames, int seed, int dir, double gate) {
+void track(std::vector<FrameData>& frames, int seed, int dir, double gate, double contact_px) {
   std::vector<int> order;  // frames in walking order, seed first
   for (int i = seed; i >= 0 && i < static_cast<int>(frames.size()); i += dir) order.push_back(i);
   for (std::size_t o = 1; o < order.size(); ++o) {
     FrameData& f = frames[order[o]];
-    Eigen::Vector2d pred[2];
-    bool have[2];
-    for (int k = 0; k < 2; ++k)
-      have[k] = predict(frames, order, static_cast<int>(o) - 1, k, f.t, pred[k]);
+    const std::array<Prediction, 2> pred{predict(frames, order, static_cast<int>(o) - 1, 0, f.t),
+                                         predict(frames, order, static_cast<int>(o) - 1, 1, f.t)};
+    const std::array<double, 2> g = gates(pred, f.t, gate, contact_px);
     // Best assignment of up to one candidate per track (cost: distance to the
-    // prediction; leaving a track empty costs the gate).
-    double best = 2 * gate + 1;
+    // prediction; leaving a track empty costs its gate).
+    double best = g[0] + g[1] + 1;
     std::array<int, 2> pick{-1, -1};
     const int n = static_cast<int>(f.candidates.size());
     for (int a = -1; a < n; ++a)
@@ -57,16 +80,16 @@ void track(std::vector<FrameData>& frames, int seed, int dir, double gate) {
         for (int k = 0; k < 2; ++k) {
           const int c = k == 0 ? a : b;
           if (c < 0) {
-            cost += gate;
+            cost += g[k];
             continue;
           }
-          if (!have[k]) {
+          if (!pred[k].have) {
             ok = false;
             break;
           }
           const CircleFit& cf = f.found.spheres[f.candidates[c]].circle;
-          const double d = (Eigen::Vector2d(cf.u, cf.v) - pred[k]).norm();
-          if (d > gate) {
+          const double d = (Eigen::Vector2d(cf.u, cf.v) - pred[k].at).norm();
+          if (d > g[k]) {
             ok = false;
             break;
           }
@@ -252,8 +275,9 @@ Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
     // Candidates are sorted by u: the left one is sphere 1.
     f.assigned = {f.candidates[0], f.candidates[1]};
     const double gate = 0.5 * std::min(blobs.r_expect_px[0], blobs.r_expect_px[1]);
-    track(data, seed, +1, gate);
-    track(data, seed, -1, gate);
+    const double contact_px = blobs.r_expect_px[0] + blobs.r_expect_px[1];
+    track(data, seed, +1, gate, contact_px);
+    track(data, seed, -1, gate, contact_px);
   }
   if (std::abs(diam[1] / diam[0] - 1) >= 0.02) {
     // Two sizes: sphere 1 (left) must be the one whose diameter came first.

@@ -85,6 +85,79 @@ TEST(TrackSpheres, EachTrackFollowsItsSphere) {
   for (const double r : s.r_med) EXPECT_NEAR(r, r_true, 0.1);
 }
 
+// Two spheres as the detector reports them, frame by frame (no images): each
+// moves at constant velocity in the image and takes its new velocity at
+// frame `contact`. Candidates are listed left to right, as the detector does.
+std::vector<FrameData> straightTracks(const std::array<double, 2>& r_px,
+                                      const std::array<Eigen::Vector2d, 2>& start_px,
+                                      const std::array<Eigen::Vector2d, 2>& before_px_frame,
+                                      const std::array<Eigen::Vector2d, 2>& after_px_frame,
+                                      int contact, int frames) {
+  std::vector<FrameData> data(frames);
+  for (int k = 0; k < frames; ++k) {
+    FrameData& f = data[k];
+    f.index = k;
+    f.t = 1e-3 * k;
+    for (int s = 0; s < 2; ++s) {
+      const Eigen::Vector2d at = start_px[s] + before_px_frame[s] * std::min(k, contact) +
+                                 after_px_frame[s] * std::max(0, k - contact);
+      SphereMeasurement m;
+      m.circle.u = at.x(), m.circle.v = at.y(), m.circle.radius = r_px[s];
+      f.found.spheres.push_back(m);
+    }
+    if (f.found.spheres[0].circle.u > f.found.spheres[1].circle.u)
+      std::swap(f.found.spheres[0], f.found.spheres[1]);
+    f.candidates = {0, 1};
+  }
+  return data;
+}
+
+// Where each track should be in frame k: the sphere of that radius.
+void expectFollowed(const std::vector<FrameData>& data, const std::array<double, 2>& r_px) {
+  for (const FrameData& f : data)
+    for (int s = 0; s < 2; ++s) {
+      const SphereMeasurement* m = trackAt(f, s);
+      ASSERT_TRUE(m) << "sphere " << s + 1 << " lost in frame " << f.index;
+      EXPECT_EQ(m->circle.radius, r_px[s]) << "tracks swapped in frame " << f.index;
+    }
+}
+
+// The unequal preset's lost shots: a 19 mm sphere (45 px) meeting a 25 mm one
+// (60 px) almost head-on rebounds at 17 px per frame, 25 px from where its old
+// velocity put it: more than half its radius, the ordinary gate. Contact
+// changes a velocity by up to twice the relative velocity, and the gate near
+// contact allows it.
+TEST(TrackSpheres, ASphereThatReboundsAtContactIsFollowed) {
+  const std::array<double, 2> r{60, 45};
+  const std::array<Eigen::Vector2d, 2> start{Eigen::Vector2d(-62, 201), Eigen::Vector2d(689, 262)};
+  const std::array<Eigen::Vector2d, 2> before{Eigen::Vector2d(11.05, 1.16),
+                                              Eigen::Vector2d(-11.17, 1.16)};
+  const std::array<Eigen::Vector2d, 2> after{Eigen::Vector2d(1.5, -3.1),
+                                             Eigen::Vector2d(11.5, 13.2)};
+  std::vector<FrameData> data = straightTracks(r, start, before, after, 30, 46);
+  SphereBlobs blobs;
+  blobs.r_expect_px = r;
+  ASSERT_TRUE(trackSpheres(data, blobs, {0.0254, 0.01905}).ok());
+  expectFollowed(data, r);
+  EXPECT_EQ(blobs.third_blobs, 0);
+}
+
+// Equal spheres head-on exchange their velocities (e = 1): each is found
+// where the other was heading, and the tracks must not swap.
+TEST(TrackSpheres, EqualSpheresExchangingVelocitiesHeadOnKeepTheirTracks) {
+  const std::array<double, 2> r{60, 60};
+  const std::array<Eigen::Vector2d, 2> start{Eigen::Vector2d(20, 240), Eigen::Vector2d(620, 240)};
+  const std::array<Eigen::Vector2d, 2> before{Eigen::Vector2d(9, 0), Eigen::Vector2d(-9, 0)};
+  const std::array<Eigen::Vector2d, 2> after{Eigen::Vector2d(-9, 0), Eigen::Vector2d(9, 0)};
+  // Different radii in the data only to tell the spheres apart in the check.
+  const std::array<double, 2> tag{60, 59.5};
+  std::vector<FrameData> data = straightTracks(tag, start, before, after, 27, 50);
+  SphereBlobs blobs;
+  blobs.r_expect_px = r;
+  ASSERT_TRUE(trackSpheres(data, blobs, {0.0254, 0.0254}).ok());
+  expectFollowed(data, tag);
+}
+
 TEST(FitCollision, BothInstantsFindTheTrueContact) {
   for (const std::uint64_t seed : {43, 44, 45}) {
     const Staged s = detectAndTrack(seed);
