@@ -92,7 +92,9 @@ struct AnalysisSettings {
   /// Which way round the spheres are lit (SphereDetectorSettings::polarity):
   /// auto-detected per frame unless forced (`--polarity`).
   SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto;
-  /// Optional progress callback (frames processed, total); may be empty.
+  /// Optional progress callback (frames detected, total), called on the
+  /// calling thread with the count increasing and last equal to total (frames
+  /// are detected in parallel, so not every count is reported); may be empty.
   std::function<void(int, int)> progress;
 };
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "vision/frame_parallel.hpp"
 #include "vision/shot_tracking.hpp"
 #include "vision/spin_fit.hpp"
 
@@ -24,15 +25,27 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const PixelScale* scale) {
   ShotSpins out;
   out.dots.resize(data.size());
+  // The dots of every sphere in every fitted frame first (frames in parallel),
+  // each found on the track's radius: steadier than one frame's.
+  std::vector<std::pair<int, int>> wanted;  // (frame, sphere)
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side)
+      for (const int k : fits.fit[s][side]->frames) wanted.emplace_back(k, s);
+  std::sort(wanted.begin(), wanted.end());  // a frame on both sides is done once
+  wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+  forEachFrame(wanted.size(), [&](std::size_t i) {
+    const auto [k, s] = wanted[i];
+    SphereMeasurement m = *trackAt(data[k], s);
+    m.circle.radius = r_med[s];
+    out.dots[k][s] = findDots(burst.frames[data[k].index].image, m, max_value);
+  });
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       const SideFit& sf = *fits.fit[s][side];
       std::vector<SpinFrame> sfr;
       for (const int k : sf.frames) {
         SphereMeasurement m = *trackAt(data[k], s);
-        // Lift with the track's radius: steadier than one frame's.
         m.circle.radius = r_med[s];
-        out.dots[k][s] = findDots(burst.frames[data[k].index].image, m, max_value);
         if (out.dots[k][s].dots.empty()) continue;
         SpinFrame f;
         f.t_s = data[k].t;

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "vision/frame_parallel.hpp"
+
 namespace collide::vision {
 namespace {
 
@@ -179,12 +181,14 @@ int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
     ds.max_radius_px = 1.5 * std::max(diam[0], diam[1]) / pixel_size_m;
   }
   const SphereDetector detector(ds);
+  forEachFrame(
+      data.size(),
+      [&](std::size_t k) {
+        data[k].found = detector.detect(burst.frames[data[k].index].image, max_value);
+      },
+      progress);
   int saturated = 0;
-  for (std::size_t k = 0; k < data.size(); ++k) {
-    data[k].found = detector.detect(burst.frames[data[k].index].image, max_value);
-    saturated += data[k].found.saturated;
-    if (progress) progress(static_cast<int>(k + 1), static_cast<int>(data.size()));
-  }
+  for (const FrameData& f : data) saturated += f.found.saturated;
   return saturated;
 }
 

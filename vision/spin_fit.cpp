@@ -155,6 +155,38 @@ struct JointFit {
   double rms = 0;
 };
 
+// Solves h dx = g where h = [[A, B], [B^T, D]] and D, after the first `nb`
+// parameters, is block-diagonal in 2 x 2 blocks: each frame's centre offset
+// touches only its own frame. The offsets are eliminated (Schur complement
+// S = A - B D^-1 B^T), so the dense solve is the size of A (spin and dot
+// positions), not of A plus two per frame. `a_inverse`, when given, receives
+// S^-1: the top-left nb x nb block of h^-1.
+Eigen::VectorXd solveWithFrameOffsets(const Eigen::MatrixXd& h, const Eigen::VectorXd& g, int nb,
+                                      Eigen::MatrixXd* a_inverse = nullptr) {
+  const auto np = h.rows();
+  const auto offsets = (np - nb) / 2;
+  Eigen::MatrixXd s = h.topLeftCorner(nb, nb);
+  Eigen::VectorXd rhs = g.head(nb);
+  std::vector<Eigen::Matrix2d> d_inv(static_cast<std::size_t>(offsets));
+  for (Eigen::Index k = 0; k < offsets; ++k) {
+    const Eigen::Index po = nb + 2 * k;
+    d_inv[k] = h.block<2, 2>(po, po).inverse();
+    const Eigen::MatrixXd bd = h.block(0, po, nb, 2) * d_inv[k];
+    s.noalias() -= bd * h.block(0, po, nb, 2).transpose();
+    rhs.noalias() -= bd * g.segment<2>(po);
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(s);
+  Eigen::VectorXd dx(np);
+  dx.head(nb) = ldlt.solve(rhs);
+  for (Eigen::Index k = 0; k < offsets; ++k) {
+    const Eigen::Index po = nb + 2 * k;
+    dx.segment<2>(po) =
+        d_inv[k] * (g.segment<2>(po) - h.block(0, po, nb, 2).transpose() * dx.head(nb));
+  }
+  if (a_inverse) *a_inverse = ldlt.solve(Eigen::MatrixXd::Identity(nb, nb));
+  return dx;
+}
+
 Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
                           const std::vector<std::vector<int>>& track_of, int next_track,
                           const Vec3& w_start) {
@@ -260,8 +292,7 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
       // offsets are unused until enabled.
       h.diagonal().tail(np - 3).array() += 1e-12;
       if (!with_offsets) h.diagonal().tail(np - nb).array() += 1.0;
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(h);
-      const Eigen::VectorXd dx = ldlt.solve(g);
+      const Eigen::VectorXd dx = solveWithFrameOffsets(h, g, nb);
       if (!dx.allFinite()) return fail("spin: the dot fit is degenerate (dots on one line?)");
       w += dx.head<3>();
       for (int j = 0; j < tracks; ++j)
@@ -313,9 +344,10 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
     with_offsets = with_offsets || offsets > 0;
     if (!changed && !enable && outer > 0) break;
   }
-  const Eigen::MatrixXd cov = h.ldlt().solve(Eigen::MatrixXd::Identity(np, np)) * s2;
+  Eigen::MatrixXd a_inverse;
+  solveWithFrameOffsets(h, g, nb, &a_inverse);
   out.w = w;
-  out.cov = cov.topLeftCorner<3, 3>();
+  out.cov = a_inverse.topLeftCorner<3, 3>() * s2;
   out.body.assign(next_track, Vec3::Zero());
   out.has_body.assign(next_track, 0);
   for (int t = 0; t < next_track; ++t)

@@ -270,13 +270,16 @@ TEST(AnalyzeBurst, ProgressAndPerFrameRecord) {
   int calls = 0, last = 0;
   shot.settings.progress = [&](int done, int total) {
     ++calls;
+    EXPECT_GT(done, last) << "progress went back";
     last = done;
     EXPECT_EQ(total, static_cast<int>(shot.burst.frames.size()));
   };
   auto r = analyzeBurst(shot.burst, shot.settings);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  EXPECT_EQ(calls, static_cast<int>(shot.burst.frames.size()));
-  EXPECT_EQ(last, calls);
+  // Frames are detected in parallel: counts may be skipped, never repeated.
+  EXPECT_GE(calls, 1);
+  EXPECT_LE(calls, static_cast<int>(shot.burst.frames.size()));
+  EXPECT_EQ(last, static_cast<int>(shot.burst.frames.size()));
   ASSERT_EQ(r->frames.size(), shot.burst.frames.size());
   const double px = shot.settings.pixel_size_m;
   for (std::size_t k = 0; k < r->frames.size(); ++k) {
