@@ -563,10 +563,7 @@ Status CameraAravis::Impl::configure(const CameraConfig& c) {
 }
 
 Status CameraAravis::Impl::start() {
-  if (lost)
-    return fail(
-        "the camera was lost earlier: close() and open() it again (check its power, "
-        "cable and network link first)");
+  // A camera lost earlier never gets here: Camera::start() refuses it.
   std::lock_guard lock(arv_mutex);
   GError* e = nullptr;
   payload = arv_camera_get_payload(camera, &e);
@@ -644,10 +641,14 @@ void CameraAravis::Impl::refreshStreamCounters() {
 
 void CameraAravis::Impl::markLost(const std::string& why) {
   if (lost.exchange(true)) return;
-  const std::string what = "camera lost: " + why +
-                           "; check its power and cable, the network link (ping " + device +
-                           "), and that no other program took control of it";
-  spdlog::error("{}: {}; the frames that arrived are kept", label(), what);
+  // The camera's lifecycle refuses every later call at once (lostMessage),
+  // and the armed burst ends with the same sentence.
+  const std::string what =
+      owner
+          .markLost(why, "its power and cable, the network link (ping " + device +
+                             "), and that no other program took control of it")
+          .message;
+  spdlog::error("{}; the frames that arrived are kept", what);
   if (auto r = owner.recorder()) r->endOfStream(what);
 }
 

@@ -81,7 +81,9 @@ Result<std::vector<ValveEvent>> ValveBank::fire(const std::vector<ValvePulse>& p
 }
 
 Status ValveBank::closeAll() {
-  if (Status s = lifecycle_.require(
+  // Never refused on a lost bank: a valve must not stay open, and driving a
+  // line that is gone fails at once (it waits on nothing).
+  if (Status s = lifecycle_.requireState(
           "closeAll()", {DeviceState::Open, DeviceState::Configured, DeviceState::Running});
       !s)
     return s;
