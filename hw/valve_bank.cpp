@@ -73,9 +73,12 @@ Result<std::vector<ValveEvent>> ValveBank::fire(const std::vector<ValvePulse>& p
   Result<std::vector<ValveEvent>> events = onFire(pattern);
   if (!events) {
     Status closed = onCloseAll();
-    return fail(prefixed(label(), Status(events.error())).error().message +
-                (closed ? "; all valves closed"
-                        : "; closing the valves failed too: " + closed.error().message));
+    const std::string why = prefixed(label(), Status(events.error())).error().message;
+    if (closed) return fail(why + "; all valves closed");
+    // A bank that is gone fails the closing for the same reason: say it once.
+    if (closed.error().message == why)
+      return fail(why + "; closing the valves failed too, for the same reason");
+    return fail(why + "; closing the valves failed too: " + closed.error().message);
   }
   return events;
 }

@@ -200,6 +200,11 @@ TEST(ValveBankGpiod, AChipThatGoesAwayLosesTheBankAndTheNextFireIsRefusedWithout
               ::testing::StartsWith("valves \"test\" is lost (its GPIO chip went away ("));
   EXPECT_THAT(failed.error().message, HasSubstr("retrying will not help"));
   EXPECT_THAT(failed.error().message, HasSubstr("`gpiodetect`"));
+  EXPECT_THAT(failed.error().message,
+              HasSubstr("; closing the valves failed too, for the same reason"));
+  EXPECT_EQ(failed.error().message.find("is lost", failed.error().message.find("is lost") + 1),
+            std::string::npos)
+      << "the sentence is said twice";
   ASSERT_TRUE(b.bank->loss());
 
   // The next fire() is refused at once with the same sentence, driving nothing.
