@@ -27,7 +27,9 @@
 // lost (Camera::markLost): the burst's note and every later call (arm,
 // trigger, configure, start) carry lostMessage(), refused at once; the
 // sequencer fails the shot with that reason, stores the frames and refuses
-// the next shot. Closing and opening the camera again clears it.
+// the next shot. A control request of configure() or start() that goes
+// unanswered after Aravis' retries loses it too. Closing and opening the
+// camera again clears it.
 //
 // Aravis and GLib types stay in camera_aravis.cpp (pimpl).
 #include <cstdint>
@@ -149,6 +151,10 @@ class CameraAravis final : public Camera {
   void onTakeBurst(vision::Burst& burst) override;
 
  private:
+  // Runs a control-thread call; if one of its requests went unanswered,
+  // marks the camera lost and returns lostMessage().
+  Status lostIfUnanswered(const std::function<Status()>& call);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

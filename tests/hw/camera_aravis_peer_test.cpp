@@ -566,6 +566,30 @@ TEST_F(GigeLoopback, ACameraKilledBetweenShotsIsLostAndTheNextStartIsRefusedAtOn
   EXPECT_FALSE(cam.open());
 }
 
+TEST_F(GigeLoopback, ACameraThatDiesJustBeforeStartIsLostByItsFirstUnansweredRequest) {
+  start();
+  CameraAravis cam(GigeFake::kAddress, {});
+  bringUp(cam, config160(PixelFormat::Mono8, 100.0, 1000.0));
+  ASSERT_TRUE(cam.stop());
+  fake_->kill();
+  // start() asks the camera before the heartbeat (5 s) can notice: that one
+  // request waits out its timeout, and the camera is lost from then on.
+  const auto first = cam.start();
+  ASSERT_FALSE(first);
+  ASSERT_TRUE(cam.loss()) << first.error().message;
+  const std::string lost = lostMessage(*cam.loss());
+  std::printf("the user reads: %s\n", first.error().message.c_str());
+  EXPECT_EQ(first.error().message, lost);
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  const std::int64_t t0 = monotonicNowNs();
+  const auto again = cam.start();
+  const std::int64_t refused_after = monotonicNowNs() - t0;
+  ASSERT_FALSE(again);
+  EXPECT_EQ(again.error().message, lost);
+  EXPECT_LT(refused_after, kDeadRequestNs / 2) << "the second start() asked the lost camera";
+  (void)cam.close();
+}
+
 TEST_F(GigeLoopback, SoftwareTriggersPaceTheFrames) {
   start();
   CameraAravisSettings settings;
