@@ -118,7 +118,9 @@ Status Camera::trigger(std::int64_t at_ns) {
 }
 
 Result<bool> Camera::waitBurst(std::int64_t deadline_ns) {
-  if (Status s = lifecycle_.require("waitBurst()", {DeviceState::Configured, DeviceState::Running});
+  // Asks the device nothing: a lost camera still hands back what arrived.
+  if (Status s =
+          lifecycle_.requireState("waitBurst()", {DeviceState::Configured, DeviceState::Running});
       !s)
     return s.error();
   auto r = armed("waitBurst()");
@@ -127,7 +129,9 @@ Result<bool> Camera::waitBurst(std::int64_t deadline_ns) {
 }
 
 Result<vision::Burst> Camera::takeBurst() {
-  if (Status s = lifecycle_.require("takeBurst()", {DeviceState::Configured, DeviceState::Running});
+  // Asks the device nothing: a lost camera still hands back what arrived.
+  if (Status s =
+          lifecycle_.requireState("takeBurst()", {DeviceState::Configured, DeviceState::Running});
       !s)
     return s.error();
   auto r = armed("takeBurst()");

@@ -66,10 +66,13 @@ class Camera {
   void setHealth(std::shared_ptr<DeviceHealth> health) { lifecycle_.setHealth(std::move(health)); }
   /// Why the device is lost (it stopped answering), or none. Any thread.
   std::optional<DeviceLoss> loss() const { return lifecycle_.loss(); }
-  /// Marks the device lost: every later call is refused at once until a
-  /// re-check (recheck() in rig.hpp) clears it. Called by a backend whose
-  /// device timed out or whose connection failed, or by the sequencer when
-  /// a wait on the device ran out. Returns the Error those calls get.
+  /// Marks the device lost: every later call (configure, start, arm,
+  /// trigger) is refused at once until a re-check (recheck() in rig.hpp)
+  /// clears it; waitBurst() and takeBurst() still hand back the frames that
+  /// arrived before. Called by a backend whose device went away, timed out or
+  /// whose connection failed (from any thread, its acquisition thread
+  /// included), or by the sequencer when a wait on the device ran out.
+  /// Returns the Error those calls get (lostMessage()).
   Error markLost(std::string what_happened, std::string what_to_check) {
     return lifecycle_.markLost(std::move(what_happened), std::move(what_to_check));
   }

@@ -23,9 +23,17 @@ namespace {
 
 constexpr const char* kSetupDoc = "docs/camera-aravis.md";
 
+// Set on this thread when message() saw a control request go unanswered
+// after all of Aravis' retries (or the device was no longer connected):
+// the camera is gone, not refusing a setting.
+thread_local bool t_unanswered = false;
+
 // The message of a GError (freed), or `fallback` when there is none.
 std::string message(GError*& e, const std::string& fallback = "no reason given") {
   if (!e) return fallback;
+  if (e->domain == ARV_DEVICE_ERROR &&
+      (e->code == ARV_DEVICE_ERROR_TIMEOUT || e->code == ARV_DEVICE_ERROR_NOT_CONNECTED))
+    t_unanswered = true;
   std::string m = e->message ? e->message : fallback;
   g_clear_error(&e);
   return m;
@@ -563,10 +571,7 @@ Status CameraAravis::Impl::configure(const CameraConfig& c) {
 }
 
 Status CameraAravis::Impl::start() {
-  if (lost)
-    return fail(
-        "the camera was lost earlier: close() and open() it again (check its power, "
-        "cable and network link first)");
+  // A camera lost earlier never gets here: Camera::start() refuses it.
   std::lock_guard lock(arv_mutex);
   GError* e = nullptr;
   payload = arv_camera_get_payload(camera, &e);
@@ -644,10 +649,14 @@ void CameraAravis::Impl::refreshStreamCounters() {
 
 void CameraAravis::Impl::markLost(const std::string& why) {
   if (lost.exchange(true)) return;
-  const std::string what = "camera lost: " + why +
-                           "; check its power and cable, the network link (ping " + device +
-                           "), and that no other program took control of it";
-  spdlog::error("{}: {}; the frames that arrived are kept", label(), what);
+  // The camera's lifecycle refuses every later call at once (lostMessage),
+  // and the armed burst ends with the same sentence.
+  const std::string what =
+      owner
+          .markLost(why, "its power and cable, the network link (ping " + device +
+                             "), and that no other program took control of it")
+          .message;
+  spdlog::error("{}; the frames that arrived are kept", what);
   if (auto r = owner.recorder()) r->endOfStream(what);
 }
 
@@ -911,12 +920,23 @@ Status CameraAravis::onOpen() {
   return impl_->open();
 }
 
+Status CameraAravis::lostIfUnanswered(const std::function<Status()>& call) {
+  t_unanswered = false;
+  Status s = call();
+  if (s || !t_unanswered) return s;
+  // A control request went unanswered (Aravis' 5 x 500 ms): the camera is
+  // gone, and asking it again would only wait as long once more.
+  impl_->markLost(s.error().message);
+  if (std::optional<DeviceLoss> l = loss()) return fail(lostMessage(*l));
+  return s;
+}
+
 Status CameraAravis::onConfigure(const CameraConfig& config) {
-  return impl_->configure(config);
+  return lostIfUnanswered([&] { return impl_->configure(config); });
 }
 
 Status CameraAravis::onStart() {
-  return impl_->start();
+  return lostIfUnanswered([&] { return impl_->start(); });
 }
 
 Status CameraAravis::onStop() {

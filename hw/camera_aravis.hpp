@@ -23,9 +23,13 @@
 //
 // A camera lost mid-burst (the control link's heartbeat fails, or the
 // stream falls silent and the camera no longer answers) ends the burst: it keeps
-// the frames that arrived, is marked incomplete, and its note says what
-// happened and what to check; the sequencer then fails the shot with that
-// reason and stores the frames.
+// the frames that arrived, is marked incomplete, and the camera is marked
+// lost (Camera::markLost): the burst's note and every later call (arm,
+// trigger, configure, start) carry lostMessage(), refused at once; the
+// sequencer fails the shot with that reason, stores the frames and refuses
+// the next shot. A control request of configure() or start() that goes
+// unanswered after Aravis' retries loses it too. Closing and opening the
+// camera again clears it.
 //
 // Aravis and GLib types stay in camera_aravis.cpp (pimpl).
 #include <cstdint>
@@ -147,6 +151,10 @@ class CameraAravis final : public Camera {
   void onTakeBurst(vision::Burst& burst) override;
 
  private:
+  // Runs a control-thread call; if one of its requests went unanswered,
+  // marks the camera lost and returns lostMessage().
+  Status lostIfUnanswered(const std::function<Status()>& call);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

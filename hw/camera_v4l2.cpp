@@ -146,7 +146,20 @@ Status CameraV4l2::onOpen() {
   return Ok{};
 }
 
+Status CameraV4l2::lostIfGone(Status s) {
+  if (s || !device_) return s;
+  std::optional<std::string> gone = device_->gone();
+  if (!gone) return s;
+  return markLost(*gone, "the camera's cable and power, that " + settings_.path +
+                             " is still there (`v4l2-ctl --list-devices`), and the kernel log "
+                             "(dmesg)");
+}
+
 Status CameraV4l2::onConfigure(const CameraConfig& c) {
+  return lostIfGone(configureDevice(c));
+}
+
+Status CameraV4l2::configureDevice(const CameraConfig& c) {
   const int w = settings_.frame_width, h = settings_.frame_height;
   const std::vector<std::uint32_t> offered = device_->pixelFormats();
   std::uint32_t fourcc = 0;
@@ -240,7 +253,7 @@ Status CameraV4l2::applyControls(const CameraConfig& c) {
 Status CameraV4l2::onStart() {
   dropped_ = 0;
   captured_ = 0;
-  COLLIDE_RETURN_IF_ERROR(device_->startStreaming(settings_.buffers));
+  COLLIDE_RETURN_IF_ERROR(lostIfGone(device_->startStreaming(settings_.buffers)));
   wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) {
     (void)device_->stopStreaming();
@@ -264,7 +277,7 @@ void CameraV4l2::stopThread() {
 
 Status CameraV4l2::onStop() {
   stopThread();
-  return device_ ? device_->stopStreaming() : Status(Ok{});
+  return device_ ? lostIfGone(device_->stopStreaming()) : Status(Ok{});
 }
 
 Status CameraV4l2::onClose() {
@@ -282,7 +295,10 @@ void CameraV4l2::run() {
   for (;;) {
     auto got = device_->dequeue(500, wake_fd_);
     if (!got) {
-      if (auto rec = recorder()) rec->endOfStream(got.error().message);
+      // The device went away: lost, so the next call is refused at once; the
+      // burst ends with the same sentence and keeps what arrived.
+      const std::string why = lostIfGone(got.error()).error().message;
+      if (auto rec = recorder()) rec->endOfStream(why);
       return;
     }
     std::uint64_t wake = 0;
@@ -321,7 +337,7 @@ void CameraV4l2::run() {
       }
       rec->push(seq, std::move(frame));
     }
-    if (Status s = device_->queue(c.index); !s) {
+    if (Status s = lostIfGone(device_->queue(c.index)); !s) {
       if (auto rec = recorder()) rec->endOfStream(s.error().message);
       return;
     }

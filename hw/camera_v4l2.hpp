@@ -77,6 +77,10 @@ class CameraV4l2 final : public Camera {
  private:
   void run();
   void stopThread();
+  // `s`, or when the device is gone (V4l2Device::gone()) the camera marked
+  // lost and lostMessage(). Any thread.
+  Status lostIfGone(Status s);
+  Status configureDevice(const CameraConfig& config);
   Status applyControls(const CameraConfig& config);
 
   CameraV4l2Settings settings_;

@@ -134,10 +134,25 @@ std::string GpiodLines::describe(int line) const {
 }
 
 Status GpiodLines::set(int line, bool active) {
-  if (gpiod_line_set_value(lines_[static_cast<std::size_t>(line)].line, active ? 1 : 0) != 0)
+  if (gpiod_line_set_value(lines_[static_cast<std::size_t>(line)].line, active ? 1 : 0) != 0) {
+    const int err = errno;
+    // The chip was unplugged or its driver unbound: the request is dead, and
+    // only requesting the lines again (reopening the bank) can find it.
+    if (err == ENODEV || err == ENXIO || err == EIO) {
+      std::int64_t none = 0;
+      gone_.compare_exchange_strong(none, (static_cast<std::int64_t>(line) << 32) | err);
+    }
     return fail("cannot drive " + describe(line) + (active ? " active" : " inactive") + " (" +
-                errnoText(errno) + ")");
+                errnoText(err) + ")");
+  }
   return Ok{};
+}
+
+std::optional<std::string> GpiodLines::gone() const {
+  const std::int64_t g = gone_.load();
+  if (g == 0) return std::nullopt;
+  return "its GPIO chip went away (driving " + describe(static_cast<int>(g >> 32)) + ": " +
+         errnoText(static_cast<int>(g & 0xFFFFFFFF)) + ")";
 }
 
 bool GpiodLines::setAllInactiveFromSignal() noexcept {

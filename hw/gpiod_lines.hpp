@@ -10,6 +10,8 @@
 // A line is named either by chip and offset (the chip by name "gpiochip0",
 // path "/dev/gpiochip0", label or number, as gpiod_chip_open_lookup takes it)
 // or by its line name (gpiod_line_find searches every chip).
+#include <atomic>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -48,6 +50,7 @@ class GpiodLines final : public ValveLines {
   std::string describe(int line) const override;
   Status set(int line, bool active) override;
   bool setAllInactiveFromSignal() noexcept override;
+  std::optional<std::string> gone() const override;
 
  private:
   GpiodLines() = default;
@@ -60,6 +63,8 @@ class GpiodLines final : public ValveLines {
   };
   std::vector<gpiod_chip*> chips_;  // chips opened by lookup, shared by their lines
   std::vector<Line> lines_;
+  // The first set() that found the chip gone: line << 32 | errno (0: none).
+  std::atomic<std::int64_t> gone_{0};
 };
 
 }  // namespace collide::hw

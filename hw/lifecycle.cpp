@@ -72,11 +72,13 @@ Status Lifecycle::open(const std::function<Status()>& hook) {
 }
 
 Status Lifecycle::configure(const std::function<Status()>& hook) {
+  if (std::optional<DeviceLoss> lost = loss()) return fail(lostMessage(*lost));
   return transition("configure()", {DeviceState::Open, DeviceState::Configured},
                     DeviceState::Configured, hook);
 }
 
 Status Lifecycle::start(const std::function<Status()>& hook) {
+  if (std::optional<DeviceLoss> lost = loss()) return fail(lostMessage(*lost));
   return transition("start()", {DeviceState::Configured}, DeviceState::Running, hook);
 }
 

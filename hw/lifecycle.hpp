@@ -41,9 +41,16 @@ class Lifecycle {
   /// Error naming the device, the call, the current state and the call to
   /// make first, e.g. `camera "sim": arm() refused: the device is configured;
   /// call start() first`, or for a lost device lostMessage() (refused at once,
-  /// nothing is asked of the device). The transitions (open() ... close()) do
-  /// not check for loss: reopening is how a lost device is re-checked.
+  /// nothing is asked of the device). Of the transitions, configure() and
+  /// start() refuse a lost device the same way (each would ask it and wait);
+  /// stop() and close() never refuse it, and open() is how a lost device is
+  /// re-checked.
   Status require(std::string_view call, std::initializer_list<DeviceState> allowed) const;
+  /// The state check of require() alone, for the few calls that still make
+  /// sense on a lost device because they ask it nothing that could wait:
+  /// handing back the frames that arrived before it was lost, driving valve
+  /// lines inactive.
+  Status requireState(std::string_view call, std::initializer_list<DeviceState> allowed) const;
 
   /// Where this device's health is kept (a rig shares one among its devices
   /// and, in a campaign, across the rigs built for it). Control thread, before
@@ -70,7 +77,6 @@ class Lifecycle {
   Status close(const std::function<Status()>& stop_hook, const std::function<Status()>& close_hook);
 
  private:
-  Status requireState(std::string_view call, std::initializer_list<DeviceState> allowed) const;
   Status transition(std::string_view call, std::initializer_list<DeviceState> from, DeviceState to,
                     const std::function<Status()>& hook);
 

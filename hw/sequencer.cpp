@@ -264,6 +264,9 @@ class ShotRun {
                                   std::llround(p_.sequencer.collect_timeout_s * 1e9);
     COLLIDE_RETURN_IF_ERROR(collect(deadline));
     COLLIDE_RETURN_IF_ERROR(takeBurst());
+    // The camera's backend found it gone during the burst (the frames that
+    // arrived are kept in the shot): retrying will not help.
+    if (std::optional<DeviceLoss> lost = rig_.camera->loss()) return fail(lostMessage(*lost));
     // Nothing after the trigger within the whole collect window (its slack
     // included): the camera has stopped answering, whatever its ring held
     // from before the trigger.

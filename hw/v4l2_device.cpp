@@ -62,6 +62,12 @@ std::string v4l2ControlKey(const std::string& name) {
 }
 
 Error V4l2Device::errnoError(const std::string& what, int err) const {
+  if (err == ENODEV || err == ENXIO || err == EIO) {
+    std::lock_guard lock(gone_mutex_);
+    if (!gone_)
+      gone_ = (err == EIO ? "its driver failed the stream for good (" : "the device went away (") +
+              what + ": " + std::strerror(err) + ")";
+  }
   if (err == EBUSY)
     return fail(path_ + " is busy: another program is streaming from it (close it; `fuser " +
                 path_ + "` shows which), or another camera in this profile uses it");
@@ -110,6 +116,11 @@ Result<std::unique_ptr<V4l2Device>> V4l2Device::open(const std::string& path) {
   return d;
 }
 
+std::optional<std::string> V4l2Device::gone() const {
+  std::lock_guard lock(gone_mutex_);
+  return gone_;
+}
+
 V4l2Device::~V4l2Device() {
   (void)stopStreaming();
   if (fd_ >= 0) ::close(fd_);
@@ -125,7 +136,10 @@ std::vector<std::uint32_t> V4l2Device::pixelFormats() const {
     v4l2_fmtdesc f{};
     f.index = i;
     f.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    if (xioctl(fd_, VIDIOC_ENUM_FMT, &f) != 0) break;
+    if (xioctl(fd_, VIDIOC_ENUM_FMT, &f) != 0) {
+      if (errno != EINVAL) (void)errnoError("listing its pixel formats", errno);  // gone()?
+      break;
+    }
     out.push_back(f.pixelformat);
   }
   return out;
@@ -221,7 +235,9 @@ Result<V4l2Format> V4l2Device::setFormat(std::uint32_t fourcc, int width, int he
 Result<double> V4l2Device::setFrameRate(double fps) {
   v4l2_streamparm p{};
   p.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  if (xioctl(fd_, VIDIOC_G_PARM, &p) != 0 || !(p.parm.capture.capability & V4L2_CAP_TIMEPERFRAME))
+  if (xioctl(fd_, VIDIOC_G_PARM, &p) != 0 && errno != EINVAL && errno != ENOTTY)
+    return errnoError("reading the frame rate", errno);
+  if (!(p.parm.capture.capability & V4L2_CAP_TIMEPERFRAME))
     return fail(name() + " does not let its frame rate be set (no V4L2_CAP_TIMEPERFRAME)");
   // 1/fps as a fraction with microsecond-level precision (29.97 -> 1000/29970).
   p.parm.capture.timeperframe.numerator = 1000;

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -102,6 +103,11 @@ class V4l2Device {
   Result<std::optional<V4l2Capture>> dequeue(int timeout_ms, int wake_fd);
   Status queue(int index);
   int buffers() const { return static_cast<int>(maps_.size()); }
+  /// What happened if a call found the device gone (ENODEV, ENXIO: unplugged
+  /// or its driver unbound; EIO: the driver failed the stream for good), so
+  /// nothing more can be asked of it until the node is opened again; none
+  /// otherwise. Any thread.
+  std::optional<std::string> gone() const;
 
  private:
   V4l2Device() = default;
@@ -115,6 +121,9 @@ class V4l2Device {
   };
   std::vector<Map> maps_;
   bool streaming_ = false;
+  // The first call that found the device gone (errnoError), under gone_mutex_.
+  mutable std::mutex gone_mutex_;
+  mutable std::optional<std::string> gone_;
 };
 
 /// One captured image as a one-channel frame, cropped to `roi` (which must

@@ -73,15 +73,20 @@ Result<std::vector<ValveEvent>> ValveBank::fire(const std::vector<ValvePulse>& p
   Result<std::vector<ValveEvent>> events = onFire(pattern);
   if (!events) {
     Status closed = onCloseAll();
-    return fail(prefixed(label(), Status(events.error())).error().message +
-                (closed ? "; all valves closed"
-                        : "; closing the valves failed too: " + closed.error().message));
+    const std::string why = prefixed(label(), Status(events.error())).error().message;
+    if (closed) return fail(why + "; all valves closed");
+    // A bank that is gone fails the closing for the same reason: say it once.
+    if (closed.error().message == why)
+      return fail(why + "; closing the valves failed too, for the same reason");
+    return fail(why + "; closing the valves failed too: " + closed.error().message);
   }
   return events;
 }
 
 Status ValveBank::closeAll() {
-  if (Status s = lifecycle_.require(
+  // Never refused on a lost bank: a valve must not stay open, and driving a
+  // line that is gone fails at once (it waits on nothing).
+  if (Status s = lifecycle_.requireState(
           "closeAll()", {DeviceState::Open, DeviceState::Configured, DeviceState::Running});
       !s)
     return s;

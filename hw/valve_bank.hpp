@@ -81,7 +81,8 @@ class ValveBank {
   /// than config().max_pulse_us, an opening more than 10 s away. An opening
   /// already past happens at once. Returns one event per pulse, in pattern order.
   Result<std::vector<ValveEvent>> fire(const std::vector<ValvePulse>& pattern);
-  /// Closes every valve now (the safe state). Allowed whenever open.
+  /// Closes every valve now (the safe state). Allowed whenever open, even
+  /// when the bank is lost (what it can still drive, it drives inactive).
   Status closeAll();
 
  protected:

@@ -219,7 +219,15 @@ Result<ValveBankGpiod::Edge> ValveBankGpiod::drive(int line, bool active) {
     std::lock_guard lock(wd_mutex_);
     active_since_[static_cast<std::size_t>(line)] = std::nullopt;
   }
-  if (!s) return s.error();
+  if (!s) {
+    // The chip went away: the bank is lost, and every later fire() is refused
+    // at once until it is reopened (closeAll() still tries every line).
+    if (std::optional<std::string> gone = lines_->gone())
+      return markLost(*gone,
+                      "that the GPIO chip is still there (`gpiodetect`), its cable or "
+                      "board connection and power, and valves.device / valves.lines");
+    return s.error();
+  }
   return Edge{t0 + (t1 - t0) / 2, t1};
 }
 

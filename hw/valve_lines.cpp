@@ -3,6 +3,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstring>
 
 #include "hw/clock.hpp"
@@ -17,6 +18,10 @@ std::string RecordingValveLines::describe(int line) const {
 }
 
 Status RecordingValveLines::set(int line, bool active) {
+  calls_.fetch_add(1);
+  if (unplugged_.load())
+    return fail("cannot drive " + describe(line) + (active ? " active" : " inactive") + " (" +
+                std::strerror(ENODEV) + ")");
   Fault fault;
   {
     std::lock_guard lock(mutex_);
@@ -38,7 +43,13 @@ Status RecordingValveLines::set(int line, bool active) {
   return Ok{};
 }
 
+std::optional<std::string> RecordingValveLines::gone() const {
+  if (!unplugged_.load()) return std::nullopt;
+  return "its GPIO chip went away (" + std::string(std::strerror(ENODEV)) + ")";
+}
+
 bool RecordingValveLines::setAllInactiveFromSignal() noexcept {
+  if (unplugged_.load()) return false;
   for (auto& l : level_) l.store(false);
   if (signal_fd_ >= 0 && signal_message_) {
     const ssize_t n = write(signal_fd_, signal_message_, std::strlen(signal_message_));

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,11 @@ class ValveLines {
   /// Drives every line inactive. Async-signal-safe: no allocation, no locks,
   /// only system calls. Returns false if any line could not be driven.
   virtual bool setAllInactiveFromSignal() noexcept = 0;
+  /// What happened if a set() found its chip gone (unplugged, its driver
+  /// unbound: ENODEV, ENXIO, EIO), so that no line can be driven until the
+  /// lines are requested again; none while every failure was something else.
+  /// Any thread.
+  virtual std::optional<std::string> gone() const { return std::nullopt; }
 };
 
 /// Lines that drive nothing: each set() is recorded with the CLOCK_MONOTONIC
@@ -61,6 +67,12 @@ class RecordingValveLines final : public ValveLines {
   /// Fault: the next set(line, active) call sleeps `stall_ns` before acting
   /// (a stuck driver), and/or fails instead of acting (`fail`).
   void injectFault(int line, bool active, std::int64_t stall_ns, bool fail);
+  /// Fault: the chip goes away (unplugged): from now on every set() fails
+  /// as GpiodLines does on ENODEV, and gone() says so.
+  void unplug() { unplugged_.store(true); }
+  std::optional<std::string> gone() const override;
+  /// set() calls made since construction, answered or not. Any thread.
+  int calls() const { return calls_.load(); }
 
   /// When setAllInactiveFromSignal() runs, it also writes `message` to file
   /// descriptor `fd` (write(2), signal-safe), so a test can see it happened.
@@ -79,6 +91,8 @@ class RecordingValveLines final : public ValveLines {
     std::int64_t stall_ns = 0;
     bool fail = false;
   } fault_;
+  std::atomic<bool> unplugged_{false};
+  std::atomic<int> calls_{0};
   int signal_fd_ = -1;
   const char* signal_message_ = nullptr;
 };

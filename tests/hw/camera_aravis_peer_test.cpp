@@ -34,6 +34,18 @@ using ::testing::HasSubstr;
 namespace {
 
 constexpr std::int64_t kSecond = 1'000'000'000;
+// What one control request to a camera that is gone waits before Aravis gives
+// up on it: its GVCP timeout (500 ms) times its retries (5), Aravis' defaults.
+constexpr std::int64_t kDeadRequestNs = 5 * 500'000'000LL;
+
+// Waits (up to 30 s: Aravis' heartbeat gives up after 5 s of silence) until
+// the camera marks itself lost.
+bool waitUntilLost(const Camera& cam) {
+  const std::int64_t until = monotonicNowNs() + 30 * kSecond;
+  while (!cam.loss() && monotonicNowNs() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  return cam.loss().has_value();
+}
 
 // ---- frames we draw into the in-process fake: each encodes its frame id ----
 
@@ -492,16 +504,90 @@ TEST_F(GigeLoopback, ACameraKilledMidBurstLeavesAnIncompleteBurstWithWhatArrived
     EXPECT_EQ(f.id, b->frames.back().id) << "only the last frame may be incomplete";
   }
   EXPECT_LE(bad, 1);
-  EXPECT_THAT(b->note, HasSubstr("camera lost"));
-  EXPECT_THAT(b->note, HasSubstr("check its power and cable"));
+  // The camera's lifecycle is lost, and the burst ended with the same sentence.
+  ASSERT_TRUE(cam.loss()) << "the camera did not mark itself lost";
+  const std::string lost = lostMessage(*cam.loss());
+  EXPECT_THAT(lost, ::testing::StartsWith("camera \"127.0.0.1\" is lost ("));
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  EXPECT_THAT(lost, HasSubstr("check its power and cable, the network link (ping 127.0.0.1)"));
+  EXPECT_THAT(b->note, HasSubstr(lost));
   EXPECT_THAT(b->note, HasSubstr("post-trigger frames arrived"));
-  // Stopping and closing a lost camera still works; starting again says why not.
+  // The next shot's arm() is refused at once, with that sentence.
+  std::int64_t t0 = monotonicNowNs();
+  const auto armed = cam.arm(5, 10);
+  ASSERT_FALSE(armed);
+  EXPECT_EQ(armed.error().message, lost);
+  EXPECT_FALSE(cam.trigger(monotonicNowNs()));
+  // Stopping a lost camera still works; starting it again is refused without
+  // asking it (one request to it would wait kDeadRequestNs).
   EXPECT_TRUE(cam.stop());
-  auto restart = cam.start();
+  t0 = monotonicNowNs();
+  const auto restart = cam.start();
+  const std::int64_t refused_after = monotonicNowNs() - t0;
   ASSERT_FALSE(restart);
-  EXPECT_THAT(restart.error().message, HasSubstr("was lost earlier"));
+  EXPECT_EQ(restart.error().message, lost);
+  EXPECT_LT(refused_after, kDeadRequestNs / 2) << "start() asked the lost camera";
   (void)cam.close();
   EXPECT_EQ(cam.state(), DeviceState::Closed);
+}
+
+TEST_F(GigeLoopback, ACameraKilledBetweenShotsIsLostAndTheNextStartIsRefusedAtOnce) {
+  start();
+  CameraAravis cam(GigeFake::kAddress, {});
+  bringUp(cam, config160(PixelFormat::Mono8, 100.0, 1000.0));
+  const Taken s = shoot(cam, 2, 5);
+  ASSERT_TRUE(s.burst.complete) << s.burst.note;
+  ASSERT_TRUE(cam.stop());  // between shots, as the sequencer leaves it
+  EXPECT_FALSE(cam.loss());
+  fake_->kill();
+  const std::int64_t killed = monotonicNowNs();
+  // Nobody asks the camera anything: its control link's heartbeat finds it gone.
+  ASSERT_TRUE(waitUntilLost(cam)) << "the camera never noticed it was gone";
+  const double noticed_s = (monotonicNowNs() - killed) * 1e-9;
+  const std::string lost = lostMessage(*cam.loss());
+  std::printf("the user reads: %s\n", lost.c_str());
+  EXPECT_THAT(lost, HasSubstr("heartbeat"));
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  const std::int64_t t0 = monotonicNowNs();
+  const auto restart = cam.start();
+  const std::int64_t refused_after = monotonicNowNs() - t0;
+  ASSERT_FALSE(restart);
+  EXPECT_EQ(restart.error().message, lost);
+  EXPECT_LT(refused_after, kDeadRequestNs / 2) << "start() asked the lost camera";
+  std::printf("lost %.1f s after the kill; start() refused in %.3f ms\n", noticed_s,
+              refused_after * 1e-6);
+  const auto configured = cam.configure(config160());
+  ASSERT_FALSE(configured);
+  EXPECT_EQ(configured.error().message, lost);
+  EXPECT_EQ(cam.state(), DeviceState::Configured);
+  // Reopening is how it is looked for again: with the camera still gone it
+  // fails, saying so.
+  ASSERT_TRUE(cam.close());
+  EXPECT_FALSE(cam.open());
+}
+
+TEST_F(GigeLoopback, ACameraThatDiesJustBeforeStartIsLostByItsFirstUnansweredRequest) {
+  start();
+  CameraAravis cam(GigeFake::kAddress, {});
+  bringUp(cam, config160(PixelFormat::Mono8, 100.0, 1000.0));
+  ASSERT_TRUE(cam.stop());
+  fake_->kill();
+  // start() asks the camera before the heartbeat (5 s) can notice: that one
+  // request waits out its timeout, and the camera is lost from then on.
+  const auto first = cam.start();
+  ASSERT_FALSE(first);
+  ASSERT_TRUE(cam.loss()) << first.error().message;
+  const std::string lost = lostMessage(*cam.loss());
+  std::printf("the user reads: %s\n", first.error().message.c_str());
+  EXPECT_EQ(first.error().message, lost);
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  const std::int64_t t0 = monotonicNowNs();
+  const auto again = cam.start();
+  const std::int64_t refused_after = monotonicNowNs() - t0;
+  ASSERT_FALSE(again);
+  EXPECT_EQ(again.error().message, lost);
+  EXPECT_LT(refused_after, kDeadRequestNs / 2) << "the second start() asked the lost camera";
+  (void)cam.close();
 }
 
 TEST_F(GigeLoopback, SoftwareTriggersPaceTheFrames) {
@@ -542,8 +628,10 @@ TEST_F(GigeLoopback, ACameraLostWhileWaitingForLinePulsesIsNoticed) {
   auto b = cam.takeBurst();
   ASSERT_TRUE(b) << b.error().message;
   EXPECT_FALSE(b->complete);
-  EXPECT_THAT(b->note, HasSubstr("camera lost"));
+  EXPECT_THAT(b->note, HasSubstr("is lost"));
   EXPECT_THAT(b->note, HasSubstr("no longer answers"));
+  ASSERT_TRUE(cam.loss());
+  EXPECT_EQ(cam.arm(2, 10).error().message, lostMessage(*cam.loss()));
   (void)cam.close();
 }
 
@@ -573,9 +661,23 @@ TEST_F(GigeLoopback, ACameraLostDuringAShotFailsItSayingWhyAndKeepsTheFrames) {
   (void)shutDown(*rig);
   ASSERT_EQ(shot.status, ShotStatus::Failed);
   std::printf("the user reads: %s\n", shot.failure_reason.c_str());
-  EXPECT_THAT(shot.failure_reason, HasSubstr("camera lost"));
+  EXPECT_THAT(shot.failure_reason, ::testing::StartsWith("camera \"127.0.0.1\" is lost ("));
+  EXPECT_THAT(shot.failure_reason, HasSubstr("retrying will not help"));
   EXPECT_THAT(shot.failure_reason, HasSubstr("check its power and cable"));
   EXPECT_FALSE(shot.burst.complete);
   EXPECT_GT(shot.burst.frames.size(), 5u) << "the frames that arrived are kept";
   EXPECT_THAT(shot.burst.note, HasSubstr("post-trigger frames arrived"));
+  ASSERT_TRUE(rig->camera->loss());
+
+  // The next shot is refused before anything is asked of any device, long
+  // before a wait on the camera (the collect window, or one dead request)
+  // could have ended.
+  const std::int64_t t0 = monotonicNowNs();
+  const Shot next = sequencer.fire(ShotRequest::atSpeeds(2.0, 2.0));
+  const std::int64_t refused_after = monotonicNowNs() - t0;
+  ASSERT_EQ(next.status, ShotStatus::Failed);
+  EXPECT_THAT(next.failure_reason, ::testing::StartsWith("refused: camera \"127.0.0.1\" is lost"));
+  ASSERT_FALSE(next.steps.empty());
+  EXPECT_EQ(next.steps.back().name, "refused");
+  EXPECT_LT(refused_after, kDeadRequestNs / 2);
 }

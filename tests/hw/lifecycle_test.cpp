@@ -99,3 +99,32 @@ TEST(Lifecycle, CloseFromConfiguredDoesNotRunTheStopHook) {
       ok));
   EXPECT_EQ(stops, 0);
 }
+
+TEST(Lifecycle, ALostDeviceRefusesConfigureAndStartWithoutAskingItButStopsClosesAndReopens) {
+  Lifecycle l("camera \"lab\"");
+  ASSERT_TRUE(l.open(ok));
+  ASSERT_TRUE(l.configure(ok));
+  ASSERT_TRUE(l.start(ok));
+  ASSERT_TRUE(l.stop(ok));
+  const std::string lost = l.markLost("it stopped answering", "its power and cable").message;
+  int asked = 0;
+  const auto ask = [&] {
+    ++asked;
+    return ok();
+  };
+  for (const Status& s : {l.start(ask), l.configure(ask)}) {
+    ASSERT_FALSE(s);
+    EXPECT_EQ(s.error().message, lost);
+    EXPECT_NE(s.error().message.find("retrying will not help"), std::string::npos);
+  }
+  EXPECT_EQ(asked, 0) << "a lost device was asked anyway";
+  EXPECT_EQ(l.state(), DeviceState::Configured);
+  // The state check alone passes: calls that ask the device nothing.
+  EXPECT_TRUE(l.requireState("takeBurst()", {DeviceState::Configured}));
+  EXPECT_FALSE(l.require("takeBurst()", {DeviceState::Configured}));
+  ASSERT_TRUE(l.close(ok, ask));
+  EXPECT_EQ(asked, 1) << "closing a lost device must still run its hook";
+  ASSERT_TRUE(l.open(ok));  // reopened: it answers again
+  EXPECT_FALSE(l.loss());
+  EXPECT_TRUE(l.configure(ok));
+}

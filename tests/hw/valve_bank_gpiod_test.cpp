@@ -180,10 +180,45 @@ TEST(ValveBankGpiod, ADriverErrorClosesEveryValve) {
   ASSERT_FALSE(events);
   EXPECT_THAT(events.error().message, HasSubstr("recording line 1"));
   EXPECT_THAT(events.error().message, HasSubstr("all valves closed"));
+  EXPECT_FALSE(b.bank->loss()) << "a refused edge is not a chip that went away";
   EXPECT_FALSE(b.lines->active(0));  // closed long before its 45 ms were up
   const auto l0 = edgesOf(*b.lines, 0);
   ASSERT_EQ(l0.size(), 2u);
   EXPECT_LT(l0[1].t_ns - l0[0].t_ns, 1 * kMs + kLate);
+}
+
+TEST(ValveBankGpiod, AChipThatGoesAwayLosesTheBankAndTheNextFireIsRefusedWithoutDrivingALine) {
+  Bench b = makeBench();
+  bringUp(*b.bank, 50000);
+  ASSERT_TRUE(b.bank->fire({{0, monotonicNowNs() + 2 * kMs, 2000}}));
+  EXPECT_FALSE(b.bank->loss());
+
+  b.lines->unplug();  // as gpiod_line_set_value answers ENODEV once the chip is gone
+  const auto failed = b.bank->fire({{0, monotonicNowNs() + 2 * kMs, 2000}});
+  ASSERT_FALSE(failed);
+  EXPECT_THAT(failed.error().message,
+              ::testing::StartsWith("valves \"test\" is lost (its GPIO chip went away ("));
+  EXPECT_THAT(failed.error().message, HasSubstr("retrying will not help"));
+  EXPECT_THAT(failed.error().message, HasSubstr("`gpiodetect`"));
+  EXPECT_THAT(failed.error().message,
+              HasSubstr("; closing the valves failed too, for the same reason"));
+  EXPECT_EQ(failed.error().message.find("is lost", failed.error().message.find("is lost") + 1),
+            std::string::npos)
+      << "the sentence is said twice";
+  ASSERT_TRUE(b.bank->loss());
+
+  // The next fire() is refused at once with the same sentence, driving nothing.
+  const int calls = b.lines->calls();
+  const auto refused = b.bank->fire({{0, monotonicNowNs() + 2 * kMs, 2000}});
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().message, lostMessage(*b.bank->loss()));
+  EXPECT_EQ(b.lines->calls(), calls) << "a lost bank was asked to drive a line again";
+  // Closing the valves is still tried (what can be driven must be shut).
+  EXPECT_FALSE(b.bank->closeAll());
+  EXPECT_EQ(b.lines->calls(), calls + 2);
+  // Stopping and closing still work; reopening is how it is found again.
+  (void)b.bank->close();
+  EXPECT_EQ(b.bank->state(), DeviceState::Closed);
 }
 
 TEST(ValveBankGpiod, StopAndCloseDriveEveryLineInactive) {

@@ -390,3 +390,26 @@ TEST_F(GpiodVm, ExitingWithoutClosingDrivesLinesInactive) {
     EXPECT_EQ(ev[ev.size() - 2].level, line == 0 ? 0 : 1);
   }
 }
+
+// Last in this program: unplugging removes gpiochip0 for good.
+TEST_F(GpiodVm, AChipThatGoesAwayLosesTheBankAndTheNextFireIsRefused) {
+  auto bank = makeBank({offset(0), offset(1)}, false);
+  bringUp(*bank, 50000);
+  ASSERT_TRUE(bank->fire({{0, monotonicNowNs() + 2'000'000, 2000}}));
+  std::ofstream("/proc/gpio-sim-collide/unplug") << "1\n";
+  const auto failed = bank->fire({{0, monotonicNowNs() + 2'000'000, 2000}});
+  ASSERT_FALSE(failed);
+  std::printf("chip gone: %s\n", failed.error().message.c_str());
+  EXPECT_THAT(
+      failed.error().message,
+      ::testing::StartsWith("valves \"gpio-sim-collide\" is lost (its GPIO chip went away ("));
+  EXPECT_THAT(failed.error().message, HasSubstr("retrying will not help"));
+  EXPECT_THAT(failed.error().message,
+              HasSubstr("; closing the valves failed too, for the same reason"));
+  ASSERT_TRUE(bank->loss());
+  const auto refused = bank->fire({{0, monotonicNowNs() + 2'000'000, 2000}});
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().message, lostMessage(*bank->loss()));
+  (void)bank->close();
+  EXPECT_EQ(bank->state(), DeviceState::Closed);
+}

@@ -357,5 +357,21 @@ TEST_F(V4l2Vm, ADeviceThatGoesAwayEndsTheBurstWithAReason) {
   EXPECT_FALSE(b->frames.empty());
   EXPECT_THAT(b->note, HasSubstr("/dev/video0"));
   EXPECT_THAT(b->note, HasSubstr("went away"));
+  // The camera is lost: the next shot's calls are refused at once with the
+  // sentence the burst ended with, nothing asked of the node.
+  ASSERT_TRUE(cam.loss()) << "the camera did not mark itself lost";
+  const std::string lost = lostMessage(*cam.loss());
+  EXPECT_THAT(lost,
+              ::testing::StartsWith("camera \"/dev/video0\" is lost (the device went away ("));
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  EXPECT_THAT(lost, HasSubstr("v4l2-ctl --list-devices"));
+  EXPECT_THAT(b->note, HasSubstr(lost));
+  const auto armed = cam.arm(2, 10);
+  ASSERT_FALSE(armed);
+  EXPECT_EQ(armed.error().message, lost);
+  (void)cam.stop();
+  const auto restart = cam.start();
+  ASSERT_FALSE(restart);
+  EXPECT_EQ(restart.error().message, lost);
   (void)cam.close();
 }

@@ -17,9 +17,14 @@
  *                                 write anything to clear the log
  * /proc/gpio-sim-collide/levels   the level (0/1) of every line, one per row,
  *                                 "<offset> <name> <level> <in|out>"
+ * /proc/gpio-sim-collide/unplug   write anything: the chip goes away for good
+ *                                 (gpiochip_remove, as when a USB GPIO adapter
+ *                                 is pulled), even with lines held; their
+ *                                 users then get ENODEV
  */
 #include <linux/gpio/driver.h>
 #include <linux/ktime.h>
+#include <linux/mutex.h>
 #include <linux/module.h>
 #include <linux/platform_device.h>
 #include <linux/proc_fs.h>
@@ -198,6 +203,30 @@ static ssize_t gsc_events_write(struct file *file, const char __user *buf, size_
 	return len;
 }
 
+static DEFINE_MUTEX(gsc_unplug_lock);
+static bool gsc_unplugged;
+
+static void gsc_remove_chip(void)
+{
+	mutex_lock(&gsc_unplug_lock);
+	if (!gsc_unplugged) {
+		gpiochip_remove(&gsc->gc);
+		gsc_unplugged = true;
+	}
+	mutex_unlock(&gsc_unplug_lock);
+}
+
+static ssize_t gsc_unplug_write(struct file *file, const char __user *buf, size_t len,
+				loff_t *off)
+{
+	gsc_remove_chip();
+	return len;
+}
+
+static const struct proc_ops gsc_unplug_ops = {
+	.proc_write = gsc_unplug_write,
+};
+
 static const struct proc_ops gsc_events_ops = {
 	.proc_open = gsc_events_open,
 	.proc_read = seq_read,
@@ -267,6 +296,7 @@ static int __init gsc_init(void)
 	}
 	proc_create("events", 0666, gsc_proc, &gsc_events_ops);
 	proc_create_single("levels", 0444, gsc_proc, gsc_levels_show);
+	proc_create("unplug", 0222, gsc_proc, &gsc_unplug_ops);
 	pr_info(GSC_NAME ": %u lines, pull-up mask 0x%llx\n", nlines, pull_up_mask);
 	return 0;
 
@@ -282,7 +312,7 @@ err_free:
 static void __exit gsc_exit(void)
 {
 	proc_remove(gsc_proc);
-	gpiochip_remove(&gsc->gc);
+	gsc_remove_chip();
 	platform_device_unregister(gsc_pdev);
 	kvfree(gsc);
 }
