@@ -76,17 +76,21 @@ build() {
 }
 
 # A clang build with sanitizers in its own folder (no GUI: Qt is not
-# instrumented and the GUI's threads are covered by the tsan pass's worker
-# tests). $1: folder, $2: sanitizers, further arguments: extra CMake options.
-build_sanitized() {
+# instrumented, so the GUI's rig worker thread is not checked by the tsan
+# pass). $1: folder, $2: sanitizers, further arguments: extra CMake options.
+configure_sanitized() {
   local dir="$1" sanitizers="$2"
   shift 2
-  say "Configuring and building in $dir (clang, -fsanitize=$sanitizers)"
+  say "Configuring in $dir (clang, -fsanitize=$sanitizers)"
   export CCACHE_BASEDIR="$here"
   cmake -S "$here" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCOLLIDE_BUILD_GUI=OFF -DCOLLIDE_BUILD_BENCH=OFF \
     -DCOLLIDE_SANITIZE="$sanitizers" "$@" >/dev/null
-  cmake --build "$dir" -j "$JOBS"
+}
+build_sanitized() {
+  configure_sanitized "$@"
+  say "Building in $1"
+  cmake --build "$1" -j "$JOBS"
 }
 
 # Sanitizer settings: any report fails the test; LeakSanitizer ignores what
@@ -117,12 +121,35 @@ sanitize_pass() {
   ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L fuzz
 }
 
+# The threaded parts' tests: camera backends (sim, replay, V4L2, Aravis with
+# its fake camera, live view), burst recorder and its ring, sequencer and lost
+# devices, valve banks (sim, gpiod watchdog), regulators (sim, Modbus peer),
+# the rig, saving and `collide analyze` (one thread per core), and footage
+# read from several threads.
+TSAN_TESTS='camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage'
 tsan_pass() {
-  local dir="${TSAN_BUILD_DIR:-$here/build-tsan}"
-  build_sanitized "$dir" thread
+  local dir="${TSAN_BUILD_DIR:-$here/build-tsan}" targets=() t
+  configure_sanitized "$dir" thread
+  # Only the test programs the pass runs (target folder_name for test
+  # folder/name, tests/CMakeLists.txt); the app tests' build also makes `collide`.
+  for t in $(ctest --test-dir "$dir" -N -R "$TSAN_TESTS" 2>/dev/null | sed -n 's/^ *Test *#[0-9]*: //p'); do
+    targets+=(--target "${t//\//_}")
+  done
+  [ ${#targets[@]} -gt 0 ] || die "no test matches '$TSAN_TESTS' in $dir"
+  say "Building $((${#targets[@]} / 2)) test programs in $dir"
+  cmake --build "$dir" -j "$JOBS" "${targets[@]}"
   say "Threaded parts under ThreadSanitizer (camera backends, sequencer, valve timing, workers)"
-  ctest --test-dir "$dir" --output-on-failure -j "$JOBS" \
-    -R 'camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze'
+  # Left out: three test cases fire simulated shots whose camera must render
+  # within the burst's deadline; under TSan (5-15x slower) it misses it and
+  # the shot fails on time ("the burst timed out: 34 of 70 post-trigger frames
+  # arrived"; the silent-camera case then counts its first, healthy camera as
+  # lost), not on a ThreadSanitizer report. The Aravis fake's 100 frames/s
+  # stream now and then finds no free buffer because our instrumented thread
+  # hands them back late (stats.underruns 1, wanted 0; 1 run in 6), again not
+  # a report. Seen 2026-11-25, one core shared with three other jobs. They
+  # run in the gcc build; the sanitize pass leaves out six for the same cause.
+  GTEST_FILTER="-CameraSimImaging.LabProfileShowsAHighlightADarkLimbAndAMisalignedRig:CliCalibrateCamera.RecoversTheSimulatedLensAndTheAnalysisUsesIt:DeviceLostSim.ACameraThatDeliversNothingIsLostTheNextShotRefusedAndRecheckClearsIt:Formats/InProcessFake.FramesArriveBitExactAndInOrder/*" \
+    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -R "$TSAN_TESTS"
 }
 
 fuzz_long() {
