@@ -124,9 +124,10 @@ sanitize_pass() {
 # The threaded parts' tests: camera backends (sim, replay, V4L2, Aravis with
 # its fake camera, live view), burst recorder and its ring, sequencer and lost
 # devices, valve banks (sim, gpiod watchdog), regulators (sim, Modbus peer),
-# the rig, saving and `collide analyze` (one thread per core), and footage
-# read from several threads.
-TSAN_TESTS='camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage'
+# the rig, saving and `collide analyze` (one thread per core), footage read
+# from several threads, and a shot's frames analysed in parallel
+# (vision/frame_parallel).
+TSAN_TESTS='camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage|vision/frame_parallel'
 tsan_pass() {
   local dir="${TSAN_BUILD_DIR:-$here/build-tsan}" targets=() t
   configure_sanitized "$dir" thread
