@@ -4,6 +4,8 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <initializer_list>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -167,6 +169,43 @@ Result<FrameFolder> listFrameFolder(const std::string& dir) {
   return out;
 }
 
+namespace {
+
+// The format a frame file's name promises, checked against its first bytes
+// before any decoder sees it: OpenCV picks its decoder by content, not by
+// name, so a damaged ".jpg" that happens to read as DICOM or JPEG 2000 would
+// reach a library that aborts the process on bad input (libgdcm's asserts).
+// Only the formats isImageExtension() names get through.
+Status checkSignature(const std::string& path) {
+  const std::string ext = lower(fs::path(path).extension().string());
+  unsigned char head[8] = {0};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(head), sizeof head);
+  const auto got = static_cast<std::size_t>(in.gcount());
+  const auto starts = [&](std::initializer_list<unsigned char> magic) {
+    return got >= magic.size() && std::equal(magic.begin(), magic.end(), head);
+  };
+  bool ok = false;
+  std::string what;
+  if (ext == ".png") {
+    ok = starts({0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a}), what = "PNG";
+  } else if (ext == ".tif" || ext == ".tiff") {
+    ok = starts({'I', 'I', 42, 0}) || starts({'M', 'M', 0, 42}), what = "TIFF";
+  } else if (ext == ".pgm" || ext == ".ppm" || ext == ".pnm") {
+    ok = got >= 2 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6', what = "PNM";
+  } else if (ext == ".bmp") {
+    ok = starts({'B', 'M'}), what = "BMP";
+  } else if (ext == ".jpg" || ext == ".jpeg") {
+    ok = starts({0xff, 0xd8, 0xff}), what = "JPEG";
+  }
+  if (ok) return Ok{};
+  return fail(path + " is not a " + (what.empty() ? ext : what) +
+              " file (its first bytes say otherwise): it is damaged or misnamed; replace it or "
+              "move it out of the folder");
+}
+
+}  // namespace
+
 Result<cv::Mat> readFrameImage(const std::string& path) {
   cv::Mat img;
   if (lower(fs::path(path).extension().string()) == ".b16") {  // pco: not an OpenCV format
@@ -174,6 +213,7 @@ Result<cv::Mat> readFrameImage(const std::string& path) {
     if (!b16) return b16.error();
     if (Status s = b16->read(0, img); !s) return s.error();
   } else {
+    if (Status s = checkSignature(path); !s) return s.error();
     try {
       img = cv::imread(path, cv::IMREAD_UNCHANGED);
     } catch (const cv::Exception&) {

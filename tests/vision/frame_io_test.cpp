@@ -185,6 +185,26 @@ TEST_F(FrameIo, UndecodableImageIsAnErrorNamingIt) {
   EXPECT_THAT(b.error().message, HasSubstr(path("f2.png")));
 }
 
+// Found by footage_fuzz (10^6 run, session 8): a damaged ".png" whose bytes
+// happen to read as DICOM went to OpenCV's DICOM decoder, and libgdcm aborted
+// the whole process on an assert. A frame file must start the way its
+// extension says before any decoder sees it.
+TEST_F(FrameIo, AFileThatIsNotTheFormatItsNameSaysIsRefusedBeforeDecoding) {
+  fs::copy_file(fs::path(COLLIDE_TEST_DATA_DIR) / "corrupt" / "dicom-named-png.png",
+                dir_ / "frame_0001.png");
+  const Result<Burst> b = loadFrameFolder(dir_.string(), 100);
+  ASSERT_FALSE(b);
+  EXPECT_THAT(b.error().message, HasSubstr(path("frame_0001.png")));
+  EXPECT_THAT(b.error().message, HasSubstr("is not a PNG file"));
+  // Each format's own signature, under another format's name: refused too.
+  writeImage("f2.tif", cv::Mat(4, 6, CV_8UC1, cv::Scalar(1)));
+  fs::rename(dir_ / "f2.tif", dir_ / "frame_0002.jpg");
+  fs::remove(dir_ / "frame_0001.png");
+  const Result<Burst> c = loadFrameFolder(dir_.string(), 100);
+  ASSERT_FALSE(c);
+  EXPECT_THAT(c.error().message, HasSubstr("is not a JPEG file"));
+}
+
 TEST_F(FrameIo, FramesOfDifferentSizesOrDepths) {
   writeImage("f1.png", cv::Mat(48, 64, CV_8UC1, cv::Scalar(1)));
   writeImage("f2.png", cv::Mat(48, 64, CV_8UC1, cv::Scalar(2)));
