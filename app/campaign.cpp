@@ -197,36 +197,44 @@ std::string stopReason(const CampaignOptions& o, int failed_in_a_row,
          "will not help)";
 }
 
+Result<AimedShot> aimCampaignShot(const hw::RigProfile& profile, const PlannedShot& planned) {
+  AimedShot out;
+  out.exit_speed_m_s = planned.speed_m_s;
+  if (profile.wall) out.exit_speed_m_s[1] = out.exit_speed_m_s[0];  // launcher 2 never fires
+  auto aimed = profile.wall
+                   ? aimWallForIncidence(profile, planned.incidence_deg, out.exit_speed_m_s[0])
+                   : aimForIncidence(profile, planned.incidence_deg, out.exit_speed_m_s);
+  if (aimed) {
+    out.profile = std::move(aimed).value();
+    return out;
+  }
+  if (profile.wall) return aimed.error();
+  // The rig cannot fire this one: the planner's nearest shot instead.
+  auto replanned = nearestFeasible(profile, planned);
+  if (!replanned) return aimed.error();
+  out.profile = std::move(replanned->plan.aimed);
+  out.exit_speed_m_s = replanned->plan.exit_speed_m_s;
+  out.replanned = replanned->note;
+  return out;
+}
+
 Result<std::optional<hw::Shot>> fireCampaignShot(const hw::RigProfile& profile,
                                                  const PlannedShot& planned,
                                                  const CampaignOptions& o, int index,
                                                  CampaignReport& report, std::stop_token cancel) {
   const std::string id = makeShotId(wallTimeUnixNs(), index);
-  std::array<double, 2> speed = planned.speed_m_s;
-  if (profile.wall) speed[1] = speed[0];  // a wall rig: launcher 2 never fires
-  auto aimed = profile.wall ? aimWallForIncidence(profile, planned.incidence_deg, speed[0])
-                            : aimForIncidence(profile, planned.incidence_deg, speed);
-  if (!aimed && profile.wall) {
+  auto aimed = aimCampaignShot(profile, planned);
+  if (!aimed) {
     ++report.failed;
     report.failures.push_back(id + ": " + aimed.error().message);
     return std::optional<hw::Shot>();
   }
-  if (!aimed) {
-    // The rig cannot fire this one: the planner's nearest shot instead.
-    auto replanned = nearestFeasible(profile, planned);
-    if (!replanned) {
-      ++report.failed;
-      report.failures.push_back(id + ": " + aimed.error().message);
-      return std::optional<hw::Shot>();
-    }
-    report.replanned.push_back(id + ": " + replanned->note);
-    aimed = std::move(replanned->plan.aimed);
-    speed = replanned->plan.exit_speed_m_s;
-  }
+  if (!aimed->replanned.empty()) report.replanned.push_back(id + ": " + aimed->replanned);
+  const std::array<double, 2> speed = aimed->exit_speed_m_s;
   // A different simulation seed per shot: dots, spins and scatter differ.
-  aimed->simulation.seed = o.seed * 1000003ULL + index;
-  auto fired =
-      fireShot(*aimed, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel, report.devices);
+  aimed->profile.simulation.seed = o.seed * 1000003ULL + index;
+  auto fired = fireShot(aimed->profile, hw::ShotRequest::atSpeeds(speed[0], speed[1]), id, cancel,
+                        report.devices);
   if (!fired) return fail("shot " + std::to_string(index + 1) + ": " + fired.error().message);
   hw::Shot& shot = *fired;
   ++report.fired;

@@ -87,6 +87,17 @@ std::vector<PlannedShot> planCampaign(const CampaignOptions& options);
 /// has room for a shot: what must hold before anything is fired.
 Status prepareCampaign(const hw::RigProfile& profile, const CampaignOptions& options);
 
+/// How a planned shot is fired on this rig: launcher 2's slide aimed for its
+/// incidence at its speeds (a wall rig: launcher 1 aimed at the wall), or,
+/// when the rig cannot fire that, the planner's nearest feasible shot.
+struct AimedShot {
+  hw::RigProfile profile;                      ///< fire this
+  std::array<double, 2> exit_speed_m_s{0, 0};  ///< at these exit speeds
+  std::string replanned;  ///< empty, or what changed: "planned 74.0 deg at ... instead of ..."
+};
+/// Errors: neither the shot nor any near it can be fired (the aiming's reason).
+Result<AimedShot> aimCampaignShot(const hw::RigProfile& profile, const PlannedShot& planned);
+
 /// Aims (or replans, see CampaignReport::replanned), fires and saves one shot
 /// of a campaign, counting it in `report`. None: it could not be aimed (counted
 /// as failed, with the reason). Errors: the rig could not fire at all, or the

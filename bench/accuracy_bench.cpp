@@ -48,7 +48,8 @@ using collide::bench::truthAtContact;
 namespace {
 
 bool g_verbose = false;
-std::string g_save_bad;  // --save-bad DIR: shots flagged or with an error beyond 4 sigma are saved there
+std::string
+    g_save_bad;  // --save-bad DIR: shots flagged or with an error beyond 4 sigma are saved there
 
 void saveBad(const hw::Shot& shot, const std::string& why) {
   if (g_save_bad.empty()) return;
@@ -107,6 +108,7 @@ struct PresetResult {
   const Preset* preset = nullptr;
   int planned = 0, fired = 0, analysed = 0, flagged = 0;
   std::vector<std::string> failures;
+  std::vector<std::string> replanned;  // fired as the planner's nearest feasible shot
   std::map<std::string, int> flag_count;
   // Errors over the analysed shots the analysis did not flag.
   Stat de, db, dg_deg, dv_rel, dspin, pe, pb, pg;
@@ -208,14 +210,19 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
   o.speed_max_m_s = pr.speed_max_m_s;
   const std::vector<app::PlannedShot> plan = app::planCampaign(o);
   for (std::size_t i = 0; i < plan.size(); ++i) {
-    auto aimed = app::aimForIncidence(base, plan[i].incidence_deg, plan[i].speed_m_s);
+    // Aimed as a campaign aims: a shot the rig cannot fire becomes the
+    // planner's nearest one it can.
+    auto aimed = app::aimCampaignShot(base, plan[i]);
     if (!aimed) {
       out.failures.push_back("shot " + std::to_string(i) + " not aimed: " + aimed.error().message);
       continue;
     }
-    aimed->simulation.seed = seed * 1000003ULL + i;
+    if (!aimed->replanned.empty())
+      out.replanned.push_back("shot " + std::to_string(i) + ": " + aimed->replanned);
+    aimed->profile.simulation.seed = seed * 1000003ULL + i;
     auto fired =
-        app::fireShot(*aimed, hw::ShotRequest::atSpeeds(plan[i].speed_m_s[0], plan[i].speed_m_s[1]),
+        app::fireShot(aimed->profile,
+                      hw::ShotRequest::atSpeeds(aimed->exit_speed_m_s[0], aimed->exit_speed_m_s[1]),
                       std::string(pr.name) + "-" + std::to_string(i));
     if (!fired || fired->status != hw::ShotStatus::Ok || !fired->truth) {
       out.failures.push_back("shot " + std::to_string(i) + " not fired: " +
@@ -267,8 +274,10 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
     const double g_err = c.gamma_deg.value - truth->before.gamma_rad * 180 / std::numbers::pi;
     const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||
                      (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
-    if (bad) saveBad(shot, "error beyond 4 sigma");
-    else if (!r->quality_flags.empty()) saveBad(shot, "flagged " + r->quality_flags.front());
+    if (bad)
+      saveBad(shot, "error beyond 4 sigma");
+    else if (!r->quality_flags.empty())
+      saveBad(shot, "flagged " + r->quality_flags.front());
     if (g_verbose || bad) {
       std::printf(
           "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "
@@ -303,6 +312,7 @@ void printPreset(const PresetResult& r) {
   std::printf("-- %s: fired %d of %d, analysed %d, flagged %d (%.0f %%)\n", pr.name, r.fired,
               r.planned, r.analysed, r.flagged, 100.0 * r.flagged / std::max(1, r.analysed));
   for (const std::string& f : r.failures) std::printf("   %s\n", f.c_str());
+  for (const std::string& f : r.replanned) std::printf("   replanned %s\n", f.c_str());
   for (const auto& [flag, n] : r.flag_count) std::printf("   flag %s: %d shots\n", flag.c_str(), n);
   std::printf(
       "   over %zu unflagged shots: e RMS %.5f worst %.5f | beta RMS %.4f worst %.4f (%zu) | "
