@@ -22,15 +22,22 @@ std::vector<double> weightedResiduals(const LinearFit& fit) {
 
 }  // namespace
 
-double residualLag1Correlation(const LinearFit& fit) {
+Lag1Sums lag1Sums(const LinearFit& fit) {
   const std::vector<double> e = weightedResiduals(fit);
-  if (e.size() < 3 || fit.dof < 3) return std::numeric_limits<double>::quiet_NaN();
-  double lag1 = 0, sum2 = 0;
+  Lag1Sums out;
+  out.n = static_cast<int>(e.size());
   for (std::size_t i = 0; i < e.size(); ++i) {
-    sum2 += e[i] * e[i];
-    if (i + 1 < e.size()) lag1 += e[i] * e[i + 1];
+    out.squares += e[i] * e[i];
+    if (i + 1 < e.size()) out.products += e[i] * e[i + 1];
   }
-  return sum2 > 0 ? lag1 / sum2 : std::numeric_limits<double>::quiet_NaN();
+  return out;
+}
+
+double residualLag1Correlation(const LinearFit& fit) {
+  const Lag1Sums sums = lag1Sums(fit);
+  if (sums.n < 3 || fit.dof < 3 || !(sums.squares > 0))
+    return std::numeric_limits<double>::quiet_NaN();
+  return sums.products / sums.squares;
 }
 
 double residualTrendF(const LinearFit& fit) {

@@ -29,6 +29,15 @@
 
 namespace collide {
 
+/// The sums behind r1 for one fit: of e_i e_(i+1) and of e_i^2 over its
+/// weighted residuals in observation order, and how many there are. Summed
+/// over several fits of the same samples (a track's x and y) they pool them.
+struct Lag1Sums {
+  double products = 0, squares = 0;
+  int n = 0;
+};
+Lag1Sums lag1Sums(const LinearFit& fit);
+
 /// r1 of `fit`'s weighted residuals, in observation order; NaN when the fit
 /// has fewer than 3 degrees of freedom (its residuals say nothing about
 /// order) or all residuals are zero.

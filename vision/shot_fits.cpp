@@ -4,17 +4,15 @@
 #include <cmath>
 #include <string>
 
+#include "analysis/residual_structure.hpp"
+
 namespace collide::vision {
 
 double residualInflation(const TrajectoryFit& fit) {
   double num = 0, den = 0;
-  for (int k = 0; k < 2; ++k) {
-    const LinearFit& af = fit.axisFit(k);
-    const Eigen::VectorXd z = af.residuals.cwiseProduct(af.weights.cwiseSqrt());
-    for (Eigen::Index i = 0; i < z.size(); ++i) {
-      den += z[i] * z[i];
-      if (i > 0) num += z[i] * z[i - 1];
-    }
+  for (int k = 0; k < 2; ++k) {  // x and y pooled
+    const Lag1Sums sums = lag1Sums(fit.axisFit(k));
+    num += sums.products, den += sums.squares;
   }
   if (!(den > 0)) return 1;
   const double rho = std::clamp(num / den, 0.0, 0.8);
