@@ -52,6 +52,7 @@ bool BurstRecorder::push(std::uint64_t sequence, vision::Frame frame) {
   std::lock_guard lock(mutex_);
   if (complete_ || ended_) return false;
   if (!ring_.empty() && sequence <= ring_.newest().sequence) return true;
+  ++arrivals_;
   if (!first_sequence_) first_sequence_ = sequence;
   if (trigger_ns_ && !frame_zero_ && frame.timestamp_ns >= *trigger_ns_)
     resolveFrameZero(sequence, frame.timestamp_ns, ring_.empty() ? nullptr : &ring_.newest());
@@ -110,6 +111,13 @@ bool BurstRecorder::waitUntil(std::int64_t deadline_ns) {
 bool BurstRecorder::complete() const {
   std::lock_guard lock(mutex_);
   return complete_;
+}
+
+std::uint64_t BurstRecorder::arrivals() const {
+  std::lock_guard lock(mutex_);
+  const auto window =
+      static_cast<std::uint64_t>(layout_.pre_trigger_frames + layout_.post_trigger_frames);
+  return std::min(arrivals_, window);
 }
 
 vision::Burst BurstRecorder::take() {

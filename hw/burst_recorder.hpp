@@ -63,6 +63,11 @@ class BurstRecorder {
   bool waitUntil(std::int64_t deadline_ns);
   /// Complete: frame post-1 (or a later one) has arrived.
   bool complete() const;
+  /// Frames taken in since arming (out-of-order ones not counted), at most
+  /// pre + post: grows while the camera delivers what a burst can hold, and
+  /// stops growing after that (a camera whose frames never reach the window,
+  /// e.g. with a wrong clock, does not keep it growing). Any thread.
+  std::uint64_t arrivals() const;
   /// The burst as it stands: frames with ids in [-pre, post) in id order,
   /// their statistics (completed = good frames, failed = frames the camera
   /// marked failed/incomplete, dropped/missing_ids = ids of the window missing
@@ -98,6 +103,7 @@ class BurstRecorder {
   std::optional<std::uint64_t> first_sequence_;
   bool complete_ = false;
   bool ended_ = false;
+  std::uint64_t arrivals_ = 0;
   std::string end_reason_;
 };
 

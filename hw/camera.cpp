@@ -65,6 +65,11 @@ Status Camera::close() {
       });
 }
 
+std::uint64_t Camera::burstArrivals() const {
+  const std::shared_ptr<BurstRecorder> r = recorder();
+  return r ? r->arrivals() : 0;
+}
+
 std::shared_ptr<BurstRecorder> Camera::recorder() const {
   std::lock_guard lock(recorder_mutex_);
   return recorder_;

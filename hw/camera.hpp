@@ -103,6 +103,9 @@ class Camera {
   /// `deadline_ns` (CLOCK_MONOTONIC) passes (false). Running or configured,
   /// and armed.
   Result<bool> waitBurst(std::int64_t deadline_ns);
+  /// Frames the armed burst has taken in so far (0 when not armed): the
+  /// sequencer waits on while this grows. Any thread.
+  std::uint64_t burstArrivals() const;
   /// The armed burst as it stands (complete or not; see Burst::complete and
   /// note), with format, fps and exposure filled in; disarms. Running or
   /// configured, and armed.

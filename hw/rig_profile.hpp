@@ -113,6 +113,9 @@ struct SequencerProfile {
   double settle_timeout_s = 2.0;
   double poll_interval_s = 0.001;
   std::int64_t pulse_us = 15000;
+  /// The longest wait for a frame once the burst should be over: the shot
+  /// fails when none has come for this long after the burst's end (while frames
+  /// keep coming, e.g. from a simulated camera slower than real time, it waits on).
   double collect_timeout_s = 1.0;
   int max_dropped_frames = 0;
 };

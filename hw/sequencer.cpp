@@ -167,14 +167,24 @@ class ShotRun {
   }
 
   // Waits for the burst until `deadline_ns`, in slices so a cancel is seen.
-  Status collect(std::int64_t deadline_ns) {
+  // While frames keep arriving the deadline moves to `silence_ns` after the
+  // newest: a camera slower than real time (a simulated one on a loaded
+  // machine or under a sanitizer) still delivers its burst; one that falls
+  // silent is given up on as before.
+  Status collect(std::int64_t deadline_ns, std::int64_t silence_ns) {
     Clock& clock = *rig_.clock;
     constexpr std::int64_t kSliceNs = 20'000'000;
+    std::uint64_t arrived = rig_.camera->burstArrivals();
     for (;;) {
       COLLIDE_RETURN_IF_ERROR(checkCancel("while collecting frames"));
       const std::int64_t until = std::min(deadline_ns, clock.nowNs() + kSliceNs);
       COLLIDE_ASSIGN_OR_RETURN(const bool done, rig_.camera->waitBurst(until));
-      if (done || clock.nowNs() >= deadline_ns) return Ok{};
+      if (done) return Ok{};
+      if (const std::uint64_t now_arrived = rig_.camera->burstArrivals(); now_arrived != arrived) {
+        arrived = now_arrived;
+        deadline_ns = std::max(deadline_ns, clock.nowNs() + silence_ns);
+      }
+      if (clock.nowNs() >= deadline_ns) return Ok{};
       clock.sleepUntilNs(until);  // an injected clock moves on here; the real one has already
     }
   }
@@ -259,10 +269,10 @@ class ShotRun {
     }
     stamp("fired", achieved);
 
-    const std::int64_t deadline = t_contact + post * period +
-                                  std::llround(rig_.camera->config().exposure_us * 1e3) +
-                                  std::llround(p_.sequencer.collect_timeout_s * 1e9);
-    COLLIDE_RETURN_IF_ERROR(collect(deadline));
+    const std::int64_t silence = std::llround(p_.sequencer.collect_timeout_s * 1e9);
+    const std::int64_t deadline =
+        t_contact + post * period + std::llround(rig_.camera->config().exposure_us * 1e3) + silence;
+    COLLIDE_RETURN_IF_ERROR(collect(deadline, silence));
     COLLIDE_RETURN_IF_ERROR(takeBurst());
     // The camera's backend found it gone during the burst (the frames that
     // arrived are kept in the shot): retrying will not help.

@@ -202,3 +202,17 @@ TEST(BurstRecorder, NeverTriggeredSaysSo) {
   EXPECT_TRUE(b.frames.empty());
   EXPECT_NE(b.note.find("never triggered"), std::string::npos);
 }
+
+// What the sequencer waits on while a slow camera delivers: frames taken in,
+// out-of-order ones not counted, and never more than the burst can hold (a
+// camera streaming frames that never reach the window stops counting).
+TEST(BurstRecorder, ArrivalsCountFramesTakenInUpToWhatTheBurstHolds) {
+  BurstRecorder r(BurstLayout{5, 8, kPeriod});
+  EXPECT_EQ(r.arrivals(), 0u);
+  pushRange(r, 0, 3);
+  EXPECT_EQ(r.arrivals(), 4u);
+  r.push(2, frameFor(2));  // out of order: ignored
+  EXPECT_EQ(r.arrivals(), 4u);
+  pushRange(r, 4, 40);  // never triggered: the ring wraps
+  EXPECT_EQ(r.arrivals(), 13u);
+}
