@@ -169,6 +169,30 @@ TEST_P(CameraConformance, ArmsAgainForTheNextBurst) {
   EXPECT_GT(second.frames.front().timestamp_ns, first.frames.back().timestamp_ns);
 }
 
+TEST_P(CameraConformance, StreamsAgainAfterStopAndAfterReopening) {
+  bringUp();
+  std::int64_t trigger = 0;
+  const Burst first = shoot(2, 3, trigger);
+  ASSERT_TRUE(first.complete) << first.note;
+  // stop() then start(): the next burst is whole, its frames after the new trigger.
+  ASSERT_TRUE(cam().stop());
+  const auto restarted = cam().start();
+  ASSERT_TRUE(restarted) << restarted.error().message;
+  const Burst again = shoot(2, 3, trigger);
+  ASSERT_TRUE(again.complete) << again.note;
+  ASSERT_EQ(again.frames.size(), 5u);
+  EXPECT_GE(again.frames[2].timestamp_ns, trigger);
+  EXPECT_LT(again.frames[1].timestamp_ns, trigger);
+  // close() then the whole bring-up again: the same.
+  ASSERT_TRUE(cam().close());
+  bringUp();
+  const Burst reopened = shoot(2, 3, trigger);
+  ASSERT_TRUE(reopened.complete) << reopened.note;
+  ASSERT_EQ(reopened.frames.size(), 5u);
+  EXPECT_GE(reopened.frames[2].timestamp_ns, trigger);
+  EXPECT_LT(reopened.frames[1].timestamp_ns, trigger);
+}
+
 TEST_P(CameraConformance, StoppingWhileArmedKeepsWhatArrived) {
   bringUp();
   ASSERT_TRUE(cam().arm(3, 100000));

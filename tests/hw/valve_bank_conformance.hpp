@@ -132,6 +132,26 @@ TEST_P(ValveBankConformance, RefusesBadPatterns) {
   EXPECT_THAT(fireError({{0, t + 20'000 * kValveMs, 1000}}), HasSubstr("too far ahead"));
 }
 
+TEST_P(ValveBankConformance, FiresAgainAfterStopAndAfterReopening) {
+  bringUp();
+  const auto fireOnce = [&](const char* when) {
+    const std::int64_t at = clock().nowNs() + 2 * kValveMs;
+    const auto events = valves().fire({{1, at, 1000}});
+    ASSERT_TRUE(events) << when << ": " << events.error().message;
+    ASSERT_EQ(events->size(), 1u) << when;
+    EXPECT_EQ((*events)[0].valve, 1) << when;
+    EXPECT_GE((*events)[0].opened_ns, at - bench_.opening.early_ns) << when;
+    EXPECT_LE((*events)[0].opened_ns, at + bench_.opening.late_ns) << when;
+  };
+  fireOnce("first");
+  ASSERT_TRUE(valves().stop());
+  ASSERT_TRUE(valves().start());
+  fireOnce("after stop() and start()");
+  ASSERT_TRUE(valves().close());
+  bringUp();
+  fireOnce("after close() and open()");
+}
+
 TEST_P(ValveBankConformance, StopAndCloseLeaveNoValveOpen) {
   bringUp();
   ASSERT_TRUE(valves().stop());
