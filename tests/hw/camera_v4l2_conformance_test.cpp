@@ -26,6 +26,8 @@ CameraBench v4l2Bench() {
   }
   b.camera = std::make_unique<CameraV4l2>(s);
   b.config = {0, 0, kWidth, kHeight, PixelFormat::Mono8, 100.0, 1000.0, 0.0};
+  b.unplug = [] { fake().unplugged = true; };  // every ioctl ENODEV from now on
+  b.requests = [] { return fake().calls.load(); };
   return b;
 }
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "hw/clock.hpp"
+#include "hw/device_health.hpp"
 #include "hw/valve_bank.hpp"
 
 namespace collide::hw::testing {
@@ -38,6 +39,13 @@ struct ValveBench {
   Tolerance opening{1 * kValveMs, 1 * kValveMs};
   Tolerance pulse{kValveMs / 2, kValveMs / 2};
   std::string skip_reason;  // no bank: why the backend's device is missing
+  // Takes the device away (unplugged) while the bank is open; empty when the
+  // backend has no device that can go away, and then `no_unplug_reason`
+  // says why (the lost-device case skips with it).
+  std::function<void()> unplug;
+  std::string no_unplug_reason;
+  // Requests the device has been asked so far (empty: not countable).
+  std::function<int()> requests;
 };
 
 struct ValveBackend {
@@ -150,6 +158,34 @@ TEST_P(ValveBankConformance, FiresAgainAfterStopAndAfterReopening) {
   ASSERT_TRUE(valves().close());
   bringUp();
   fireOnce("after close() and open()");
+}
+
+TEST_P(ValveBankConformance, ADeviceThatGoesAwayIsLostAndTheNextFireIsRefused) {
+  if (!bench_.unplug) {
+    ASSERT_FALSE(bench_.no_unplug_reason.empty()) << "a bench without unplug must say why";
+    GTEST_SKIP() << bench_.no_unplug_reason;
+  }
+  bringUp();
+  ASSERT_TRUE(valves().fire({{0, clock().nowNs() + 2 * kValveMs, 1000}}));
+  EXPECT_FALSE(valves().loss());
+  bench_.unplug();
+  const auto failed = valves().fire({{0, clock().nowNs() + 2 * kValveMs, 1000}});
+  ASSERT_FALSE(failed);
+  ASSERT_TRUE(valves().loss()) << "the bank did not mark itself lost: " << failed.error().message;
+  const std::string lost = lostMessage(*valves().loss());
+  EXPECT_THAT(lost, HasSubstr(" is lost ("));
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  EXPECT_THAT(failed.error().message, HasSubstr(lost));
+  // The next fire() is refused at once with the same sentence, driving nothing.
+  const int asked = bench_.requests ? bench_.requests() : 0;
+  const auto refused = valves().fire({{0, clock().nowNs() + 2 * kValveMs, 1000}});
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().message, lost);
+  if (bench_.requests) {
+    EXPECT_EQ(bench_.requests(), asked) << "fire() drove the lost device";
+  }
+  (void)valves().close();  // never refused (closing the valves may fail: the device is gone)
+  EXPECT_EQ(valves().state(), DeviceState::Closed);
 }
 
 TEST_P(ValveBankConformance, StopAndCloseLeaveNoValveOpen) {

@@ -16,7 +16,11 @@ ValveBench simBench() {
   ValveSimSettings s;
   s.count = 2;
   s.jitter_us = 20.0;
-  return {clock, world, std::make_unique<ValveBankSim>(world, clock, s)};
+  ValveBench b{clock, world, std::make_unique<ValveBankSim>(world, clock, s)};
+  b.no_unplug_reason =
+      "the simulated valve bank has no device that can go away (its one fault, valves.fault = "
+      "\"error\", is a driver that refuses to fire)";
+  return b;
 }
 
 }  // namespace

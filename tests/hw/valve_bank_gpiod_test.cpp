@@ -85,10 +85,18 @@ std::string gpiodProfile(const std::string& lines_value, const std::string& devi
 ValveBench gpiodConformanceBench() {
   ValveBench b;
   b.clock = monotonicClock();
-  b.valves = std::make_unique<ValveBankGpiod>(
+  auto bank = std::make_unique<ValveBankGpiod>(
       "conformance", 2, []() -> collide::Result<std::unique_ptr<ValveLines>> {
         return std::unique_ptr<ValveLines>(std::make_unique<RecordingValveLines>(2));
       });
+  // The lines of the current open(): unplugged as a chip that goes away
+  // (every edge ENODEV); their set() calls are the requests.
+  const auto lines = [bank = bank.get()] {
+    return dynamic_cast<RecordingValveLines*>(bank->lines());
+  };
+  b.unplug = [lines] { lines()->unplug(); };
+  b.requests = [lines] { return lines() ? lines()->calls() : 0; };
+  b.valves = std::move(bank);
   b.opening = {0, kLate};
   b.pulse = {0, kLate};
   return b;
