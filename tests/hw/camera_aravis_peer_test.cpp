@@ -147,6 +147,8 @@ CameraBench inProcessBench() {
   CameraBench b{nullptr,     std::make_unique<CameraAravis>("Fake_1", CameraAravisSettings{}),
                 config160(), false,
                 200'000'000, {}};
+  b.no_unplug_reason =
+      "Aravis' in-process fake camera cannot be taken away; the GigE simulator can (aravis_gige)";
   return b;
 }
 
@@ -157,6 +159,7 @@ CameraBench gigeBench() {
       fake,        std::make_unique<CameraAravis>(GigeFake::kAddress, CameraAravisSettings{}),
       config160(), false,
       200'000'000, {}};
+  b.unplug = [f = fake.get()] { f->kill(); };  // SIGKILL: gone without a word
   return b;
 }
 

@@ -16,6 +16,7 @@
 
 #include "hw/camera.hpp"
 #include "hw/clock.hpp"
+#include "hw/device_health.hpp"
 
 namespace collide::hw::testing {
 
@@ -36,6 +37,13 @@ struct CameraBench {
   // fake on a loaded machine may expose fewer frames than its rate says.
   std::int64_t extra_lead_ns = 0;
   std::string skip_reason;  // no camera: why the backend's peer is missing
+  // Takes the device away (unplugged, killed) while the camera streams; empty
+  // when the backend has no device that can go away, and then
+  // `no_unplug_reason` says why (the lost-device case skips with it).
+  std::function<void()> unplug;
+  std::string no_unplug_reason;
+  // Requests the device has been asked so far (empty: not countable).
+  std::function<int()> requests;
 };
 
 struct CameraBackend {
@@ -169,6 +177,30 @@ TEST_P(CameraConformance, ArmsAgainForTheNextBurst) {
   EXPECT_GT(second.frames.front().timestamp_ns, first.frames.back().timestamp_ns);
 }
 
+TEST_P(CameraConformance, StreamsAgainAfterStopAndAfterReopening) {
+  bringUp();
+  std::int64_t trigger = 0;
+  const Burst first = shoot(2, 3, trigger);
+  ASSERT_TRUE(first.complete) << first.note;
+  // stop() then start(): the next burst is whole, its frames after the new trigger.
+  ASSERT_TRUE(cam().stop());
+  const auto restarted = cam().start();
+  ASSERT_TRUE(restarted) << restarted.error().message;
+  const Burst again = shoot(2, 3, trigger);
+  ASSERT_TRUE(again.complete) << again.note;
+  ASSERT_EQ(again.frames.size(), 5u);
+  EXPECT_GE(again.frames[2].timestamp_ns, trigger);
+  EXPECT_LT(again.frames[1].timestamp_ns, trigger);
+  // close() then the whole bring-up again: the same.
+  ASSERT_TRUE(cam().close());
+  bringUp();
+  const Burst reopened = shoot(2, 3, trigger);
+  ASSERT_TRUE(reopened.complete) << reopened.note;
+  ASSERT_EQ(reopened.frames.size(), 5u);
+  EXPECT_GE(reopened.frames[2].timestamp_ns, trigger);
+  EXPECT_LT(reopened.frames[1].timestamp_ns, trigger);
+}
+
 TEST_P(CameraConformance, StoppingWhileArmedKeepsWhatArrived) {
   bringUp();
   ASSERT_TRUE(cam().arm(3, 100000));
@@ -180,6 +212,40 @@ TEST_P(CameraConformance, StoppingWhileArmedKeepsWhatArrived) {
   EXPECT_FALSE(b->complete);
   EXPECT_FALSE(b->frames.empty());
   EXPECT_FALSE(b->note.empty());
+}
+
+TEST_P(CameraConformance, ADeviceThatGoesAwayMidBurstIsLostAndTheNextBurstIsRefused) {
+  if (!bench_.unplug) {
+    ASSERT_FALSE(bench_.no_unplug_reason.empty()) << "a bench without unplug must say why";
+    GTEST_SKIP() << bench_.no_unplug_reason;
+  }
+  bringUp();
+  ASSERT_TRUE(cam().arm(2, 100000));
+  ASSERT_TRUE(cam().trigger(monotonicNowNs() + 20 * kMs));
+  (void)cam().waitBurst(monotonicNowNs() + 200 * kMs + bench_.extra_lead_ns);  // frames arrive
+  bench_.unplug();
+  const auto ended = cam().waitBurst(monotonicNowNs() + 3 * kGenerousNs);
+  ASSERT_TRUE(ended) << ended.error().message;
+  ASSERT_TRUE(*ended) << "the burst never learned that the device was gone";
+  const auto b = cam().takeBurst();  // what arrived is handed back
+  ASSERT_TRUE(b) << b.error().message;
+  EXPECT_FALSE(b->complete);
+  EXPECT_FALSE(b->frames.empty());
+  ASSERT_TRUE(cam().loss()) << "the camera did not mark itself lost";
+  const std::string lost = lostMessage(*cam().loss());
+  EXPECT_THAT(lost, HasSubstr(" is lost ("));
+  EXPECT_THAT(lost, HasSubstr("retrying will not help"));
+  EXPECT_THAT(b->note, HasSubstr(lost));
+  // The next burst is refused at once with the same sentence, asking the device nothing.
+  const int asked = bench_.requests ? bench_.requests() : 0;
+  const auto armed = cam().arm(2, 10);
+  ASSERT_FALSE(armed);
+  EXPECT_EQ(armed.error().message, lost);
+  if (bench_.requests) {
+    EXPECT_EQ(bench_.requests(), asked) << "arm() asked the lost device";
+  }
+  (void)cam().close();  // never refused (it may fail: the device is gone)
+  EXPECT_EQ(cam().state(), DeviceState::Closed);
 }
 
 TEST_P(CameraConformance, ClosesFromRunning) {

@@ -16,7 +16,11 @@ CameraBench simBench() {
   CameraSimSettings s;
   s.noise_grey = 1.0;
   CameraConfig c{0, 0, 160, 120, PixelFormat::Mono8, 1000.0, 200.0, 0.0};
-  return {world, std::make_unique<CameraSim>(world, s), c};
+  CameraBench b{world, std::make_unique<CameraSim>(world, s), c};
+  b.no_unplug_reason =
+      "the simulated camera goes silent (camera.silent_after_bursts), it does not go away: the "
+      "shot that gets no frame marks it lost (tests/hw/device_lost_sim_test.cpp)";
+  return b;
 }
 
 // A stored burst of 12 pre- and 20 post-trigger frames at 500 frames/s.
@@ -37,7 +41,9 @@ Burst storedBurst() {
 
 CameraBench replayBench() {
   CameraConfig c{0, 0, 64, 48, PixelFormat::Mono12, 500.0, 100.0, 0.0};
-  return {nullptr, std::make_unique<CameraReplay>(storedBurst(), "stored", true), c};
+  CameraBench b{nullptr, std::make_unique<CameraReplay>(storedBurst(), "stored", true), c};
+  b.no_unplug_reason = "a replay camera plays a stored burst: it has no device that can go away";
+  return b;
 }
 
 }  // namespace

@@ -1,197 +1,32 @@
 // CameraV4l2 when its device goes away (unplugged, driver unbound), on the
-// host without a VM: this program puts a small V4L2 capture driver of its own
-// behind a memfd. It defines ioctl() itself, so the real V4l2Device code (the
-// hw library is linked statically) talks to it; every other descriptor's
-// ioctl goes to the kernel unchanged. Once "unplugged", the fake answers
-// every ioctl with ENODEV, as the kernel does for a disconnected UVC camera.
-// The real driver path (vivid's "disconnect" control) is in
-// tests/vm/v4l2_vm_test.cpp.
+// host without a VM, against the fake capture driver of fake_v4l2.hpp (every
+// ioctl ENODEV once "unplugged"). The real driver path (vivid's "disconnect"
+// control) is in tests/vm/v4l2_vm_test.cpp.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <linux/videodev2.h>
-#include <sys/ioctl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <sys/syscall.h>
-#include <time.h>
-#include <unistd.h>
 
-#include <atomic>
 #include <cerrno>
-#include <cstdarg>
+#include <cstdio>
 #include <cstring>
-#include <mutex>
 #include <string>
-#include <thread>
-#include <vector>
 
+#include "fake_v4l2.hpp"
 #include "hw/camera_v4l2.hpp"
 #include "hw/clock.hpp"
 
 using namespace collide::hw;
+using namespace collide::hw::testing;
 using collide::vision::PixelFormat;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
 namespace {
 
-constexpr int kWidth = 160, kHeight = 120;
-constexpr std::size_t kFrameBytes = kWidth * kHeight;
-constexpr std::size_t kSlot = 32768;  // per buffer in the memfd, page aligned, >= kFrameBytes
-
-// The fake capture device: one GREY format, any size asked (160x120 here),
-// frames at the rate last set, buffers in a memfd that mmap() maps as usual.
-struct FakeV4l2 {
-  int memfd = -1;
-  ino_t inode = 0;
-  std::atomic<bool> unplugged{false};
-  std::atomic<int> calls{0};  // ioctls on the device (answered or not)
-  std::mutex mutex;
-  int buffers = 0;
-  std::vector<int> queued;
-  bool streaming = false;
-  std::uint32_t sequence = 0;
-  std::int64_t period_ns = 10'000'000;
-  std::int64_t next_ns = 0;
-
-  bool mine(int fd) const {
-    struct stat st {};
-    return memfd >= 0 && fstat(fd, &st) == 0 && st.st_ino == inode;
-  }
-  int answer(unsigned long request, void* arg);
-};
-
-FakeV4l2& fake() {
-  static FakeV4l2 f;
-  return f;
-}
-
-int refuse(int err) {
-  errno = err;
-  return -1;
-}
-
-int FakeV4l2::answer(unsigned long request, void* arg) {
-  calls.fetch_add(1);
-  if (unplugged.load()) return refuse(ENODEV);
-  std::unique_lock lock(mutex);
-  switch (request) {
-    case VIDIOC_QUERYCAP: {
-      auto* c = static_cast<v4l2_capability*>(arg);
-      *c = {};
-      std::strcpy(reinterpret_cast<char*>(c->driver), "fake");
-      std::strcpy(reinterpret_cast<char*>(c->card), "lost test");
-      c->device_caps = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING;
-      c->capabilities = c->device_caps | V4L2_CAP_DEVICE_CAPS;
-      return 0;
-    }
-    case VIDIOC_ENUM_FMT: {
-      auto* f = static_cast<v4l2_fmtdesc*>(arg);
-      if (f->index != 0) return refuse(EINVAL);
-      f->pixelformat = V4L2_PIX_FMT_GREY;
-      return 0;
-    }
-    case VIDIOC_S_FMT: {
-      auto* f = static_cast<v4l2_format*>(arg);
-      f->fmt.pix.pixelformat = V4L2_PIX_FMT_GREY;
-      f->fmt.pix.bytesperline = f->fmt.pix.width;
-      f->fmt.pix.sizeimage = f->fmt.pix.width * f->fmt.pix.height;
-      return f->fmt.pix.sizeimage <= kSlot ? 0 : refuse(EINVAL);
-    }
-    case VIDIOC_G_PARM:
-    case VIDIOC_S_PARM: {
-      auto* p = static_cast<v4l2_streamparm*>(arg);
-      auto& t = p->parm.capture.timeperframe;
-      if (request == VIDIOC_S_PARM && t.denominator > 0)
-        period_ns = static_cast<std::int64_t>(1e9 * t.numerator / t.denominator);
-      p->parm.capture.capability = V4L2_CAP_TIMEPERFRAME;
-      return 0;
-    }
-    case VIDIOC_REQBUFS: {
-      auto* r = static_cast<v4l2_requestbuffers*>(arg);
-      buffers = static_cast<int>(std::min<__u32>(r->count, 4));
-      r->count = static_cast<__u32>(buffers);
-      queued.clear();
-      return ftruncate(memfd, static_cast<off_t>(kSlot * std::max(buffers, 1)));
-    }
-    case VIDIOC_QUERYBUF: {
-      auto* b = static_cast<v4l2_buffer*>(arg);
-      if (static_cast<int>(b->index) >= buffers) return refuse(EINVAL);
-      b->length = kFrameBytes;
-      b->m.offset = static_cast<__u32>(b->index * kSlot);
-      return 0;
-    }
-    case VIDIOC_QBUF:
-      queued.push_back(static_cast<int>(static_cast<v4l2_buffer*>(arg)->index));
-      return 0;
-    case VIDIOC_STREAMON:
-      streaming = true;
-      next_ns = monotonicNowNs();
-      return 0;
-    case VIDIOC_STREAMOFF:
-      streaming = false;
-      queued.clear();
-      return 0;
-    case VIDIOC_DQBUF: {
-      if (!streaming || queued.empty()) return refuse(EAGAIN);
-      // The next frame ends its exposure at next_ns: wait for it (outside
-      // the lock), as a blocking driver would.
-      const std::int64_t due = next_ns;
-      lock.unlock();
-      const timespec until{static_cast<time_t>(due / 1'000'000'000),
-                           static_cast<long>(due % 1'000'000'000)};
-      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
-      }
-      lock.lock();
-      if (unplugged.load()) return refuse(ENODEV);
-      if (!streaming || queued.empty()) return refuse(EAGAIN);
-      auto* b = static_cast<v4l2_buffer*>(arg);
-      b->index = static_cast<__u32>(queued.front());
-      queued.erase(queued.begin());
-      b->sequence = sequence++;
-      b->bytesused = kFrameBytes;
-      b->flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
-      b->timestamp.tv_sec = static_cast<time_t>(due / 1'000'000'000);
-      b->timestamp.tv_usec = static_cast<suseconds_t>((due % 1'000'000'000) / 1000);
-      next_ns = due + period_ns;
-      return 0;
-    }
-    default: return refuse(ENOTTY);
-  }
-}
-
-}  // namespace
-
-// Every ioctl of this program: the fake's, or the kernel's.
-extern "C" int ioctl(int fd, unsigned long request, ...) noexcept {
-  va_list ap;
-  va_start(ap, request);
-  void* arg = va_arg(ap, void*);
-  va_end(ap);
-  if (fake().mine(fd)) return fake().answer(request, arg);
-  return static_cast<int>(syscall(SYS_ioctl, fd, request, arg));
-}
-
-namespace {
-
 class V4l2Lost : public ::testing::Test {
  protected:
   void SetUp() override {
-    FakeV4l2& f = fake();
-    f.unplugged = false;
-    if (f.memfd < 0) {
-      f.memfd = memfd_create("collide-fake-v4l2", MFD_CLOEXEC);
-      ASSERT_GE(f.memfd, 0) << std::strerror(errno);
-      struct stat st {};
-      ASSERT_EQ(fstat(f.memfd, &st), 0);
-      f.inode = st.st_ino;
-    }
-    settings_.path = "/proc/self/fd/" + std::to_string(f.memfd);
-    settings_.frame_width = kWidth;
-    settings_.frame_height = kHeight;
-    settings_.buffers = 4;
-    settings_.exposure_control = false;
-    settings_.gain_raw_per_db = 0.0;
+    settings_ = fakeV4l2Settings();
+    ASSERT_FALSE(settings_.path.empty()) << "memfd_create: " << std::strerror(errno);
   }
 
   static CameraConfig config() {

@@ -146,6 +146,23 @@ TEST_P(RegulatorConformance, EachChannelSettlesAtItsOwnSetpoint) {
   EXPECT_NEAR(*reg().readPressureKPa(1), 90.0, 0.5);
 }
 
+TEST_P(RegulatorConformance, SettlesAgainAfterStopAndAfterReopening) {
+  bringUp();
+  ASSERT_TRUE(reg().setPressureKPa(0, 50.0));
+  ASSERT_TRUE(waitSettled(0, 0.5));
+  ASSERT_TRUE(reg().stop());
+  ASSERT_TRUE(reg().start());
+  ASSERT_TRUE(reg().setPressureKPa(0, 70.0));
+  ASSERT_TRUE(waitSettled(0, 0.5));
+  EXPECT_NEAR(*reg().readPressureKPa(0), 70.0, 0.5);
+  ASSERT_TRUE(reg().close());
+  bringUp();
+  ASSERT_TRUE(reg().setPressureKPa(1, 30.0));
+  EXPECT_EQ(*reg().setpointKPa(1), 30.0);
+  ASSERT_TRUE(waitSettled(1, 0.5));
+  EXPECT_NEAR(*reg().readPressureKPa(1), 30.0, 0.5);
+}
+
 TEST_P(RegulatorConformance, VentTakesEveryChannelToZero) {
   bringUp();
   ASSERT_TRUE(reg().setPressureKPa(0, 80.0));

@@ -1,6 +1,7 @@
 // ValveBankGpiod's firing logic, settings and safety nets on the host, over a
 // RecordingValveLines (no GPIO chip here; tests/vm runs the same backend on a
-// real kernel gpio_chip). Timing bounds are generous: this machine is shared.
+// real kernel gpio_chip), and the ValveBank conformance suite over the same.
+// Timing bounds are generous: this machine is shared.
 #include "hw/valve_bank_gpiod.hpp"
 
 #include <gmock/gmock.h>
@@ -19,6 +20,7 @@
 #include "hw/rig.hpp"
 #include "hw/rig_profile.hpp"
 #include "profile_text.hpp"
+#include "valve_bank_conformance.hpp"
 
 using namespace collide::hw;
 using namespace collide::hw::testing;
@@ -73,6 +75,31 @@ std::string gpiodProfile(const std::string& lines_value, const std::string& devi
   else
     t = withKey(t, "valves", "device", "\"" + device + "\"");
   return withKey(t, "valves", "lines", lines_value);
+}
+
+// The conformance bench: a two-valve bank whose every open() gets fresh
+// recording lines, firing on CLOCK_MONOTONIC. It sleeps up to each edge and
+// times each closing from the end of its opening: an opening never comes
+// early and a pulse is never short; both may come late by as much as this
+// file's own tests allow on a shared machine (kLate).
+ValveBench gpiodConformanceBench() {
+  ValveBench b;
+  b.clock = monotonicClock();
+  auto bank = std::make_unique<ValveBankGpiod>(
+      "conformance", 2, []() -> collide::Result<std::unique_ptr<ValveLines>> {
+        return std::unique_ptr<ValveLines>(std::make_unique<RecordingValveLines>(2));
+      });
+  // The lines of the current open(): unplugged as a chip that goes away
+  // (every edge ENODEV); their set() calls are the requests.
+  const auto lines = [bank = bank.get()] {
+    return dynamic_cast<RecordingValveLines*>(bank->lines());
+  };
+  b.unplug = [lines] { lines()->unplug(); };
+  b.requests = [lines] { return lines() ? lines()->calls() : 0; };
+  b.valves = std::move(bank);
+  b.opening = {0, kLate};
+  b.pulse = {0, kLate};
+  return b;
 }
 
 std::string makeRigError(const std::string& text) {
@@ -264,6 +291,10 @@ TEST(ValveBankGpiod, FiresAtRealtimePriorityWhenAllowedAndSaysHowOtherwise) {
   pthread_getschedparam(pthread_self(), &after_policy, &after);
   EXPECT_EQ(after_policy, policy);
 }
+
+INSTANTIATE_TEST_SUITE_P(Gpiod, ValveBankConformance,
+                         ::testing::Values(ValveBackend{"gpiod", &gpiodConformanceBench}),
+                         [](const auto& info) { return info.param.name; });
 
 // ---- exit and signals (in a child process each) ---------------------------
 
