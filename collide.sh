@@ -107,16 +107,18 @@ sanitize_pass() {
   # Four accuracy tests draw other random scenes under clang than under gcc
   # (their fixtures' random draws depend on the compiler) and then miss their
   # targets: accuracy findings for the vision core (issue 12), not memory or
-  # UB errors. They run, and must pass, in the gcc build above.
-  GTEST_FILTER="-SphereDetector.SphereCutByTheBorderIsMeasuredFromItsVisibleArc:SphereDetector.ThesisImagingSmallSpheres:FitSpin.TwoDotsPerFrameStillGiveTheSpin:AnalyzeBurstBadInput.SaturatedFramesAreSkippedAndFlagged" \
+  # UB errors. They run, and must pass, in the gcc build above. The fifth case
+  # and the three test files below are left out for time (next comment).
+  GTEST_FILTER="-SphereDetector.SphereCutByTheBorderIsMeasuredFromItsVisibleArc:SphereDetector.ThesisImagingSmallSpheres:FitSpin.TwoDotsPerFrameStillGiveTheSpin:AnalyzeBurstBadInput.SaturatedFramesAreSkippedAndFlagged:SequencerSim.ACameraSlowerThanRealTimeStillDeliversItsBurst" \
     ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L 'unit|sim|peer' \
-    -E 'camera_sim_imaging|cli_imaging_profiles|sequencer_sim|cli_backlit_footage|cli_calibrate_camera|hw/device_lost_sim'
-  # The six left out fire simulated shots whose camera must render within
-  # the burst's deadline; under ASan it is too slow for it and the shots fail
-  # on time ("the burst timed out"; device_lost_sim's camera then counts as
-  # lost, no frame after the trigger), not on a sanitizer report (seen
-  # 2026-11-24 in fresh clones at febdea6 and ae5c294/2ecb54a). They run in
-  # the gcc build above. To do: a sim camera deadline that scales.
+    -E 'camera_sim_imaging|cli_imaging_profiles|cli_calibrate_camera'
+  # Left out for time, not for a failure: these fire shots through the ray-
+  # casting simulated camera (about 0.55 s a frame under ASan). Since the
+  # sequencer waits on while frames keep arriving they pass under ASan too
+  # (2026-11-25, fresh ASan build: camera_sim_imaging 103 s,
+  # cli_imaging_profiles 194 s, cli_calibrate_camera 405 s, and the slow-camera
+  # sequencer case 72 s), which CI's 45 minutes cannot spare. They run in the
+  # gcc build above.
   say "Fuzz targets, a short run each (./collide.sh fuzz for the long one)"
   ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L fuzz
 }
