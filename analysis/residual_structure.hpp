@@ -9,21 +9,22 @@
 // that bends, a contact inside the segment, a mismatched sphere) or an
 // alternating pattern (a camera shaking every other frame).
 //
-// Two tests on the weighted residuals in observation order,
-// e_i = sqrt(w_i) r_i over the observations with w_i > 0 (samples taken at
-// even intervals, as a track's frames are):
-//  - order from one sample to the next: the lag-1 autocorrelation
+// Two tests on the residuals in observation order, over the observations
+// with w_i > 0 (samples taken at even intervals, as a track's frames are):
+//  - order from one sample to the next: the lag-1 autocorrelation of the
+//    weighted residuals e_i = sqrt(w_i) r_i,
 //      r1 = sum_i e_i e_{i+1} / sum_i e_i^2,
 //    about -1/n with a standard deviation of about 1/sqrt(n) for n
 //    independent errors (Box and Jenkins; Durbin-Watson is about 2 (1 - r1)).
 //    An alternating offset drives it towards -1, a smooth misfit towards +1;
-//  - a smooth trend: the residuals fitted with a cubic in the sample index
-//    (weights w_i), F = (chi2 before - chi2 after) / (chi2 after / (n - 4)).
-//    The residuals of a quadratic fit have no part along 1, i, i^2, so the
-//    drop is the cubic's, one degree of freedom: F is Student's t^2 with
-//    n - 4 degrees of freedom for independent errors of any scale. This one
-//    sees a track that bends away from a parabola, which r1 alone at n = 16
-//    does not (r1 of a pure cubic misfit is only about 0.56 there).
+//  - a smooth trend: the residuals r_i themselves (unweighted: a detector's
+//    stated sigmas can be far from the real scatter, and weights that wrong
+//    made it fire 7-12 times too often) fitted with a quadratic and with a
+//    cubic in the sample index, F = (chi2 quadratic - chi2 cubic) /
+//    (chi2 cubic / (n - 4)): Student's t^2 with n - 4 degrees of freedom for
+//    independent errors of any scale. This one sees a track that bends away
+//    from a parabola, which r1 alone at n = 16 does not (r1 of a pure cubic
+//    misfit is only about 0.56 there).
 // Both are independent of the residuals' scale: they ask about order, not size.
 #include "analysis/least_squares.hpp"
 
@@ -43,7 +44,7 @@ Lag1Sums lag1Sums(const LinearFit& fit);
 /// order) or all residuals are zero.
 double residualLag1Correlation(const LinearFit& fit);
 
-/// F of a cubic trend in the weighted residuals (sample index as abscissa);
+/// F of a cubic trend in the residuals, unweighted (sample index as abscissa);
 /// NaN with fewer than 6 observations of positive weight or residuals a cubic
 /// fits exactly.
 double residualTrendF(const LinearFit& fit);
