@@ -25,8 +25,13 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const PixelScale* scale) {
   ShotSpins out;
   out.dots.resize(data.size());
-  // The dots of every sphere in every fitted frame first (frames in parallel),
-  // each found on the track's radius: steadier than one frame's.
+  // A frame's sphere on its track's radius: steadier than one frame's.
+  const auto onTrackRadius = [&](int k, int s) {
+    SphereMeasurement m = *trackAt(data[k], s);
+    m.circle.radius = r_med[s];
+    return m;
+  };
+  // The dots of every sphere in every fitted frame first (frames in parallel).
   std::vector<std::pair<int, int>> wanted;  // (frame, sphere)
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side)
@@ -35,17 +40,14 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
   wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
   forEachFrame(wanted.size(), [&](std::size_t i) {
     const auto [k, s] = wanted[i];
-    SphereMeasurement m = *trackAt(data[k], s);
-    m.circle.radius = r_med[s];
-    out.dots[k][s] = findDots(burst.frames[data[k].index].image, m, max_value);
+    out.dots[k][s] = findDots(burst.frames[data[k].index].image, onTrackRadius(k, s), max_value);
   });
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       const SideFit& sf = *fits.fit[s][side];
       std::vector<SpinFrame> sfr;
       for (const int k : sf.frames) {
-        SphereMeasurement m = *trackAt(data[k], s);
-        m.circle.radius = r_med[s];
+        const SphereMeasurement m = onTrackRadius(k, s);
         if (out.dots[k][s].dots.empty()) continue;
         SpinFrame f;
         f.t_s = data[k].t;
