@@ -33,11 +33,18 @@ Lag1Sums lag1Sums(const LinearFit& fit) {
   return out;
 }
 
-double residualLag1Correlation(const LinearFit& fit) {
-  const Lag1Sums sums = lag1Sums(fit);
-  if (sums.n < 3 || fit.dof < 3 || !(sums.squares > 0))
-    return std::numeric_limits<double>::quiet_NaN();
+namespace {
+
+// r1 from a fit's sums; NaN when they say nothing about order.
+double lag1Correlation(const Lag1Sums& sums, int dof) {
+  if (sums.n < 3 || dof < 3 || !(sums.squares > 0)) return std::numeric_limits<double>::quiet_NaN();
   return sums.products / sums.squares;
+}
+
+}  // namespace
+
+double residualLag1Correlation(const LinearFit& fit) {
+  return lag1Correlation(lag1Sums(fit), fit.dof);
 }
 
 double residualTrendF(const LinearFit& fit) {
@@ -79,8 +86,9 @@ double studentQuantile(double z, double nu) {
 }  // namespace
 
 bool residualsStructured(const LinearFit& fit, double z) {
-  const double n = static_cast<double>(weightedResiduals(fit).size());
-  if (const double r1 = residualLag1Correlation(fit);
+  const Lag1Sums sums = lag1Sums(fit);
+  const double n = sums.n;
+  if (const double r1 = lag1Correlation(sums, fit.dof);
       std::isfinite(r1) && std::abs(r1 + 1.0 / n) > z / std::sqrt(n))
     return true;
   if (const double f = residualTrendF(fit); std::isfinite(f)) {
