@@ -19,6 +19,8 @@ std::optional<vision::WallAnalysisSettings> wallAnalysisSettingsFor(const hw::Sh
   s.origin_v_px = shot.scene.origin_v_px;
   s.fps = shot.burst.fps > 0 ? shot.burst.fps : shot.camera.fps;
   s.wall_line = *line;
+  // The alignment the profile states ([analysis]): the prior of the launch's v_z.
+  s.out_of_plane_speed_fraction = profile->analysis.launch_out_of_plane_fraction;
   return s;
 }
 

@@ -14,15 +14,25 @@ using ::testing::HasSubstr;
 
 namespace {
 
+// config/sim.toml without its own [analysis] table (it states its alignment).
+std::string withoutAnalysisTable() {
+  std::string text = simProfileText();
+  const auto begin = text.find("\n[analysis]\n");
+  if (begin == std::string::npos) return text;
+  const auto end = text.find("\n[", begin + 1);
+  return text.erase(begin + 1, end == std::string::npos ? std::string::npos : end - begin);
+}
+
 collide::Result<RigProfile> withAnalysis(const std::string& table) {
-  return parseRigProfile(simProfileText() + "\n[analysis]\n" + table, "config/sim.toml");
+  return parseRigProfile(withoutAnalysisTable() + "\n[analysis]\n" + table, "config/sim.toml");
 }
 
 }  // namespace
 
 TEST(AnalysisProfile, AbsentGivesTodaysPriors) {
-  const auto r = parseRigProfile(simProfileText(), "config/sim.toml");
+  const auto r = parseRigProfile(withoutAnalysisTable(), "config/sim.toml");
   ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(withoutAnalysisTable().find("[analysis]"), std::string::npos);
   // sin(0.573 deg) = 0.0100: the z part of the line of centres the analysis assumed before.
   EXPECT_NEAR(std::sin(r->analysis.line_of_centres_tilt_deg * M_PI / 180), 0.0100, 1e-5);
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.005);
@@ -37,6 +47,14 @@ TEST(AnalysisProfile, StatedAlignmentIsRead) {
   EXPECT_DOUBLE_EQ(r->analysis.line_of_centres_tilt_deg, 3.0);
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.03);
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.2);
+}
+
+TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchScatter) {
+  // config/sim.toml's launchers scatter 0.002 rad per axis; its [analysis]
+  // table says so, so the analysis' v_z prior is the simulated truth's.
+  const auto r = parseRigProfile(simProfileText(), "config/sim.toml");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, r->simulation.direction_scatter_rad);
 }
 
 TEST(AnalysisProfile, ImpossibleOrUnknownValuesAreRefusedByName) {
