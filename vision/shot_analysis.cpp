@@ -27,17 +27,20 @@ namespace {
 
 constexpr double kG = 9.80665;
 
-// Systematic uncertainties, calibrated on simulated shots (rendered with dots,
-// blur and noise; tests/vision/shot_analysis_test.cpp checks the pulls).
-// Dots passing near the limb shift the measured centre by a few thousandths
-// of a pixel, slowly, as the sphere turns: an error correlated from frame to
-// frame that the fits' residuals cannot reveal. It is carried as a random
-// drift of the centre over each track, and a random offset of each sphere's
-// centre, of this RMS:
-// In pixels, 0.22 / radius: 0.004 px for 60 px spheres, 0.012 px at the
-// thesis' 18.5 px (where a dot covers more of the limb's few edge points).
-double systematicCentrePx(double radius_px) {
-  return 0.22 / radius_px;
+// Dots crossing the limb displace the detected edge, and so the centre, by
+// an amount that grows with the motion blur smearing them over it; as the
+// sphere turns, the displacement changes slowly: an error correlated over
+// many frames that the fits absorb, so their residuals cannot reveal it. It
+// is carried as a random offset of each sphere's centre and a drift over each
+// track, of RMS 0.22 px / radius x max(blur, 0.5 px) / 1.9 px: calibrated on
+// simulated shots of 120 px spheres blurred by 1.9 px (1000 frames/s,
+// 200 us), where it is 0.004 px, and of 90 px spheres blurred by 0.5 px
+// (4000 frames/s, 50 us), where a term without the blur made the sigmas five
+// times too wide; below 0.5 px of blur (a slow sphere) it was not measured
+// and is held there. A sphere whose dots were seen on neither side carries
+// none (docs/benchmarks.md, "Uncertainty calibration").
+double dotBiasPx(double radius_px, double blur_px) {
+  return 0.22 / radius_px * std::max(blur_px, 0.5) / 1.9;
 }
 
 void addFlag(ShotAnalysis& a, const std::string& f) {
@@ -189,9 +192,9 @@ double massOf(const AnalysisSettings& set, int s) {
   return set.mass_kg[s] > 0 ? set.mass_kg[s] : 1000.0 * std::numbers::pi / 6 * d * d * d;
 }
 
-// The Monte Carlo's inputs: fits, their inflation and systematics, spins.
+// The Monte Carlo's inputs: fits, their inflation and systematics, spins, the priors.
 ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, const ShotSpins& spins,
-                    const std::array<double, 2>& r_med, double px) {
+                    const std::array<double, 2>& r_med, double px, double exposure_s) {
   ShotModel in;
   const std::array<double, 2>& diam = set.diameter_m;
   in.contact = 0.5 * (diam[0] + diam[1]);
@@ -199,20 +202,27 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
   in.nz_sigma = set.line_of_centres_z_sigma;
   in.vz_fraction = std::max(0.0, set.out_of_plane_speed_fraction);
   in.diameter = diam;
-  for (int s = 0; s < 2; ++s)
-    in.mass[s] = set.mass_kg[s] > 0 ? set.mass_kg[s]
-                                    : 1000.0 * std::numbers::pi / 6 * diam[s] * diam[s] * diam[s];
+  for (int s = 0; s < 2; ++s) in.mass[s] = massOf(set, s);
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       const SideFit& sf = *fits.fit[s][side];
       in.fit[s][side] = &sf.fit;
       in.inflation[s][side] = sf.inflation;
-      const double span = sf.fit.tLast_s() - sf.fit.tFirst_s();
-      in.drift[s][side] = span > 0 ? systematicCentrePx(r_med[s]) * px / span : 0.0;
-      in.offset[s] = systematicCentrePx(r_med[s]) * px;
       in.spin[s][side] = spins.side[s][side].spin;
       in.spin_cov[s][side] = spins.side[s][side].cov;
     }
+  for (int s = 0; s < 2; ++s) {
+    const auto& sides = spins.side[s];
+    if (sides[0].unknown_reason && sides[1].unknown_reason) continue;  // no dots seen
+    for (int side = 0; side < 2; ++side) {
+      const TrajectoryFit& f = fits.fit[s][side]->fit;
+      const double blur_px = f.velocityAt_m_s(f.tRef_s()).value.norm() * exposure_s / px;
+      const double bias_m = dotBiasPx(r_med[s], blur_px) * px;
+      const double span = f.tLast_s() - f.tFirst_s();
+      in.drift[s][side] = span > 0 ? bias_m / span : 0.0;
+      in.offset[s] = std::max(in.offset[s], bias_m);
+    }
+  }
   // Collision instant: both estimates, combined by their uncertainties.
   in.w_before = beforeInstantWeight(fits.sigma_before, fits.sigma_after);
   in.t_before = fits.t_before;
@@ -573,7 +583,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   flagPoorSpins(out, spins);
 
   // ---- Walton's inverse, and its spread over draws of every fitted input
-  ShotModel model = shotModel(set, *fits, spins, r_med, *px);
+  ShotModel model = shotModel(set, *fits, spins, r_med, *px, burst.exposure_us * 1e-6);
   const double t_c0 = model.w_before * fits->t_before + (1 - model.w_before) * fits->t_after;
   out.collision.line_of_centres_z_from_size =
       lineOfCentresZFromSize(depth, fits->t_split, t_c0, contact);
