@@ -43,6 +43,11 @@ bool SimSilence::answer(bool budgeted) {
   return true;
 }
 
+void SimSilence::goSilent() {
+  std::lock_guard lock(mutex_);
+  silent_ = true;
+}
+
 void SimSilence::answerAgain() {
   std::lock_guard lock(mutex_);
   silent_ = false;

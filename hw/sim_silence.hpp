@@ -36,6 +36,8 @@ class SimSilence {
   std::int64_t unanswered() const { return unanswered_.load(); }
   /// The device answers again from now on (its cable is plugged back in).
   void answerAgain();
+  /// The device answers nothing from now on (its cable is pulled now).
+  void goSilent();
 
   explicit SimSilence(std::int64_t answers) : answers_left_(answers) {}
 

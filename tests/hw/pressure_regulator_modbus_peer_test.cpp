@@ -47,8 +47,14 @@ RegulatorBench modbusBench(ModbusTransport transport, const ModbusRegulatorMap& 
     return b;
   }
   if (!keep->peer.error.empty()) throw std::runtime_error(keep->peer.error);
-  b.regulator = std::make_unique<PressureRegulatorModbus>(keep->peer.client_map, 200.0,
+  auto modbus = std::make_unique<PressureRegulatorModbus>(keep->peer.client_map, 200.0,
                                                           keep->peer.client_map.link.endpoint());
+  PressureRegulatorModbus* client = modbus.get();
+  b.regulator = std::move(modbus);
+  // The device is switched off: its server stops (TCP: the port closes; RTU:
+  // nothing answers on the line).
+  b.unplug = [keep] { keep->peer.server.reset(); };
+  b.requests = [client] { return client->linkStats().requests; };
   b.keep_alive = keep;
   return b;
 }

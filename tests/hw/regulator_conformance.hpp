@@ -18,6 +18,7 @@
 #include <string>
 
 #include "hw/clock.hpp"
+#include "hw/device_health.hpp"
 #include "hw/pressure_regulator.hpp"
 
 namespace collide::hw::testing {
@@ -27,6 +28,12 @@ struct RegulatorBench {
   std::shared_ptr<void> keep_alive;
   std::unique_ptr<PressureRegulator> regulator;
   std::string skip;  // non-empty: the peer is missing, skip with this reason
+  // Takes the device away (switched off, cable pulled); empty when the bench
+  // cannot, and then `no_unplug_reason` says why (the lost-device case skips).
+  std::function<void()> unplug;
+  std::string no_unplug_reason;
+  // Requests the device has been sent so far, where the bench can count them.
+  std::function<std::int64_t()> requests;
 };
 
 struct RegulatorBackend {
@@ -174,6 +181,42 @@ TEST_P(RegulatorConformance, VentTakesEveryChannelToZero) {
   ASSERT_TRUE(waitSettled(0, 0.5));
   ASSERT_TRUE(waitSettled(1, 0.5));
   EXPECT_NEAR(*reg().readPressureKPa(1), 0.0, 0.5);
+}
+
+// A device that stops answering is lost: the call that found it out fails
+// with what to check, and every later one is refused at once with the same
+// sentence, without waiting out the link's timeout again or asking the device.
+TEST_P(RegulatorConformance, ADeviceThatGoesAwayIsLostAndLaterCallsAreRefusedAtOnce) {
+  if (!bench_.unplug) {
+    ASSERT_FALSE(bench_.no_unplug_reason.empty()) << "a bench without unplug must say why";
+    GTEST_SKIP() << bench_.no_unplug_reason;
+  }
+  bringUp();
+  ASSERT_TRUE(reg().setPressureKPa(0, 40.0));
+  ASSERT_TRUE(reg().readPressureKPa(0));
+  bench_.unplug();
+  const auto read = reg().readPressureKPa(0);
+  ASSERT_FALSE(read) << "a device that is gone gave a reading";
+  ASSERT_TRUE(reg().loss()) << "the regulator did not mark itself lost: " << read.error().message;
+  const std::string lost = lostMessage(*reg().loss());
+  EXPECT_THAT(lost, ::testing::HasSubstr(" is lost ("));
+  EXPECT_THAT(lost, ::testing::HasSubstr("retrying will not help"));
+  EXPECT_THAT(read.error().message, ::testing::HasSubstr(" is lost ("));
+  const std::int64_t asked = bench_.requests ? bench_.requests() : 0;
+  const std::int64_t t0 = clock().nowNs();
+  const auto set = reg().setPressureKPa(0, 30.0);
+  const auto again = reg().readPressureKPa(1);
+  const std::int64_t took_ns = clock().nowNs() - t0;
+  ASSERT_FALSE(set);
+  ASSERT_FALSE(again);
+  EXPECT_EQ(set.error().message, lost);
+  EXPECT_EQ(again.error().message, lost);
+  EXPECT_LT(took_ns, 20'000'000) << "a lost regulator waited for an answer";
+  if (bench_.requests) {
+    EXPECT_EQ(bench_.requests(), asked) << "a lost regulator was asked";
+  }
+  (void)reg().close();  // never refused (it may fail: the device is gone)
+  EXPECT_EQ(reg().state(), DeviceState::Closed);
 }
 
 TEST_P(RegulatorConformance, VentIsAllowedBeforeStart) {

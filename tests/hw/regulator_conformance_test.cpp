@@ -2,7 +2,11 @@
 // the simulated backend.
 #include "regulator_conformance.hpp"
 
+#include <atomic>
+#include <string>
+
 #include "hw/pressure_regulator_sim.hpp"
+#include "hw/sim_silence.hpp"
 #include "hw/sim_world.hpp"
 
 using namespace collide::hw;
@@ -17,7 +21,18 @@ RegulatorBench simBench() {
   RegulatorSimSettings settings;
   settings.noise_kPa = 0.05;
   settings.time_constant_s = 0.01;
-  return {clock, *world, std::make_unique<PressureRegulatorSim>(*world, settings), {}};
+  // Silence is injected on demand: every bench its own device (a SimSilence
+  // is shared by every simulated device of one name in the process).
+  static std::atomic<int> benches{0};
+  const std::string device = "sim-conformance-" + std::to_string(benches++);
+  settings.fault = RegulatorSimSettings::Fault::Silent;
+  settings.silent_after_setpoints = 1'000'000;
+  RegulatorBench b{
+      clock, *world, std::make_unique<PressureRegulatorSim>(*world, settings, device), {}};
+  const std::string label = b.regulator->label();
+  b.unplug = [label] { SimSilence::find(label)->goSilent(); };
+  b.requests = [label] { return SimSilence::find(label)->unanswered(); };
+  return b;
 }
 
 }  // namespace
