@@ -1,5 +1,6 @@
 #include "app/adaptive_campaign.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -58,6 +59,11 @@ Result<AdaptiveCampaignReport> runAdaptiveCampaign(const hw::RigProfile& profile
   AdaptiveOptions design = design_in;
   design.angle_min_deg = o.angle_min_deg;
   design.angle_max_deg = o.angle_max_deg;
+  // The contact speeds the exit speeds give: the two spheres' speeds add
+  // (they fly at each other); a wall shot's is the one sphere's.
+  const double launchers = profile.wall ? 1.0 : 2.0;
+  design.speed_min_m_s = launchers * o.speed_min_m_s;
+  design.speed_max_m_s = launchers * o.speed_max_m_s;
   // The design's options are checked before anything is fired.
   if (auto first = chooseNextShot({}, {}, design); !first) return first.error();
 
@@ -80,6 +86,8 @@ Result<AdaptiveCampaignReport> runAdaptiveCampaign(const hw::RigProfile& profile
     PlannedShot planned;
     planned.incidence_deg = next->incidence_deg;
     planned.speed_m_s = {speed(rng), speed(rng)};
+    if (std::isfinite(next->speed_m_s))  // chosen: each launcher its share
+      planned.speed_m_s = {next->speed_m_s / launchers, next->speed_m_s / launchers};
     AdaptiveShot record;
     record.incidence_deg = next->incidence_deg;
     record.why = next->why;

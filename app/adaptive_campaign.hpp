@@ -36,7 +36,9 @@ using AdaptiveProgress =
     std::function<void(int done, int budget, const AdaptiveShot& shot, const AdaptiveStatus&)>;
 
 /// `options.shots` is the budget; the angle range and exit speeds come from
-/// `options` as for a plain campaign (speeds drawn per shot). Errors as
+/// `options` as for a plain campaign (speeds drawn per shot until the design
+/// knows how the noise scales with speed, then one end of the range, each
+/// launcher the same). Errors as
 /// runCampaign's, and bad design options (named).
 /// The fit's sigmas against the targets, e.g. "sigma(mu) 0.00612 (target
 /// 0.005), sigma(beta_0) 0.0133 (target 0.02)"; before a friction fit, why

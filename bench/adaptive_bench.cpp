@@ -51,6 +51,17 @@ RunResult finish(int shots, std::span<const CampaignShot> all, const Material& m
   return r;
 }
 
+// The rig's range of contact speeds in the speed table (0, 0: every shot at
+// the noise's own speed, the first table).
+double g_speed_min = 0, g_speed_max = 0;
+
+// A campaign's speed when nothing chooses it: uniform over the rig's range
+// (as app::planCampaign draws exit speeds), or the noise's own.
+double drawnSpeed(const AdaptiveOptions&, const ShotNoise& n, std::mt19937_64& rng) {
+  if (!(g_speed_max > g_speed_min)) return n.relative_speed_m_s;
+  return std::uniform_real_distribution<double>(g_speed_min, g_speed_max)(rng);
+}
+
 RunResult uniformRun(const Material& m, const ShotNoise& n, int budget, std::uint64_t seed,
                      const AdaptiveOptions& o) {
   std::mt19937_64 rng(seed);
@@ -60,7 +71,9 @@ RunResult uniformRun(const Material& m, const ShotNoise& n, int budget, std::uin
   std::shuffle(angles.begin(), angles.end(), rng);
   std::vector<CampaignShot> shots;
   for (int i = 0; i < budget; ++i) {
-    shots.push_back(synthesizeShot(m, angles[i], n, rng));
+    ShotNoise at = n;
+    at.relative_speed_m_s = drawnSpeed(o, n, rng);
+    shots.push_back(synthesizeShot(m, angles[i], at, rng));
     if (shots.size() >= 6 && assessCampaign(shots, o).targets_met)
       return finish(i + 1, shots, m, o);
   }
@@ -81,7 +94,10 @@ RunResult adaptiveRun(const Material& m, const ShotNoise& n, int budget, std::ui
     }
     if (print)
       std::printf("    shot %2d: %.1f deg: %s\n", i + 1, next->incidence_deg, next->why.c_str());
-    shots.push_back(synthesizeShot(m, next->incidence_deg, n, rng));
+    ShotNoise at = n;
+    at.relative_speed_m_s = drawnSpeed(o, n, rng);  // drawn always: same draws either way
+    if (std::isfinite(next->speed_m_s)) at.relative_speed_m_s = next->speed_m_s;
+    shots.push_back(synthesizeShot(m, next->incidence_deg, at, rng));
   }
   return finish(assessCampaign(shots, o).targets_met ? budget : budget + 1, shots, m, o);
 }
@@ -90,6 +106,46 @@ double median(std::vector<int> v) {
   std::sort(v.begin(), v.end());
   const std::size_t k = v.size() / 2;
   return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
+}
+
+double rmsOf(const std::vector<double>& v) {
+  double s = 0;
+  for (const double x : v) s += x * x;
+  return v.empty() ? NAN : std::sqrt(s / v.size());
+}
+
+// Issue 16 §2's "and speed": contact speeds 2-6 m/s, drawn (uniform sweep;
+// adaptive in angle only) or chosen by the design, with velocity errors flat
+// in speed (sigma_beta ~ 1/V: fast is better) or blur-limited (~V^2: slow is
+// better).
+void speedTable(std::span<const MaterialCase> materials, int runs, int budget, ShotNoise noise) {
+  g_speed_min = 2.0, g_speed_max = 6.0;
+  std::printf(
+      "\nspeed chosen or drawn, contact speeds %.0f-%.0f m/s (sigma_beta = %.3f (V / 4 m/s)^(k - "
+      "1) / sin psi)\n| material | k | uniform, speed drawn | adaptive, speed drawn | adaptive, "
+      "speed chosen | chosen / drawn | pull RMS mu / beta0, chosen |\n|---|---|---|---|---|---|---|"
+      "\n",
+      g_speed_min, g_speed_max, noise.sigma_beta_at_90);
+  for (const double k : {0.0, 2.0})
+    for (const MaterialCase& mc : materials) {
+      noise.speed_exponent = k;
+      AdaptiveOptions drawn, chosen;
+      chosen.speed_min_m_s = g_speed_min, chosen.speed_max_m_s = g_speed_max;
+      std::vector<int> uni, ada, sped;
+      std::vector<double> mu_pull, beta0_pull;
+      for (int r = 0; r < runs; ++r) {
+        uni.push_back(uniformRun(mc.m, noise, budget, 2000 + r, drawn).shots);
+        ada.push_back(adaptiveRun(mc.m, noise, budget, 2000 + r, drawn, false).shots);
+        const RunResult c = adaptiveRun(mc.m, noise, budget, 2000 + r, chosen, false);
+        sped.push_back(c.shots);
+        if (std::isfinite(c.mu_pull)) mu_pull.push_back(c.mu_pull);
+        if (std::isfinite(c.beta0_pull)) beta0_pull.push_back(c.beta0_pull);
+      }
+      std::printf("| %s | %.0f | %.1f | %.1f | %.1f | %.2f | %.2f / %.2f |\n", mc.name, k,
+                  median(uni), median(ada), median(sped), median(sped) / median(ada),
+                  rmsOf(mu_pull), rmsOf(beta0_pull));
+    }
+  g_speed_min = g_speed_max = 0;
 }
 
 }  // namespace
@@ -143,5 +199,6 @@ int main(int argc, char** argv) {
                 median(ada) / median(uni), rms(pulls[0]), rms(pulls[1]), rms(pulls[2]),
                 rms(pulls[3]));
   }
+  speedTable(materials, runs, budget, noise);
   return 0;
 }

@@ -236,8 +236,9 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   targets->addWidget(target_beta0_);
   auto* note = new QLabel(tr("(dimensionless; the shots box is the budget)"));
   note->setToolTip(
-      tr("The design chooses each shot's incidence; the exit speeds are drawn per shot from the "
-         "campaign's speed range, as in a uniform sweep."));
+      tr("The design chooses each shot's incidence, and its speed (the slowest or the fastest of "
+         "the campaign's speed range) once the shots so far show how the noise scales with "
+         "speed; until then speeds are drawn from the range, as in a uniform sweep."));
   targets->addWidget(note);
   targets->addStretch();
   layout->addWidget(adaptive_controls_);

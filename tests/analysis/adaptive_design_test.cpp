@@ -72,6 +72,56 @@ TEST(AdaptiveDesign, AimsNearTheSwitchOnceThereIsAFit) {
   }
 }
 
+// 20 shots over the angles at speeds 2-6 m/s, with velocity errors that grow
+// as speed^exponent, and the design's choice after them.
+Result<NextShot> afterSpreadSpeeds(double exponent, bool one_speed = false) {
+  std::mt19937_64 rng(5);
+  ShotNoise noise;
+  noise.sigma_beta_at_90 = 0.03;
+  noise.speed_exponent = exponent;
+  AdaptiveOptions o;
+  o.speed_min_m_s = 2.0;
+  o.speed_max_m_s = 6.0;
+  std::vector<CampaignShot> shots;
+  for (int i = 0; i < 20; ++i) {
+    noise.relative_speed_m_s = one_speed ? 4.0 : 2.0 + (i % 5);
+    shots.push_back(synthesizeShot(kNylon, 10 + 70.0 * (i + 0.5) / 20, noise, rng));
+  }
+  const AdaptiveStatus st = assessCampaign(shots, o);
+  if (!st.friction) return fail("no fit: " + st.fit_error);
+  return chooseNextShot(shots, st, o);
+}
+
+TEST(AdaptiveDesign, ChoosesTheFastestSpeedWhenVelocityErrorsDoNotGrowWithIt) {
+  // sigma_beta ~ sigma_v / v_s: with sigma_v flat, a faster shot tells more.
+  auto next = afterSpreadSpeeds(0.0);
+  ASSERT_TRUE(next.ok()) << next.error().message;
+  EXPECT_DOUBLE_EQ(next->speed_m_s, 6.0) << next->why;
+  EXPECT_NE(next->why.find("the fastest in the rig's range"), std::string::npos) << next->why;
+  EXPECT_NE(next->why.find("speed^-1.0"), std::string::npos) << next->why;  // the law it found
+}
+
+TEST(AdaptiveDesign, ChoosesTheSlowestSpeedWhenVelocityErrorsGrowFasterThanIt) {
+  // Blur-limited: sigma_v ~ v^2, so sigma_beta ~ v and a slow shot tells more.
+  auto next = afterSpreadSpeeds(2.0);
+  ASSERT_TRUE(next.ok()) << next.error().message;
+  EXPECT_DOUBLE_EQ(next->speed_m_s, 2.0) << next->why;
+  EXPECT_NE(next->why.find("the slowest in the rig's range"), std::string::npos) << next->why;
+  EXPECT_NE(next->why.find("speed^1.0"), std::string::npos) << next->why;
+}
+
+TEST(AdaptiveDesign, GoesToTheFarEndOfTheSpeedRangeUntilItKnowsHowTheNoiseScales) {
+  // Every shot so far at 4 m/s: nothing tells how sigma_beta scales with
+  // speed, so the next shot goes where it will (6 m/s is 1.5 x away, 2 m/s 2 x).
+  auto next = afterSpreadSpeeds(0.0, true);
+  ASSERT_TRUE(next.ok()) << next.error().message;
+  EXPECT_DOUBLE_EQ(next->speed_m_s, 2.0) << next->why;
+  EXPECT_NE(next->why.find("the slowest in the rig's range, to learn how sigma_beta scales with "
+                           "speed (20 usable shots at "),
+            std::string::npos)
+      << next->why;
+}
+
 // Shots until both sigmas are at their targets, adaptive or swept evenly.
 struct CampaignRun {
   int shots = 0;
