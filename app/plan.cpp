@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "app/campaign.hpp"
+#include "app/wall_campaign.hpp"
 
 namespace collide::app {
 namespace {
@@ -49,8 +50,23 @@ Result<Aim> aimAt(const hw::RigProfile& p, double incidence_deg,
   return fail("unreachable");
 }
 
-// The largest incidence in [0, wanted] that can be aimed at these speeds
-// (bisection: the aimable angles run from head-on up to a limit).
+// A wall rig: the plate turned for `incidence_deg`, launcher 1's exit speed
+// rescaled as above until the speed at contact is the wanted one.
+Result<Aim> aimWallAt(const hw::RigProfile& p, double incidence_deg, double want_m_s) {
+  double exit = want_m_s;
+  for (int round = 0; round < 8; ++round) {
+    auto aimed = aimWallForIncidence(p, incidence_deg, exit);
+    if (!aimed) return aimed.error();
+    auto launch = hw::planLaunch(*aimed, {exit, exit});
+    if (!launch) return launch.error();
+    Aim a{std::move(*aimed), 0.0, {exit, exit}, *launch};
+    const double ratio = want_m_s / a.launch.before_contact[0].velocity_m_s.norm();
+    if (std::abs(ratio - 1) < 1e-5 || round == 7) return a;
+    exit *= ratio;
+  }
+  return fail("unreachable");
+}
+
 // The largest angle in [0, wanted] (one decimal, on the feasible side) for
 // which `feasible` holds, by bisection (the feasible angles run from head-on
 // up to a limit); none when head-on is not feasible either.
@@ -132,15 +148,84 @@ Status checkRequest(const PlanRequest& r) {
   return Ok{};
 }
 
+// The fastest exit the calibration and the regulator's limit give, m/s.
+double maxExitSpeed(const hw::RigProfile& profile, const LaunchCalibration& curve) {
+  const double p_max = std::min(curve.maxPressure_kPa(), profile.regulator_config.max_kPa);
+  return std::min(curve.maxSpeed_m_s(), curve.speed_m_s(p_max));
+}
+
+// The exit speed's pressure from the calibration, or why not, naming the
+// launcher and the range.
+Result<double> pressureFor(const hw::RigProfile& profile, const LaunchCalibration& curve, int i,
+                           double exit_m_s) {
+  const double p_max = std::min(curve.maxPressure_kPa(), profile.regulator_config.max_kPa);
+  auto p = curve.pressure_kPa(exit_m_s);
+  if (p && *p <= p_max) return *p;
+  return fail(
+      "launcher " + profile.launchers[i].name + " would need an exit speed of " +
+      num("%.2f", exit_m_s) + " m/s, outside what the launch calibration and the regulator give (" +
+      num("%.2f", curve.minSpeed_m_s()) + " to " + num("%.2f", maxExitSpeed(profile, curve)) +
+      " m/s, " + num("%.0f", curve.minPressure_kPa()) + " to " + num("%.0f", p_max) + " kPa)");
+}
+
+// A sphere-on-wall rig: launcher 1 at the plate, turned for the incidence.
+Result<ShotPlan> planWallOnce(const hw::RigProfile& profile, const PlanRequest& request,
+                              Infeasible* infeasible) {
+  auto curve = profile.calibration.curve();
+  if (!curve) return curve.error();
+  const double want = request.speed_m_s[0];
+  auto aim = aimWallAt(profile, request.incidence_deg, want);
+  if (!aim) {
+    std::optional<PlanRequest> nearest;
+    if (const auto angle = largestAngle(request.incidence_deg, [&](double g) {
+          return static_cast<bool>(aimWallAt(profile, g, want));
+        })) {
+      nearest = request;
+      nearest->incidence_deg = *angle;
+    }
+    return refuse(
+        infeasible,
+        "a wall shot of " + describeRequest(request) + " cannot be fired: " + aim.error().message,
+        nearest);
+  }
+  auto pressure = pressureFor(profile, *curve, 0, aim->exit_speed_m_s[0]);
+  if (!pressure) {
+    const double v_lo = curve->minSpeed_m_s(), v_max = maxExitSpeed(profile, *curve);
+    PlanRequest nearest = request;
+    const double exit = aim->exit_speed_m_s[0];
+    nearest.speed_m_s[0] = nearest.speed_m_s[1] =
+        want * std::clamp(exit, v_lo * 1.001, v_max * 0.999) / exit;
+    return refuse(infeasible, pressure.error().message, nearest);
+  }
+  ShotPlan plan;
+  plan.wall = true;
+  plan.request = request;
+  plan.exit_speed_m_s = aim->exit_speed_m_s;
+  plan.pressure_kPa = {*pressure, *pressure};
+  plan.launch = aim->launch;
+  plan.aimed = std::move(aim->profile);
+  for (int i = 0; i < 2; ++i) plan.exit_m[i] = plan.aimed.launchers[i].exit_m;
+  const double v = plan.launch.before_contact[0].velocity_m_s.norm();
+  plan.speed_at_contact_m_s = {v, v};
+  plan.material = request.material.value_or(profile.spheres.material);
+  auto hit = collideWithWall(plan.launch.before_contact[0], *plan.aimed.wall, plan.material);
+  if (!hit) return fail("Walton's model on the planned contact: " + hit.error().message);
+  plan.prediction.after[0] = hit->after;
+  plan.prediction.contact = hit->contact;
+  // gamma = 180 deg - incidence.
+  plan.incidence_deg = 180.0 - hit->contact.before.gamma_rad * kDegPerRad;
+  return plan;
+}
+
 // One attempt: the plan, or why not with a nearest wish that clears the limit
 // named (another limit may still stand in its way).
 Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& request,
                           Infeasible* infeasible) {
   if (auto ok = checkRequest(request); !ok) return ok.error();
+  if (profile.wall) return planWallOnce(profile, request, infeasible);
   auto curve = profile.calibration.curve();
   if (!curve) return curve.error();
   const double v_lo = curve->minSpeed_m_s(), v_hi = curve->maxSpeed_m_s();
-  const double p_max = std::min(curve->maxPressure_kPa(), profile.regulator_config.max_kPa);
 
   // Aimed without the slide's travel, which is checked below with its own message.
   hw::RigProfile free = profile;
@@ -198,21 +283,13 @@ Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& requ
   // The calibrated speeds, and the pressures the regulator may give.
   ShotPlan plan;
   for (int i = 0; i < 2; ++i) {
-    const double v = aim->exit_speed_m_s[i];
-    auto p = curve->pressure_kPa(v);
-    if (!p || *p > p_max) {
-      const double v_max = p ? std::min(v_hi, curve->speed_m_s(p_max)) : v_hi;
+    auto p = pressureFor(profile, *curve, i, aim->exit_speed_m_s[i]);
+    if (!p) {
+      const double v_max = maxExitSpeed(profile, *curve);
       PlanRequest nearest = request;
       nearest.speed_m_s = speedsInside(*aim, request.speed_m_s, v_lo, v_max);
       const bool ok = static_cast<bool>(aimAt(free, nearest.incidence_deg, nearest.speed_m_s));
-      return refuse(infeasible,
-                    "launcher " + profile.launchers[i].name + " would need an exit speed of " +
-                        num("%.2f", v) +
-                        " m/s, outside what the launch calibration and the "
-                        "regulator give (" +
-                        num("%.2f", v_lo) + " to " + num("%.2f", v_max) + " m/s, " +
-                        num("%.0f", curve->minPressure_kPa()) + " to " + num("%.0f", p_max) +
-                        " kPa)",
+      return refuse(infeasible, p.error().message,
                     ok ? std::optional<PlanRequest>(nearest) : std::nullopt);
     }
     plan.pressure_kPa[i] = *p;
@@ -238,6 +315,41 @@ Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& requ
   return plan;
 }
 
+std::string vec3(const Vec3& v, const char* spec, double scale = 1.0) {
+  return "(" + num(spec, v.x() * scale) + ", " + num(spec, v.y() * scale) + ", " +
+         num(spec, v.z() * scale) + ")";
+}
+
+// A wall shot's lines after the first: the plate, launcher 1, the contact and
+// Walton's infinite-mass prediction.
+std::string describeWallPlan(const ShotPlan& p) {
+  std::string s;
+  const auto line = [&](const std::string& l) { s += l + "\n"; };
+  const Wall& w = *p.aimed.wall;
+  line("  plate: turned to normal " + vec3(w.normal.normalized(), "%.4f") + " through " +
+       vec3(w.point_m, "%.2f", 1e3) + " mm (the profile's [wall] normal and point_m)");
+  line("  launcher " + p.aimed.launchers[0].name + ": exit at " + vec3(p.exit_m[0], "%.2f", 1e3) +
+       " mm; exit speed " + num("%.3f", p.exit_speed_m_s[0]) + " m/s, pressure " +
+       num("%.2f", p.pressure_kPa[0]) + " kPa; launcher " + p.aimed.launchers[1].name +
+       " is not fired");
+  line("  contact: " + num("%.2f", p.launch.contact_s * 1e3) + " ms after the valve opens, at (" +
+       num("%.2f", p.launch.contact_point_m.x() * 1e3) + ", " +
+       num("%.2f", p.launch.contact_point_m.y() * 1e3) + ") mm, pixel (" +
+       num("%.1f", p.launch.contact_px.x()) + ", " + num("%.1f", p.launch.contact_px.y()) + ")");
+  line("  incidence " + num("%.2f", p.incidence_deg) + " deg; speed at contact " +
+       num("%.3f", p.speed_at_contact_m_s[0]) + " m/s (spin and launch scatter aside)");
+  const ContactOutcome& c = p.prediction.contact;
+  const Sphere& a = p.prediction.after[0];
+  line("  Walton's model against a wall (e " + num("%.3f", p.material.e) + ", mu " +
+       num("%.3f", p.material.mu) + ", beta0 " + num("%.3f", p.material.beta0) + "): " +
+       (c.regime == Regime::Sliding ? "sliding" : "rolling") + ", beta " + num("%.3f", c.beta) +
+       ", gamma " + num("%.2f", c.before.gamma_rad * kDegPerRad) + " deg, v_n " +
+       num("%.3f", c.before.v_n_m_s) + " m/s, v_s " + num("%.3f", c.before.v_s_m_s) + " m/s");
+  line("    sphere after: velocity " + vec3(a.velocity_m_s, "%.3f") + " m/s, spin " +
+       vec3(a.spin_rad_s, "%.1f") + " rad/s");
+  return s;
+}
+
 }  // namespace
 
 Result<ShotPlan> planShot(const hw::RigProfile& profile, const PlanRequest& request,
@@ -260,6 +372,7 @@ std::string describePlan(const ShotPlan& p) {
   std::string s;
   const auto line = [&](const std::string& l) { s += l + "\n"; };
   line("plan: " + describeRequest(p.request) + " at contact, rig " + p.aimed.name);
+  if (p.wall) return s + describeWallPlan(p);
   for (int i = 0; i < 2; ++i) {
     const Vec3& x = p.exit_m[i];
     std::string slide = i == 1 ? (std::abs(p.slide_offset_m) < 5e-7

@@ -4,7 +4,10 @@
 // vertical slide, each launcher's exit speed and pressure from the launch
 // calibration, the valve delay, where and when the spheres meet in the image,
 // and what Walton's model predicts for the shot. A wish the rig cannot fire
-// is refused with the reason and the nearest shot it can fire.
+// is refused with the reason and the nearest shot it can fire. On a
+// sphere-on-wall rig (a [wall] table) the plate is turned instead of the
+// slide moved, only launcher 1 fires, and the prediction is Walton's
+// infinite-mass limit.
 #include <array>
 #include <optional>
 #include <string>
@@ -40,7 +43,10 @@ struct ShotPlan {
   double incidence_deg = 0.0;                    ///< as planned (spins and scatter aside)
   std::array<double, 2> speed_at_contact_m_s{0.0, 0.0};
   Material material;     ///< used for the prediction
-  Collision prediction;  ///< Walton's model on launch.before_contact
+  Collision prediction;  ///< Walton's model on launch.before_contact (a wall shot: after[0] only)
+  /// A sphere-on-wall shot: the plate as aimed (aimed.wall); launcher 2 is
+  /// not fired (its exit speed and pressure repeat launcher 1's, unused).
+  bool wall = false;
 };
 
 /// Why a wish cannot be fired, and the nearest one that can.

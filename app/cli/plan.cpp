@@ -24,33 +24,42 @@ nlohmann::json vec(const collide::Vec3& v) {
 nlohmann::json toJson(const collide::app::ShotPlan& p) {
   using nlohmann::json;
   json launchers = json::array();
-  for (int i = 0; i < 2; ++i)
+  for (int i = 0; i < 2; ++i) {
+    const bool fired = !p.wall || i == 0;  // a wall rig fires launcher 1 only
     launchers.push_back({{"name", p.aimed.launchers[i].name},
+                         {"fired", fired},
                          {"exit_m", vec(p.exit_m[i])},
-                         {"exit_speed_m_s", p.exit_speed_m_s[i]},
-                         {"pressure_kpa", p.pressure_kPa[i]},
+                         {"exit_speed_m_s", fired ? json(p.exit_speed_m_s[i]) : json(nullptr)},
+                         {"pressure_kpa", fired ? json(p.pressure_kPa[i]) : json(nullptr)},
                          {"valve_open_s", p.launch.valve_open_s[i]}});
+  }
   const auto& c = p.prediction.contact;
   json after = json::array();
-  for (int i = 0; i < 2; ++i)
+  for (int i = 0; i < (p.wall ? 1 : 2); ++i)
     after.push_back({{"velocity_m_s", vec(p.prediction.after[i].velocity_m_s)},
                      {"spin_rad_s", vec(p.prediction.after[i].spin_rad_s)}});
-  return {{"incidence_deg", p.incidence_deg},
-          {"speed_at_contact_m_s", p.speed_at_contact_m_s},
-          {"slide_offset_m", p.slide_offset_m},
-          {"launchers", launchers},
-          {"contact",
-           {{"time_s", p.launch.contact_s},
-            {"point_m", vec(p.launch.contact_point_m)},
-            {"pixel", {p.launch.contact_px.x(), p.launch.contact_px.y()}}}},
-          {"prediction",
-           {{"material", {{"e", p.material.e}, {"mu", p.material.mu}, {"beta0", p.material.beta0}}},
-            {"regime", c.regime == collide::Regime::Sliding ? "sliding" : "rolling"},
-            {"beta", c.beta},
-            {"gamma_deg", c.before.gamma_rad * 180 / 3.14159265358979323846},
-            {"vn_m_s", c.before.v_n_m_s},
-            {"vs_m_s", c.before.v_s_m_s},
-            {"spheres", after}}}};
+  json out = {
+      {"target", p.wall ? "wall" : "sphere"},
+      {"incidence_deg", p.incidence_deg},
+      {"speed_at_contact_m_s", p.speed_at_contact_m_s},
+      {"slide_offset_m", p.slide_offset_m},
+      {"launchers", launchers},
+      {"contact",
+       {{"time_s", p.launch.contact_s},
+        {"point_m", vec(p.launch.contact_point_m)},
+        {"pixel", {p.launch.contact_px.x(), p.launch.contact_px.y()}}}},
+      {"prediction",
+       {{"material", {{"e", p.material.e}, {"mu", p.material.mu}, {"beta0", p.material.beta0}}},
+        {"regime", c.regime == collide::Regime::Sliding ? "sliding" : "rolling"},
+        {"beta", c.beta},
+        {"gamma_deg", c.before.gamma_rad * 180 / 3.14159265358979323846},
+        {"vn_m_s", c.before.v_n_m_s},
+        {"vs_m_s", c.before.v_s_m_s},
+        {"spheres", after}}}};
+  if (p.wall)
+    out["wall"] = {{"point_m", vec(p.aimed.wall->point_m)},
+                   {"normal", vec(p.aimed.wall->normal.normalized())}};
+  return out;
 }
 
 void setupPlan(CLI::App& sub, std::function<int()>& run) {

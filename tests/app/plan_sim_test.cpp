@@ -5,15 +5,18 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <regex>
 
 #include "app/analyze.hpp"
 #include "app/campaign.hpp"
 #include "app/plan.hpp"
 #include "app/rig_setup.hpp"
+#include "app/wall_analyze.hpp"
 #include "cli_run.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/shot_analysis.hpp"
+#include "vision/wall_shot_analysis.hpp"
 
 namespace collide::app {
 namespace {
@@ -57,6 +60,50 @@ TEST(Plan, ShotsLandOnTheWantedIncidenceAndSpeed) {
     for (int s = 0; s < 2; ++s)
       EXPECT_NEAR(r->sphere[s].velocity_before_m_s.value.norm(), 2.0, 0.04)
           << incidence << " deg, sphere " << s + 1;
+  }
+}
+
+// A sphere-on-wall rig: the plate is turned instead of the slide moved, only
+// launcher 1 fires, and the shot lands where it was asked to (the analysis'
+// incidence against the plate, the speed at contact), with Walton's wall
+// prediction on the planned contact.
+TEST(Plan, WallShotsLandOnTheWantedIncidenceAndSpeed) {
+  auto profile = hw::loadRigProfile(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-wall.toml");
+  ASSERT_TRUE(profile.ok()) << profile.error().message;
+  for (const double incidence : {15.0, 45.0, 70.0}) {
+    PlanRequest req;
+    req.incidence_deg = incidence;
+    req.speed_m_s = {2.0, 2.0};
+    auto plan = planShot(*profile, req);
+    ASSERT_TRUE(plan.ok()) << incidence << ": " << plan.error().message;
+    EXPECT_TRUE(plan->wall);
+    EXPECT_NEAR(plan->incidence_deg, incidence, 1e-3);
+    EXPECT_NEAR(plan->speed_at_contact_m_s[0], 2.0, 1e-4);
+    const std::string text = describePlan(*plan);
+    EXPECT_NE(text.find("plate: turned to normal"), std::string::npos) << text;
+    EXPECT_NE(text.find("is not fired"), std::string::npos) << text;
+    // Walton's wall limit on the planned state: v_n' = -e v_n.
+    const Vec3 n = plan->prediction.contact.before.normal;
+    EXPECT_NEAR(plan->prediction.after[0].velocity_m_s.dot(n),
+                -profile->spheres.material.e * plan->launch.before_contact[0].velocity_m_s.dot(n),
+                1e-9);
+    auto shot = fireShot(
+        plan->aimed, hw::ShotRequest::atSpeeds(plan->exit_speed_m_s[0], plan->exit_speed_m_s[1]),
+        "wall-plan");
+    ASSERT_TRUE(shot.ok()) << shot.error().message;
+    ASSERT_EQ(shot->status, hw::ShotStatus::Ok) << shot->failure_reason;
+    const auto settings = wallAnalysisSettingsFor(*shot);
+    ASSERT_TRUE(settings);
+    auto r = vision::analyzeWallBurst(shot->burst, *settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    // The centre's incidence: the launch spin (up to 20 rad/s) moves the
+    // contact point's by more, so the velocity against the plate is compared.
+    const Vec3 v = r->sphere_before.velocity_m_s, nw = r->wall.normal.normalized();
+    const double measured = std::acos(std::clamp(-v.dot(nw) / v.norm(), -1.0, 1.0)) * 180 / M_PI;
+    std::printf("wall plan %.0f deg at 2 m/s: measured %.2f deg, %.3f m/s\n", incidence, measured,
+                v.norm());
+    EXPECT_NEAR(measured, incidence, 1.0) << incidence;
+    EXPECT_NEAR(v.norm(), 2.0, 0.04) << incidence;
   }
 }
 
