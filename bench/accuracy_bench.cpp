@@ -9,6 +9,7 @@
 //   fast12   config/sim-fast12.toml  4000 frames/s, 12-bit, 90 px spheres
 //   unequal  config/sim-unequal.toml a 2.54 and a 1.905 cm sphere
 //   backlit  config/sim-backlit.toml silhouettes; spin (and beta) not asked
+//   wall     config/sim-wall.toml    one sphere on a plate (the wall analysis)
 //
 //   build/bench/accuracy_bench [--shots N] [--preset NAME,NAME] [--profile FILE] [--seed S]
 //                              [--verbose] [--save-bad DIR] [--reanalyse FILE]
@@ -38,6 +39,7 @@
 #include "app/rig_setup.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
+#include "app/wall_analyze.hpp"
 #include "bench/truth_at_contact.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/shot_analysis.hpp"
@@ -101,6 +103,7 @@ const Preset kPresets[] = {
     {"fast12", "sim-fast12.toml", 2.0, 3.5, true, false, "4000 f/s, 12-bit, 90 px spheres"},
     {"unequal", "sim-unequal.toml", 1.6, 2.6, true, false, "2.54 and 1.905 cm spheres"},
     {"backlit", "sim-backlit.toml", 1.6, 2.6, false, false, "dark silhouettes, no spin asked"},
+    {"wall", "sim-wall.toml", 1.6, 2.6, true, false, "one sphere on a plate, 640x480"},
 };
 
 // What one preset's shots gave.
@@ -157,7 +160,7 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
 
 // Errors of one analysed shot against the truth, into `out`.
 void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeasurement& truth,
-               const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta,
+               const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta, int spheres,
                PresetResult& out) {
   const vision::CollisionProperties& c = r.collision;
   const bool flagged = !r.quality_flags.empty();
@@ -179,7 +182,7 @@ void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeas
     out.db.add(b_err);
     out.pb.add(b_err / c.beta.sigma);
   }
-  for (int s = 0; s < 2; ++s) {
+  for (int s = 0; s < spheres; ++s) {
     const vision::SphereKinematics& k = r.sphere[s];
     // In-plane velocity errors relative to the speed (the z part is a prior).
     const auto rel = [](const Vec3& m, const Vec3& t) {
@@ -192,6 +195,79 @@ void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeas
       out.dspin.add((k.spin_after_rad_s.value - ta[s].spin_rad_s).norm());
     }
   }
+}
+
+// One analysed shot into the preset's figures: errors and pulls against the
+// truth, flags, the campaign's points; saved when bad, printed when asked.
+void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double psi_deg,
+                const vision::ShotAnalysis& r, const WaltonMeasurement& truth,
+                const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta, int spheres,
+                PresetResult& out) {
+  out.flagged += !r.quality_flags.empty();
+  for (const std::string& f : r.quality_flags) ++out.flag_count[f];
+  scoreShot(pr, r, truth, tb, ta, spheres, out);
+  const vision::CollisionProperties& c = r.collision;
+  if (r.quality_flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 && c.e.sigma > 0)
+    out.points.push_back(app::campaignShotFrom(c));
+  const double e_err = c.e.value - truth.e, b_err = c.beta.value - truth.beta;
+  const double g_err = c.gamma_deg.value - truth.before.gamma_rad * 180 / std::numbers::pi;
+  const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||
+                   (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
+  if (bad)
+    saveBad(shot, "error beyond 4 sigma");
+  else if (!r.quality_flags.empty())
+    saveBad(shot, "flagged " + r.quality_flags.front());
+  if (g_verbose || bad) {
+    std::printf(
+        "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "
+        "sigma) gamma %.2f deg (err %+.2f, %.1f sigma)",
+        i, psi_deg, c.e.value, e_err, e_err / c.e.sigma, c.beta.value, b_err, b_err / c.beta.sigma,
+        c.gamma_deg.value, g_err, g_err / c.gamma_deg.sigma);
+    for (const std::string& f : r.quality_flags) std::printf(" [%s]", f.c_str());
+    std::printf("\n");
+    if (g_verbose && spheres == 2) printShotDetail(r, tb, ta);
+  }
+}
+
+// A sphere-on-wall shot: analysed as `collide analyze` analyses a wall rig's
+// shot (app::analyzeWallShot, read back from its results JSON), against the
+// truth's impact on the plate (Walton's infinite-mass limit).
+void scoreWallShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double psi_deg,
+                   PresetResult& out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto json = app::analyzeWallShot(shot);
+  const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.analysis_s += dt;
+  out.frames += static_cast<int>(shot.burst.frames.size());
+  out.max_frames = std::max(out.max_frames, static_cast<int>(shot.burst.frames.size()));
+  out.worst_shot_ms = std::max(out.worst_shot_ms, 1e3 * dt);
+  const std::string name = "shot " + std::to_string(i);
+  auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id);
+  std::array<Sphere, 2> tb, ta;
+  if (!profile || !profile->wall || !truthAtContact(shot, tb, ta, 1)) {
+    out.failures.push_back(name + ": no wall impact in the truth");
+    return;
+  }
+  auto truth = measureWallCollision(tb[0], ta[0], *profile->wall);
+  if (!json || !json->ok() || !truth) {
+    const std::string why = !json         ? "not taken for a wall shot"
+                            : !json->ok() ? json->error().message
+                                          : truth.error().message;
+    out.failures.push_back(name + " not analysed: " + why);
+    saveBad(shot, why);
+    return;
+  }
+  auto results = app::parseResultsJson(json->value());
+  if (!results) {
+    out.failures.push_back(name + ": " + results.error().message);
+    return;
+  }
+  ++out.analysed;
+  vision::ShotAnalysis r;
+  r.collision = results->collision;
+  r.sphere = results->sphere;
+  r.quality_flags = results->quality_flags;
+  recordShot(pr, shot, i, psi_deg, r, *truth, tb, ta, 1, out);
 }
 
 PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
@@ -231,6 +307,10 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
     }
     ++out.fired;
     const hw::Shot& shot = *fired;
+    if (base.wall) {
+      scoreWallShot(pr, shot, i, plan[i].incidence_deg, out);
+      continue;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     auto r = vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
     const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -263,31 +343,7 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
               tb[s].velocity_m_s.head<2>().norm());
       }
     }
-    out.flagged += !r->quality_flags.empty();
-    for (const std::string& f : r->quality_flags) ++out.flag_count[f];
-    scoreShot(pr, *r, *truth, tb, ta, out);
-    const vision::CollisionProperties& c = r->collision;
-    if (r->quality_flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 &&
-        c.e.sigma > 0)
-      out.points.push_back(app::campaignShotFrom(c));
-    const double e_err = c.e.value - truth->e, b_err = c.beta.value - truth->beta;
-    const double g_err = c.gamma_deg.value - truth->before.gamma_rad * 180 / std::numbers::pi;
-    const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||
-                     (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
-    if (bad)
-      saveBad(shot, "error beyond 4 sigma");
-    else if (!r->quality_flags.empty())
-      saveBad(shot, "flagged " + r->quality_flags.front());
-    if (g_verbose || bad) {
-      std::printf(
-          "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "
-          "sigma) gamma %.2f deg (err %+.2f, %.1f sigma)",
-          i, plan[i].incidence_deg, c.e.value, e_err, e_err / c.e.sigma, c.beta.value, b_err,
-          b_err / c.beta.sigma, c.gamma_deg.value, g_err, g_err / c.gamma_deg.sigma);
-      for (const std::string& f : r->quality_flags) std::printf(" [%s]", f.c_str());
-      std::printf("\n");
-      if (g_verbose) printShotDetail(*r, tb, ta);
-    }
+    recordShot(pr, shot, i, plan[i].incidence_deg, *r, *truth, tb, ta, 2, out);
   }
   if (auto e = fitRestitutionMean(out.points); !e) {
     out.fit_error = e.error().message;

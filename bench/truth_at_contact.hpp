@@ -12,8 +12,9 @@ namespace collide::bench {
 // The truth at the collision: free flight (gravity only) is exact, so the
 // states of the last frame before and the first frame after the contact,
 // carried to the contact instant, are the states just before and after it.
+// `spheres`: 2, or 1 for a sphere-on-wall shot (sphere 1 only).
 inline bool truthAtContact(const hw::Shot& shot, std::array<Sphere, 2>& before,
-                           std::array<Sphere, 2>& after) {
+                           std::array<Sphere, 2>& after, int spheres = 2) {
   const hw::TruthRecord& t = *shot.truth;
   int kb = -1, ka = -1;
   for (std::size_t k = 0; k < t.t_s.size(); ++k) {
@@ -21,7 +22,7 @@ inline bool truthAtContact(const hw::Shot& shot, std::array<Sphere, 2>& before,
     if (t.t_s[k] > t.t_collision_s && ka < 0) ka = static_cast<int>(k);
   }
   if (kb < 0 || ka < 0) return false;
-  for (int i = 0; i < 2; ++i) {
+  for (int i = 0; i < spheres; ++i) {
     for (const bool pre : {true, false}) {
       const SphereState& st = t.states[pre ? kb : ka][i];
       const double dt = t.t_collision_s - t.t_s[pre ? kb : ka];
