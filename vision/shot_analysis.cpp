@@ -27,22 +27,6 @@ namespace {
 
 constexpr double kG = 9.80665;
 
-// Dots crossing the limb displace the detected edge, and so the centre, by
-// an amount that grows with the motion blur smearing them over it; as the
-// sphere turns, the displacement changes slowly: an error correlated over
-// many frames that the fits absorb, so their residuals cannot reveal it. It
-// is carried as a random offset of each sphere's centre and a drift over each
-// track, of RMS 0.22 px / radius x max(blur, 0.5 px) / 1.9 px: calibrated on
-// simulated shots of 120 px spheres blurred by 1.9 px (1000 frames/s,
-// 200 us), where it is 0.004 px, and of 90 px spheres blurred by 0.5 px
-// (4000 frames/s, 50 us), where a term without the blur made the sigmas five
-// times too wide; below 0.5 px of blur (a slow sphere) it was not measured
-// and is held there. A sphere whose dots were seen on neither side carries
-// none (docs/benchmarks.md, "Uncertainty calibration").
-double dotBiasPx(double radius_px, double blur_px) {
-  return 0.22 / radius_px * std::max(blur_px, 0.5) / 1.9;
-}
-
 void addFlag(ShotAnalysis& a, const std::string& f) {
   if (std::find(a.quality_flags.begin(), a.quality_flags.end(), f) == a.quality_flags.end())
     a.quality_flags.push_back(f);
@@ -211,16 +195,15 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.spin[s][side] = spins.side[s][side].spin;
       in.spin_cov[s][side] = spins.side[s][side].cov;
     }
+  // The dots' slow pull on the outline (vision/shot_fits.hpp).
   for (int s = 0; s < 2; ++s) {
     const auto& sides = spins.side[s];
     if (sides[0].unknown_reason && sides[1].unknown_reason) continue;  // no dots seen
     for (int side = 0; side < 2; ++side) {
       const TrajectoryFit& f = fits.fit[s][side]->fit;
+      in.drift[s][side] = dotDriftSigma_m_s(f, r_med[s], px, exposure_s);
       const double blur_px = f.velocityAt_m_s(f.tRef_s()).value.norm() * exposure_s / px;
-      const double bias_m = dotBiasPx(r_med[s], blur_px) * px;
-      const double span = f.tLast_s() - f.tFirst_s();
-      in.drift[s][side] = span > 0 ? bias_m / span : 0.0;
-      in.offset[s] = std::max(in.offset[s], bias_m);
+      in.offset[s] = std::max(in.offset[s], dotBiasPx(r_med[s], blur_px) * px);
     }
   }
   // Collision instant: both estimates, combined by their uncertainties.

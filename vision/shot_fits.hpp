@@ -52,6 +52,24 @@ struct SideFit {
 /// over the axes: (1 + rho) / (1 - rho), rho clamped to [0, 0.8].
 double residualInflation(const TrajectoryFit& fit);
 
+/// Dots crossing the limb displace the detected edge, and so the centre, by
+/// an amount that grows with the motion blur smearing them over it; as the
+/// sphere turns, the displacement changes slowly: an error correlated over
+/// many frames that the trajectory fits absorb, so their residuals cannot
+/// reveal it. Its RMS, px: 0.22 px / radius x max(blur, 0.5 px) / 1.9 px,
+/// calibrated on simulated shots of 120 px spheres blurred by 1.9 px (1000
+/// frames/s, 200 us), where it is 0.004 px, and of 90 px spheres blurred by
+/// 0.5 px (4000 frames/s, 50 us), where a term without the blur made the
+/// sigmas five times too wide; below 0.5 px of blur (a slow sphere) it was
+/// not measured and is held there (docs/benchmarks.md, "Uncertainty
+/// calibration"). A sphere whose dots were seen on neither side carries none.
+double dotBiasPx(double radius_px, double blur_px);
+
+/// The systematic velocity sigma that bias gives a track fitted over `fit`'s
+/// span (m/s): dotBiasPx x pixel / span, the blur from the track's speed.
+double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
+                         double exposure_s);
+
 /// Fits one sphere's centres over `frames` (metres, world axes), dropping
 /// frames that lie far off the fit (more than 5 robust sigmas) once.
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,

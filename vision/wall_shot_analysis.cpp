@@ -6,6 +6,7 @@
 #include <random>
 
 #include "vision/dot_detector.hpp"
+#include "vision/shot_fits.hpp"
 #include "vision/shot_spins.hpp"
 #include "vision/sphere_detector.hpp"
 #include "vision/spin_fit.hpp"
@@ -365,8 +366,19 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   auto m = measureWallCollision(b, a.sphere_after, a.wall);
   if (!m) return fail("wall inverse: " + m.error().message);
   a.measured = *m;
+  // As the two-sphere analysis: residuals correlated from frame to frame
+  // (lag-1 inflation) and the dots' slow pull on the outline
+  // (vision/shot_fits.hpp).
+  const auto velocitySigma = [&](const TrajectoryFit& f, double t) {
+    Vec3 sigma = f.velocityAt_m_s(t).sigma * std::sqrt(residualInflation(f));
+    if (sb.known || sa.known) {
+      const double drift = dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6);
+      for (int ax = 0; ax < 2; ++ax) sigma(ax) = std::hypot(sigma(ax), drift);
+    }
+    return sigma;
+  };
   propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
-            sa, fb->velocityAt_m_s(*tc).sigma, fa->velocityAt_m_s(*ts).sigma);
+            sa, velocitySigma(*fb, *tc), velocitySigma(*fa, *ts));
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;
