@@ -2,35 +2,79 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <vector>
 
 namespace collide::vision {
 
 namespace {
 
-// Per-pixel median of up to 15 good frames spread over the burst, as float.
-cv::Mat medianImage(const Burst& burst) {
+// Per pixel, the median of the picked frames' values, row by row on their
+// own type (no conversion of whole frames); within `band` px of `line` only,
+// when one is given (NaN elsewhere).
+template <class T>
+void medianRows(const std::vector<const cv::Mat*>& pick, const std::optional<WallLine>& line,
+                double band, cv::Mat& out) {
+  const std::size_t n = pick.size();
+  std::vector<T> px(n);
+  std::vector<const T*> rows(n);
+  for (int v = 0; v < out.rows; ++v) {
+    int u0 = 0, u1 = out.cols - 1;
+    if (line) {
+      // |(u - p.x) n.x + (v - p.y) n.y| <= band, solved for u on this row.
+      const Eigen::Vector2d nrm = line->normal.normalized();
+      const double rest = (v - line->point_px.y()) * nrm.y();
+      if (std::abs(nrm.x()) < 1e-9) {
+        if (std::abs(rest) > band) u1 = -1;
+      } else {
+        const double a = line->point_px.x() + (-band - rest) / nrm.x();
+        const double b = line->point_px.x() + (band - rest) / nrm.x();
+        u0 = std::max(u0, static_cast<int>(std::floor(std::min(a, b))));
+        u1 = std::min(u1, static_cast<int>(std::ceil(std::max(a, b))));
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) rows[i] = pick[i]->ptr<T>(v);
+    float* o = out.ptr<float>(v);
+    for (int u = u0; u <= u1; ++u) {
+      for (std::size_t i = 0; i < n; ++i) px[i] = rows[i][u];
+      std::nth_element(px.begin(), px.begin() + n / 2, px.end());
+      o[u] = static_cast<float>(px[n / 2]);
+    }
+  }
+}
+
+// Per-pixel median of up to 15 good frames spread over the burst, as float
+// (empty when there are none, or they differ in size or type); with a line,
+// only within `band` px of it (the refinement looks no further).
+cv::Mat medianImage(const Burst& burst, const std::optional<WallLine>& line = std::nullopt,
+                    double band = 0) {
   std::vector<const cv::Mat*> frames;
   for (const Frame& f : burst.frames)
     if (f.good()) frames.push_back(&f.image);
   if (frames.empty()) return {};
   const std::size_t n = std::min<std::size_t>(15, frames.size());
-  std::vector<cv::Mat> pick;
-  for (std::size_t i = 0; i < n; ++i) {
-    cv::Mat f;
-    frames[i * (frames.size() - 1) / std::max<std::size_t>(1, n - 1)]->convertTo(f, CV_32F);
-    pick.push_back(f);
-  }
-  cv::Mat out(pick[0].size(), CV_32F);
-  std::vector<float> px(n);
-  for (int v = 0; v < out.rows; ++v)
-    for (int u = 0; u < out.cols; ++u) {
-      for (std::size_t i = 0; i < n; ++i) px[i] = pick[i].at<float>(v, u);
-      std::nth_element(px.begin(), px.begin() + n / 2, px.end());
-      out.at<float>(v, u) = px[n / 2];
+  std::vector<const cv::Mat*> pick;
+  for (std::size_t i = 0; i < n; ++i)
+    pick.push_back(frames[i * (frames.size() - 1) / std::max<std::size_t>(1, n - 1)]);
+  cv::Mat out(pick[0]->size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (const cv::Mat* m : pick)
+    if (m->size() != out.size() || m->type() != pick[0]->type() || m->channels() != 1) return {};
+  switch (pick[0]->depth()) {
+    case CV_8U: medianRows<std::uint8_t>(pick, line, band, out); break;
+    case CV_16U: medianRows<std::uint16_t>(pick, line, band, out); break;
+    default: {
+      std::vector<cv::Mat> converted(n);
+      std::vector<const cv::Mat*> as_float;
+      for (std::size_t i = 0; i < n; ++i) {
+        pick[i]->convertTo(converted[i], CV_32F);
+        as_float.push_back(&converted[i]);
+      }
+      medianRows<float>(as_float, line, band, out);
     }
+  }
   return out;
 }
 
@@ -101,7 +145,9 @@ std::vector<Eigen::Vector2d> edgePoints(const cv::Mat& img, const WallLine& l) {
 
 Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess,
                                  std::optional<Eigen::Vector2d> sphere_px) {
-  const cv::Mat median = medianImage(burst);
+  // With a guess, the median is needed only where the refinement's profiles
+  // reach (8 px either side of a line that moves by a few px at most).
+  const cv::Mat median = guess ? medianImage(burst, guess, 24.0) : medianImage(burst);
   if (median.empty()) return fail("no good frames to find the wall in");
   if (!guess) {
     // Of the candidate edges with enough edge points under them, the one
