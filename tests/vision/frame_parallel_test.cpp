@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <stdexcept>
 #include <thread>
@@ -41,13 +42,25 @@ TEST(FrameParallel, EveryFrameOnceProgressOnTheCallingThreadInOrder) {
 }
 
 TEST(FrameParallel, TheFirstErrorStopsTheRestAndIsRethrown) {
+  // Frames after the bad one wait (up to 2 s) until it has thrown: otherwise
+  // another thread may finish every frame while the throw is still being set
+  // up (slow under ASan on a loaded machine), and nothing is left to stop.
   std::atomic<int> ran{0};
-  EXPECT_THROW(forEachFrame(10000,
-                            [&](std::size_t k) {
-                              ran.fetch_add(1);
-                              if (k == 3) throw std::runtime_error("frame 3 is corrupt");
-                            }),
-               std::runtime_error);
+  std::atomic<bool> thrown{false};
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_THROW(
+      forEachFrame(10000,
+                   [&](std::size_t k) {
+                     ran.fetch_add(1);
+                     if (k == 3) {
+                       thrown = true;
+                       throw std::runtime_error("frame 3 is corrupt");
+                     }
+                     while (k > 3 && !thrown &&
+                            std::chrono::steady_clock::now() - start < std::chrono::seconds(2))
+                       std::this_thread::yield();
+                   }),
+      std::runtime_error);
   EXPECT_LT(ran.load(), 10000) << "frames went on after the error";
   forEachFrame(0, [](std::size_t) { FAIL() << "no frame to run"; });
 }
