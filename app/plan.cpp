@@ -27,12 +27,17 @@ struct Aim {
   hw::LaunchPlan launch;
 };
 
+// A wall rig fires launcher 1 only: its plate is turned instead of launcher
+// 2's slide moved, and both exit speeds carry launcher 1's.
 Result<Aim> aimAt(const hw::RigProfile& p, double incidence_deg,
                   const std::array<double, 2>& want_m_s) {
+  const int fired = p.wall ? 1 : 2;
   std::array<double, 2> exit = want_m_s;
   for (int round = 0; round < 8; ++round) {
+    if (p.wall) exit[1] = exit[0];
     Aim a;
-    auto aimed = aimForIncidence(p, incidence_deg, exit, &a.slide_offset_m);
+    auto aimed = p.wall ? aimWallForIncidence(p, incidence_deg, exit[0])
+                        : aimForIncidence(p, incidence_deg, exit, &a.slide_offset_m);
     if (!aimed) return aimed.error();
     auto launch = hw::planLaunch(*aimed, exit);
     if (!launch) return launch.error();
@@ -40,29 +45,12 @@ Result<Aim> aimAt(const hw::RigProfile& p, double incidence_deg,
     a.launch = *launch;
     a.exit_speed_m_s = exit;
     bool settled = true;
-    for (int i = 0; i < 2; ++i) {
+    for (int i = 0; i < fired; ++i) {
       const double ratio = want_m_s[i] / a.launch.before_contact[i].velocity_m_s.norm();
       settled = settled && std::abs(ratio - 1) < 1e-5;
       exit[i] *= ratio;
     }
     if (settled || round == 7) return a;
-  }
-  return fail("unreachable");
-}
-
-// A wall rig: the plate turned for `incidence_deg`, launcher 1's exit speed
-// rescaled as above until the speed at contact is the wanted one.
-Result<Aim> aimWallAt(const hw::RigProfile& p, double incidence_deg, double want_m_s) {
-  double exit = want_m_s;
-  for (int round = 0; round < 8; ++round) {
-    auto aimed = aimWallForIncidence(p, incidence_deg, exit);
-    if (!aimed) return aimed.error();
-    auto launch = hw::planLaunch(*aimed, {exit, exit});
-    if (!launch) return launch.error();
-    Aim a{std::move(*aimed), 0.0, {exit, exit}, *launch};
-    const double ratio = want_m_s / a.launch.before_contact[0].velocity_m_s.norm();
-    if (std::abs(ratio - 1) < 1e-5 || round == 7) return a;
-    exit *= ratio;
   }
   return fail("unreachable");
 }
@@ -148,17 +136,21 @@ Status checkRequest(const PlanRequest& r) {
   return Ok{};
 }
 
+// The highest pressure both the calibration and the regulator's limit allow, kPa.
+double maxPressure(const hw::RigProfile& profile, const LaunchCalibration& curve) {
+  return std::min(curve.maxPressure_kPa(), profile.regulator_config.max_kPa);
+}
+
 // The fastest exit the calibration and the regulator's limit give, m/s.
 double maxExitSpeed(const hw::RigProfile& profile, const LaunchCalibration& curve) {
-  const double p_max = std::min(curve.maxPressure_kPa(), profile.regulator_config.max_kPa);
-  return std::min(curve.maxSpeed_m_s(), curve.speed_m_s(p_max));
+  return std::min(curve.maxSpeed_m_s(), curve.speed_m_s(maxPressure(profile, curve)));
 }
 
 // The exit speed's pressure from the calibration, or why not, naming the
 // launcher and the range.
 Result<double> pressureFor(const hw::RigProfile& profile, const LaunchCalibration& curve, int i,
                            double exit_m_s) {
-  const double p_max = std::min(curve.maxPressure_kPa(), profile.regulator_config.max_kPa);
+  const double p_max = maxPressure(profile, curve);
   auto p = curve.pressure_kPa(exit_m_s);
   if (p && *p <= p_max) return *p;
   return fail(
@@ -174,12 +166,10 @@ Result<ShotPlan> planWallOnce(const hw::RigProfile& profile, const PlanRequest& 
   auto curve = profile.calibration.curve();
   if (!curve) return curve.error();
   const double want = request.speed_m_s[0];
-  auto aim = aimWallAt(profile, request.incidence_deg, want);
+  auto aim = aimAt(profile, request.incidence_deg, {want, want});
   if (!aim) {
     std::optional<PlanRequest> nearest;
-    if (const auto angle = largestAngle(request.incidence_deg, [&](double g) {
-          return static_cast<bool>(aimWallAt(profile, g, want));
-        })) {
+    if (const auto angle = largestAimable(profile, request.incidence_deg, {want, want})) {
       nearest = request;
       nearest->incidence_deg = *angle;
     }
@@ -198,7 +188,6 @@ Result<ShotPlan> planWallOnce(const hw::RigProfile& profile, const PlanRequest& 
     return refuse(infeasible, pressure.error().message, nearest);
   }
   ShotPlan plan;
-  plan.wall = true;
   plan.request = request;
   plan.exit_speed_m_s = aim->exit_speed_m_s;
   plan.pressure_kPa = {*pressure, *pressure};
@@ -320,6 +309,31 @@ std::string vec3(const Vec3& v, const char* spec, double scale = 1.0) {
          num(spec, v.z() * scale) + ")";
 }
 
+// Where and when the contact happens, after `since` (which valve opening).
+std::string contactLine(const ShotPlan& p, const std::string& since) {
+  return "  contact: " + num("%.2f", p.launch.contact_s * 1e3) + " ms after " + since + ", at (" +
+         num("%.2f", p.launch.contact_point_m.x() * 1e3) + ", " +
+         num("%.2f", p.launch.contact_point_m.y() * 1e3) + ") mm, pixel (" +
+         num("%.1f", p.launch.contact_px.x()) + ", " + num("%.1f", p.launch.contact_px.y()) + ")";
+}
+
+// Walton's prediction for the planned contact (`against`: "" or " against a wall").
+std::string waltonLine(const ShotPlan& p, const std::string& against) {
+  const ContactOutcome& c = p.prediction.contact;
+  return "  Walton's model" + against + " (e " + num("%.3f", p.material.e) + ", mu " +
+         num("%.3f", p.material.mu) + ", beta0 " + num("%.3f", p.material.beta0) +
+         "): " + (c.regime == Regime::Sliding ? "sliding" : "rolling") + ", beta " +
+         num("%.3f", c.beta) + ", gamma " + num("%.2f", c.before.gamma_rad * kDegPerRad) +
+         " deg, v_n " + num("%.3f", c.before.v_n_m_s) + " m/s, v_s " +
+         num("%.3f", c.before.v_s_m_s) + " m/s";
+}
+
+// A sphere's state after the impact, as `who` ("sphere 1", "sphere").
+std::string afterLine(const Sphere& a, const std::string& who) {
+  return "    " + who + " after: velocity " + vec3(a.velocity_m_s, "%.3f") + " m/s, spin " +
+         vec3(a.spin_rad_s, "%.1f") + " rad/s";
+}
+
 // A wall shot's lines after the first: the plate, launcher 1, the contact and
 // Walton's infinite-mass prediction.
 std::string describeWallPlan(const ShotPlan& p) {
@@ -332,21 +346,11 @@ std::string describeWallPlan(const ShotPlan& p) {
        " mm; exit speed " + num("%.3f", p.exit_speed_m_s[0]) + " m/s, pressure " +
        num("%.2f", p.pressure_kPa[0]) + " kPa; launcher " + p.aimed.launchers[1].name +
        " is not fired");
-  line("  contact: " + num("%.2f", p.launch.contact_s * 1e3) + " ms after the valve opens, at (" +
-       num("%.2f", p.launch.contact_point_m.x() * 1e3) + ", " +
-       num("%.2f", p.launch.contact_point_m.y() * 1e3) + ") mm, pixel (" +
-       num("%.1f", p.launch.contact_px.x()) + ", " + num("%.1f", p.launch.contact_px.y()) + ")");
+  line(contactLine(p, "the valve opens"));
   line("  incidence " + num("%.2f", p.incidence_deg) + " deg; speed at contact " +
        num("%.3f", p.speed_at_contact_m_s[0]) + " m/s (spin and launch scatter aside)");
-  const ContactOutcome& c = p.prediction.contact;
-  const Sphere& a = p.prediction.after[0];
-  line("  Walton's model against a wall (e " + num("%.3f", p.material.e) + ", mu " +
-       num("%.3f", p.material.mu) + ", beta0 " + num("%.3f", p.material.beta0) + "): " +
-       (c.regime == Regime::Sliding ? "sliding" : "rolling") + ", beta " + num("%.3f", c.beta) +
-       ", gamma " + num("%.2f", c.before.gamma_rad * kDegPerRad) + " deg, v_n " +
-       num("%.3f", c.before.v_n_m_s) + " m/s, v_s " + num("%.3f", c.before.v_s_m_s) + " m/s");
-  line("    sphere after: velocity " + vec3(a.velocity_m_s, "%.3f") + " m/s, spin " +
-       vec3(a.spin_rad_s, "%.1f") + " rad/s");
+  line(waltonLine(p, " against a wall"));
+  line(afterLine(p.prediction.after[0], "sphere"));
   return s;
 }
 
@@ -372,7 +376,7 @@ std::string describePlan(const ShotPlan& p) {
   std::string s;
   const auto line = [&](const std::string& l) { s += l + "\n"; };
   line("plan: " + describeRequest(p.request) + " at contact, rig " + p.aimed.name);
-  if (p.wall) return s + describeWallPlan(p);
+  if (p.isWall()) return s + describeWallPlan(p);
   for (int i = 0; i < 2; ++i) {
     const Vec3& x = p.exit_m[i];
     std::string slide = i == 1 ? (std::abs(p.slide_offset_m) < 5e-7
@@ -380,32 +384,18 @@ std::string describePlan(const ShotPlan& p) {
                                       : " (slide " + num("%+.2f", p.slide_offset_m * 1e3) +
                                             " mm from the profile's exit_m)")
                                : " (as in the profile)";
-    line("  launcher " + p.aimed.launchers[i].name + ": exit at (" + num("%.2f", x.x() * 1e3) +
-         ", " + num("%.2f", x.y() * 1e3) + ", " + num("%.2f", x.z() * 1e3) + ") mm" + slide +
-         "; exit speed " + num("%.3f", p.exit_speed_m_s[i]) + " m/s, pressure " +
+    line("  launcher " + p.aimed.launchers[i].name + ": exit at " + vec3(x, "%.2f", 1e3) + " mm" +
+         slide + "; exit speed " + num("%.3f", p.exit_speed_m_s[i]) + " m/s, pressure " +
          num("%.2f", p.pressure_kPa[i]) + " kPa; valve opens at " +
          num("%.2f", p.launch.valve_open_s[i] * 1e3) + " ms");
   }
-  line("  contact: " + num("%.2f", p.launch.contact_s * 1e3) +
-       " ms after the first valve opens, at (" + num("%.2f", p.launch.contact_point_m.x() * 1e3) +
-       ", " + num("%.2f", p.launch.contact_point_m.y() * 1e3) + ") mm, pixel (" +
-       num("%.1f", p.launch.contact_px.x()) + ", " + num("%.1f", p.launch.contact_px.y()) + ")");
+  line(contactLine(p, "the first valve opens"));
   line("  incidence " + num("%.2f", p.incidence_deg) + " deg; speeds at contact " +
        num("%.3f", p.speed_at_contact_m_s[0]) + " and " + num("%.3f", p.speed_at_contact_m_s[1]) +
        " m/s (spin and launch scatter aside)");
-  const ContactOutcome& c = p.prediction.contact;
-  line("  Walton's model (e " + num("%.3f", p.material.e) + ", mu " + num("%.3f", p.material.mu) +
-       ", beta0 " + num("%.3f", p.material.beta0) + "): " +
-       (c.regime == Regime::Sliding ? "sliding" : "rolling") + ", beta " + num("%.3f", c.beta) +
-       ", gamma " + num("%.2f", c.before.gamma_rad * kDegPerRad) + " deg, v_n " +
-       num("%.3f", c.before.v_n_m_s) + " m/s, v_s " + num("%.3f", c.before.v_s_m_s) + " m/s");
-  for (int i = 0; i < 2; ++i) {
-    const Sphere& a = p.prediction.after[i];
-    line("    sphere " + std::to_string(i + 1) + " after: velocity (" +
-         num("%.3f", a.velocity_m_s.x()) + ", " + num("%.3f", a.velocity_m_s.y()) + ", " +
-         num("%.3f", a.velocity_m_s.z()) + ") m/s, spin (" + num("%.1f", a.spin_rad_s.x()) + ", " +
-         num("%.1f", a.spin_rad_s.y()) + ", " + num("%.1f", a.spin_rad_s.z()) + ") rad/s");
-  }
+  line(waltonLine(p, ""));
+  for (int i = 0; i < 2; ++i)
+    line(afterLine(p.prediction.after[i], "sphere " + std::to_string(i + 1)));
   return s;
 }
 

@@ -44,9 +44,9 @@ struct ShotPlan {
   std::array<double, 2> speed_at_contact_m_s{0.0, 0.0};
   Material material;     ///< used for the prediction
   Collision prediction;  ///< Walton's model on launch.before_contact (a wall shot: after[0] only)
-  /// A sphere-on-wall shot: the plate as aimed (aimed.wall); launcher 2 is
-  /// not fired (its exit speed and pressure repeat launcher 1's, unused).
-  bool wall = false;
+  /// A sphere-on-wall shot (the rig has a plate, aimed.wall, turned for it):
+  /// launcher 2 is not fired (its exit speed and pressure repeat launcher 1's).
+  bool isWall() const { return aimed.wall.has_value(); }
 };
 
 /// Why a wish cannot be fired, and the nearest one that can.

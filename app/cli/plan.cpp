@@ -25,7 +25,7 @@ nlohmann::json toJson(const collide::app::ShotPlan& p) {
   using nlohmann::json;
   json launchers = json::array();
   for (int i = 0; i < 2; ++i) {
-    const bool fired = !p.wall || i == 0;  // a wall rig fires launcher 1 only
+    const bool fired = !p.isWall() || i == 0;  // a wall rig fires launcher 1 only
     launchers.push_back({{"name", p.aimed.launchers[i].name},
                          {"fired", fired},
                          {"exit_m", vec(p.exit_m[i])},
@@ -35,11 +35,11 @@ nlohmann::json toJson(const collide::app::ShotPlan& p) {
   }
   const auto& c = p.prediction.contact;
   json after = json::array();
-  for (int i = 0; i < (p.wall ? 1 : 2); ++i)
+  for (int i = 0; i < (p.isWall() ? 1 : 2); ++i)
     after.push_back({{"velocity_m_s", vec(p.prediction.after[i].velocity_m_s)},
                      {"spin_rad_s", vec(p.prediction.after[i].spin_rad_s)}});
   json out = {
-      {"target", p.wall ? "wall" : "sphere"},
+      {"target", p.isWall() ? "wall" : "sphere"},
       {"incidence_deg", p.incidence_deg},
       {"speed_at_contact_m_s", p.speed_at_contact_m_s},
       {"slide_offset_m", p.slide_offset_m},
@@ -56,7 +56,7 @@ nlohmann::json toJson(const collide::app::ShotPlan& p) {
         {"vn_m_s", c.before.v_n_m_s},
         {"vs_m_s", c.before.v_s_m_s},
         {"spheres", after}}}};
-  if (p.wall)
+  if (p.isWall())
     out["wall"] = {{"point_m", vec(p.aimed.wall->point_m)},
                    {"normal", vec(p.aimed.wall->normal.normalized())}};
   return out;

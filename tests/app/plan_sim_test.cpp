@@ -76,7 +76,7 @@ TEST(Plan, WallShotsLandOnTheWantedIncidenceAndSpeed) {
     req.speed_m_s = {2.0, 2.0};
     auto plan = planShot(*profile, req);
     ASSERT_TRUE(plan.ok()) << incidence << ": " << plan.error().message;
-    EXPECT_TRUE(plan->wall);
+    EXPECT_TRUE(plan->isWall());
     EXPECT_NEAR(plan->incidence_deg, incidence, 1e-3);
     EXPECT_NEAR(plan->speed_at_contact_m_s[0], 2.0, 1e-4);
     const std::string text = describePlan(*plan);
