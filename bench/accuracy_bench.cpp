@@ -197,6 +197,20 @@ void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeas
   }
 }
 
+// Runs one shot's analysis and adds its time and frames to the preset's.
+template <class Analyse>
+auto timedAnalysis(const hw::Shot& shot, PresetResult& out, const Analyse& analyse) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto result = analyse();
+  const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const int frames = static_cast<int>(shot.burst.frames.size());
+  out.analysis_s += dt;
+  out.frames += frames;
+  out.max_frames = std::max(out.max_frames, frames);
+  out.worst_shot_ms = std::max(out.worst_shot_ms, 1e3 * dt);
+  return result;
+}
+
 // One analysed shot into the preset's figures: errors and pulls against the
 // truth, flags, the campaign's points; saved when bad, printed when asked.
 void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double psi_deg,
@@ -234,13 +248,7 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
 // truth's impact on the plate (Walton's infinite-mass limit).
 void scoreWallShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double psi_deg,
                    PresetResult& out) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto json = app::analyzeWallShot(shot);
-  const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  out.analysis_s += dt;
-  out.frames += static_cast<int>(shot.burst.frames.size());
-  out.max_frames = std::max(out.max_frames, static_cast<int>(shot.burst.frames.size()));
-  out.worst_shot_ms = std::max(out.worst_shot_ms, 1e3 * dt);
+  const auto json = timedAnalysis(shot, out, [&] { return app::analyzeWallShot(shot); });
   const std::string name = "shot " + std::to_string(i);
   auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id);
   std::array<Sphere, 2> tb, ta;
@@ -311,13 +319,9 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
       scoreWallShot(pr, shot, i, plan[i].incidence_deg, out);
       continue;
     }
-    const auto t0 = std::chrono::steady_clock::now();
-    auto r = vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
-    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    out.analysis_s += dt;
-    out.frames += static_cast<int>(shot.burst.frames.size());
-    out.max_frames = std::max(out.max_frames, static_cast<int>(shot.burst.frames.size()));
-    out.worst_shot_ms = std::max(out.worst_shot_ms, 1e3 * dt);
+    auto r = timedAnalysis(shot, out, [&] {
+      return vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
+    });
     std::array<Sphere, 2> tb, ta;
     if (!truthAtContact(shot, tb, ta)) {
       out.failures.push_back("shot " + std::to_string(i) + ": no collision in the truth");

@@ -54,19 +54,20 @@ RunResult finish(int shots, std::span<const CampaignShot> all, const Material& m
   return r;
 }
 
-// The rig's range of contact speeds in the speed table (0, 0: every shot at
-// the noise's own speed, the first table).
-double g_speed_min = 0, g_speed_max = 0;
+// Contact speeds drawn uniformly over [min, max] m/s for a shot whose speed
+// the design does not choose (as app::planCampaign draws exit speeds); an
+// empty range (the first table): every shot at the noise's own speed.
+struct SpeedRange {
+  double min = 0, max = 0;
+};
 
-// A campaign's speed when nothing chooses it: uniform over the rig's range
-// (as app::planCampaign draws exit speeds), or the noise's own.
-double drawnSpeed(const AdaptiveOptions&, const ShotNoise& n, std::mt19937_64& rng) {
-  if (!(g_speed_max > g_speed_min)) return n.relative_speed_m_s;
-  return std::uniform_real_distribution<double>(g_speed_min, g_speed_max)(rng);
+double drawnSpeed(const SpeedRange& range, const ShotNoise& n, std::mt19937_64& rng) {
+  if (!(range.max > range.min)) return n.relative_speed_m_s;
+  return std::uniform_real_distribution<double>(range.min, range.max)(rng);
 }
 
 RunResult uniformRun(const Material& m, const ShotNoise& n, int budget, std::uint64_t seed,
-                     const AdaptiveOptions& o) {
+                     const AdaptiveOptions& o, const SpeedRange& speeds = {}) {
   std::mt19937_64 rng(seed);
   std::vector<double> angles;
   for (int i = 0; i < budget; ++i)
@@ -75,7 +76,7 @@ RunResult uniformRun(const Material& m, const ShotNoise& n, int budget, std::uin
   std::vector<CampaignShot> shots;
   for (int i = 0; i < budget; ++i) {
     ShotNoise at = n;
-    at.relative_speed_m_s = drawnSpeed(o, n, rng);
+    at.relative_speed_m_s = drawnSpeed(speeds, n, rng);
     shots.push_back(synthesizeShot(m, angles[i], at, rng));
     if (shots.size() >= 6 && assessCampaign(shots, o).targets_met)
       return finish(i + 1, shots, m, o);
@@ -84,7 +85,7 @@ RunResult uniformRun(const Material& m, const ShotNoise& n, int budget, std::uin
 }
 
 RunResult adaptiveRun(const Material& m, const ShotNoise& n, int budget, std::uint64_t seed,
-                      const AdaptiveOptions& o, bool print) {
+                      const AdaptiveOptions& o, bool print, const SpeedRange& speeds = {}) {
   std::mt19937_64 rng(seed);
   std::vector<CampaignShot> shots;
   for (int i = 0; i < budget; ++i) {
@@ -98,7 +99,7 @@ RunResult adaptiveRun(const Material& m, const ShotNoise& n, int budget, std::ui
     if (print)
       std::printf("    shot %2d: %.1f deg: %s\n", i + 1, next->incidence_deg, next->why.c_str());
     ShotNoise at = n;
-    at.relative_speed_m_s = drawnSpeed(o, n, rng);  // drawn always: same draws either way
+    at.relative_speed_m_s = drawnSpeed(speeds, n, rng);  // drawn always: same draws either way
     if (std::isfinite(next->speed_m_s)) at.relative_speed_m_s = next->speed_m_s;
     shots.push_back(synthesizeShot(m, next->incidence_deg, at, rng));
   }
@@ -122,24 +123,24 @@ double rmsOf(const std::vector<double>& v) {
 // in speed (sigma_beta ~ 1/V: fast is better) or blur-limited (~V^2: slow is
 // better).
 void speedTable(std::span<const MaterialCase> materials, int runs, int budget, ShotNoise noise) {
-  g_speed_min = 2.0, g_speed_max = 6.0;
+  const SpeedRange speeds{2.0, 6.0};
   std::printf(
       "\nspeed chosen or drawn, contact speeds %.0f-%.0f m/s (sigma_beta = %.3f (V / 4 m/s)^(k - "
       "1) / sin psi)\n| material | k | uniform, speed drawn | adaptive, speed drawn | adaptive, "
       "speed chosen | chosen / drawn | pull RMS mu / beta0, chosen |\n|---|---|---|---|---|---|---|"
       "\n",
-      g_speed_min, g_speed_max, noise.sigma_beta_at_90);
+      speeds.min, speeds.max, noise.sigma_beta_at_90);
   for (const double k : {0.0, 2.0})
     for (const MaterialCase& mc : materials) {
       noise.speed_exponent = k;
       AdaptiveOptions drawn, chosen;
-      chosen.speed_min_m_s = g_speed_min, chosen.speed_max_m_s = g_speed_max;
+      chosen.speed_min_m_s = speeds.min, chosen.speed_max_m_s = speeds.max;
       std::vector<int> uni, ada, sped;
       std::vector<double> mu_pull, beta0_pull;
       for (int r = 0; r < runs; ++r) {
-        uni.push_back(uniformRun(mc.m, noise, budget, 2000 + r, drawn).shots);
-        ada.push_back(adaptiveRun(mc.m, noise, budget, 2000 + r, drawn, false).shots);
-        const RunResult c = adaptiveRun(mc.m, noise, budget, 2000 + r, chosen, false);
+        uni.push_back(uniformRun(mc.m, noise, budget, 2000 + r, drawn, speeds).shots);
+        ada.push_back(adaptiveRun(mc.m, noise, budget, 2000 + r, drawn, false, speeds).shots);
+        const RunResult c = adaptiveRun(mc.m, noise, budget, 2000 + r, chosen, false, speeds);
         sped.push_back(c.shots);
         if (std::isfinite(c.mu_pull)) mu_pull.push_back(c.mu_pull);
         if (std::isfinite(c.beta0_pull)) beta0_pull.push_back(c.beta0_pull);
@@ -148,7 +149,6 @@ void speedTable(std::span<const MaterialCase> materials, int runs, int budget, S
                   median(uni), median(ada), median(sped), median(sped) / median(ada),
                   rmsOf(mu_pull), rmsOf(beta0_pull));
     }
-  g_speed_min = g_speed_max = 0;
 }
 
 }  // namespace
@@ -192,15 +192,10 @@ int main(int argc, char** argv) {
       return std::to_string(*std::min_element(v.begin(), v.end())) + "-" +
              std::to_string(*std::max_element(v.begin(), v.end()));
     };
-    const auto rms = [](const std::vector<double>& v) {
-      double s = 0;
-      for (const double x : v) s += x * x;
-      return v.empty() ? NAN : std::sqrt(s / v.size());
-    };
     std::printf("| %s | %.1f (%s) | %.1f (%s) | %.2f | %.2f / %.2f | %.2f / %.2f |\n", mc.name,
                 median(uni), range(uni).c_str(), median(ada), range(ada).c_str(),
-                median(ada) / median(uni), rms(pulls[0]), rms(pulls[1]), rms(pulls[2]),
-                rms(pulls[3]));
+                median(ada) / median(uni), rmsOf(pulls[0]), rmsOf(pulls[1]), rmsOf(pulls[2]),
+                rmsOf(pulls[3]));
   }
   speedTable(materials, runs, budget, noise);
   return 0;
