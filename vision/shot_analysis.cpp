@@ -201,9 +201,10 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
     if (sides[0].unknown_reason && sides[1].unknown_reason) continue;  // no dots seen
     for (int side = 0; side < 2; ++side) {
       const TrajectoryFit& f = fits.fit[s][side]->fit;
-      in.drift[s][side] = dotDriftSigma_m_s(f, r_med[s], px, exposure_s);
-      const double blur_px = f.velocityAt_m_s(f.tRef_s()).value.norm() * exposure_s / px;
-      in.offset[s] = std::max(in.offset[s], dotBiasPx(r_med[s], blur_px) * px);
+      const double bias_m = dotBias_m(f, r_med[s], px, exposure_s);
+      const double span = f.tLast_s() - f.tFirst_s();
+      in.drift[s][side] = span > 0 ? bias_m / span : 0.0;
+      in.offset[s] = std::max(in.offset[s], bias_m);
     }
   }
   // Collision instant: both estimates, combined by their uncertainties.

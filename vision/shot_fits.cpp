@@ -23,11 +23,15 @@ double dotBiasPx(double radius_px, double blur_px) {
   return 0.22 / radius_px * std::max(blur_px, 0.5) / 1.9;
 }
 
+double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s) {
+  const double blur_px = fit.velocityAt_m_s(fit.tRef_s()).value.norm() * exposure_s / pixel_m;
+  return dotBiasPx(radius_px, blur_px) * pixel_m;
+}
+
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
                          double exposure_s) {
-  const double blur_px = fit.velocityAt_m_s(fit.tRef_s()).value.norm() * exposure_s / pixel_m;
   const double span = fit.tLast_s() - fit.tFirst_s();
-  return span > 0 ? dotBiasPx(radius_px, blur_px) * pixel_m / span : 0.0;
+  return span > 0 ? dotBias_m(fit, radius_px, pixel_m, exposure_s) / span : 0.0;
 }
 
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,

@@ -65,8 +65,12 @@ double residualInflation(const TrajectoryFit& fit);
 /// calibration"). A sphere whose dots were seen on neither side carries none.
 double dotBiasPx(double radius_px, double blur_px);
 
+/// That bias for a track (m), its blur from the track's speed over the
+/// exposure.
+double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s);
+
 /// The systematic velocity sigma that bias gives a track fitted over `fit`'s
-/// span (m/s): dotBiasPx x pixel / span, the blur from the track's speed.
+/// span (m/s): dotBias_m / span.
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
                          double exposure_s);
 

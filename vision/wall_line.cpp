@@ -21,11 +21,11 @@ void medianRows(const std::vector<const cv::Mat*>& pick, const std::optional<Wal
   const std::size_t n = pick.size();
   std::vector<T> px(n);
   std::vector<const T*> rows(n);
+  const Eigen::Vector2d nrm = line ? line->normal.normalized() : Eigen::Vector2d::UnitY();
   for (int v = 0; v < out.rows; ++v) {
     int u0 = 0, u1 = out.cols - 1;
     if (line) {
       // |(u - p.x) n.x + (v - p.y) n.y| <= band, solved for u on this row.
-      const Eigen::Vector2d nrm = line->normal.normalized();
       const double rest = (v - line->point_px.y()) * nrm.y();
       if (std::abs(nrm.x()) < 1e-9) {
         if (std::abs(rest) > band) u1 = -1;
