@@ -96,4 +96,17 @@ std::vector<std::string> unphysicalFindings(const ValueSigma& e, const ValueSigm
   return out;
 }
 
+std::optional<std::string> spinImpulseDisagreement(double beta, double beta_from_impulse,
+                                                   double sigma, double k) {
+  const double diff = beta - beta_from_impulse;
+  if (!std::isfinite(diff) || !(sigma > 0) || !(std::abs(diff) > k * sigma)) return std::nullopt;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "beta from the spins (%+.3f) and from the impulse the velocities show (%+.3f) "
+                "differ by %.1f sigma: angular momentum is not conserved, so a measured spin or "
+                "velocity is probably wrong (look at the dots in the frames' overlay)",
+                beta, beta_from_impulse, std::abs(diff) / sigma);
+  return std::string(buf);
+}
+
 }  // namespace collide

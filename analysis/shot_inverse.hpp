@@ -6,6 +6,7 @@
 // (analysis/walton.hpp's measureCollision). Pure physics, SI units.
 #include <Eigen/Dense>
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,5 +69,16 @@ struct ValueSigma {
 std::vector<std::string> unphysicalFindings(const ValueSigma& e, const ValueSigma& beta,
                                             const ValueSigma& kinetic_energy_change_J,
                                             double k_sigma = 3.0);
+
+/// Angular momentum about the contact point: the spins after an impact are
+/// the spins before plus what the impulse (from the velocity changes) turns
+/// them by. beta read from the spins after and beta_from_impulse (spins
+/// before plus that turn) must then agree within k_sigma of the spread of
+/// their difference, `difference_sigma` (the two share most inputs, so it
+/// is the difference's own spread, e.g. over Monte Carlo draws). Returns the
+/// sentence that says they do not, or nothing (also when a value or the
+/// sigma is not finite, or the sigma is not > 0).
+std::optional<std::string> spinImpulseDisagreement(double beta, double beta_from_impulse,
+                                                   double difference_sigma, double k_sigma = 4.0);
 
 }  // namespace collide

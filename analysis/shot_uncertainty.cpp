@@ -110,6 +110,7 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
     u.t_c.add(o.t_c), u.dt_ba.add(o.dt_ba);
     u.kinetic_energy_change.add(o.inverse.kinetic_energy_change_J);
     u.n_z.add(o.inverse.n_z);
+    u.beta_spin_minus_impulse.add(m.beta - m.beta_from_impulse);
     for (int s = 0; s < 2; ++s)
       for (int k = 0; k < 3; ++k)
         u.v_before[s][k].add(o.v_before[s][k]), u.v_after[s][k].add(o.v_after[s][k]);

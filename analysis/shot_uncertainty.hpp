@@ -78,6 +78,10 @@ struct ShotUncertainty {
   ShotDraw nominal;  ///< nominal.ok false: not a collision
   Spread e, beta, beta_from_impulse, f, gamma_deg, vn, vs, vs_after, t_c, dt_ba;
   Spread kinetic_energy_change, n_z;
+  /// beta (from the spins) minus beta_from_impulse (from the velocities and
+  /// the spins before), draw by draw: their difference's own spread, the
+  /// yardstick of the angular-momentum check (both share most inputs).
+  Spread beta_spin_minus_impulse;
   std::array<std::array<Spread, 3>, 2> v_before, v_after;  ///< [sphere][axis]
 };
 

@@ -234,9 +234,9 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
   if (g_verbose || bad) {
     std::printf(
         "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "
-        "sigma) gamma %.2f deg (err %+.2f, %.1f sigma)",
+        "sigma; from the impulse %+.3f) gamma %.2f deg (err %+.2f, %.1f sigma)",
         i, psi_deg, c.e.value, e_err, e_err / c.e.sigma, c.beta.value, b_err, b_err / c.beta.sigma,
-        c.gamma_deg.value, g_err, g_err / c.gamma_deg.sigma);
+        c.beta_from_impulse.value, c.gamma_deg.value, g_err, g_err / c.gamma_deg.sigma);
     for (const std::string& f : r.quality_flags) std::printf(" [%s]", f.c_str());
     std::printf("\n");
     if (g_verbose && spheres == 2) printShotDetail(r, tb, ta);

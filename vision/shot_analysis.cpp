@@ -388,6 +388,21 @@ void flagInstants(ShotAnalysis& out, const FlagInputs& q) {
       fmt("%.1f", ag.sigma_s * 1e6) + " us");
 }
 
+// Angular momentum about the contact point (spinImpulseDisagreement): a
+// spin or velocity is wrong (a dot taken for another, a track through the
+// wrong blob). Not checked where a spin was not measured.
+void flagSpinImpulse(ShotAnalysis& out, const FlagInputs& q) {
+  const auto& flags = out.quality_flags;
+  for (const char* f : {"no_spin_before", "no_spin_after"})
+    if (std::find(flags.begin(), flags.end(), f) != flags.end()) return;
+  const CollisionProperties& c = out.collision;
+  const auto why = spinImpulseDisagreement(c.beta.value, c.beta_from_impulse.value,
+                                           q.u->beta_spin_minus_impulse.sigma());
+  if (!why) return;
+  addFlag(out, "spin_impulse_disagree");
+  out.notes.push_back(*why);
+}
+
 // Values physics forbids, beyond their uncertainty.
 void flagUnphysical(ShotAnalysis& out) {
   const CollisionProperties& c = out.collision;
@@ -494,6 +509,7 @@ void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {
   }
   flagInstants(out, q);
   flagUnphysical(out);
+  flagSpinImpulse(out, q);
   flagTracks(out, q);
   flagBurst(out, q);
   flagGravity(out, q);

@@ -191,6 +191,13 @@ struct ShotAnalysis {
   ///    on some axis (dots followed too briefly or matched badly; its errors
   ///    can reach hundreds of rad/s, beyond what beta's and gamma's sigmas
   ///    say); `collide fit` leaves the shot out;
+  ///  "spin_impulse_disagree": angular momentum about the contact point is not
+  ///    conserved: beta from the spins after the impact and beta_from_impulse
+  ///    (the spins before plus what the impulse from the velocity changes
+  ///    turns them by) differ by more than 4 sigma of their difference (its
+  ///    Monte Carlo spread); a measured spin or velocity is wrong (a dot
+  ///    taken for another); not checked with no_spin_*; `collide fit` leaves
+  ///    the shot out;
   ///  "saturated_frames": some frames were mostly at full scale;
   ///  "extra_blobs_ignored": round blobs that are not this shot's spheres;
   ///  "frames_lost": frames missing or incomplete in the burst;

@@ -5,6 +5,7 @@
 #include <limits>
 #include <random>
 
+#include "analysis/shot_inverse.hpp"
 #include "vision/dot_detector.hpp"
 #include "vision/shot_fits.hpp"
 #include "vision/shot_spins.hpp"
@@ -182,7 +183,7 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
   const bool spins_known = sb.known && sa.known;
-  std::vector<double> e, beta, gamma, f, vn, vs, bi;
+  std::vector<double> e, beta, gamma, f, vn, vs, bi, spin_minus_impulse;
   for (int k = 0; k < draws; ++k) {
     Sphere b = a.sphere_before, af = a.sphere_after;
     for (int ax = 0; ax < 2; ++ax) {
@@ -213,6 +214,7 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
     vn.push_back(m->before.v_n_m_s);
     vs.push_back(m->before.v_s_m_s);
     bi.push_back(m->beta_from_impulse);
+    spin_minus_impulse.push_back(m->beta - m->beta_from_impulse);
   }
   a.e_sigma = stddev(e);
   a.beta_sigma = stddev(beta);
@@ -221,6 +223,7 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
   a.vn_sigma_m_s = stddev(vn);
   a.vs_sigma_m_s = stddev(vs);
   a.beta_from_impulse_sigma = stddev(bi);
+  a.beta_spin_minus_impulse_sigma = stddev(spin_minus_impulse);
 }
 
 }  // namespace
@@ -379,6 +382,12 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   };
   propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
             sa, velocitySigma(*fb, *tc), velocitySigma(*fa, *ts));
+  if (sb.known && sa.known)
+    if (auto why = spinImpulseDisagreement(a.measured.beta, a.measured.beta_from_impulse,
+                                           a.beta_spin_minus_impulse_sigma)) {
+      a.quality_flags.push_back("spin_impulse_disagree");
+      a.notes.push_back(*why);
+    }
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;

@@ -60,6 +60,9 @@ struct WallShotAnalysis {
   WaltonMeasurement measured;
   double e_sigma = 0, beta_sigma = 0, gamma_sigma_rad = 0, f_sigma = 0;
   double vn_sigma_m_s = 0, vs_sigma_m_s = 0, beta_from_impulse_sigma = 0;
+  /// Spread of beta - beta_from_impulse over the draws: the yardstick of the
+  /// angular-momentum check ("spin_impulse_disagree", as ShotAnalysis).
+  double beta_spin_minus_impulse_sigma = 0;
   std::vector<std::string> quality_flags;  ///< as ShotAnalysis; "no_spin_before", ...
   std::vector<std::string> notes;
 };

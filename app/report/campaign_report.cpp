@@ -13,8 +13,8 @@ using nlohmann::json;
 
 const std::vector<std::string>& excludingFlags() {
   static const std::vector<std::string> flags = {
-      "analysis_failed", "few_frames_before", "few_frames_after",    "collision_instant_disagree",
-      "large_residuals", "unphysical",        "spin_poorly_measured"};
+      "analysis_failed", "few_frames_before", "few_frames_after",     "collision_instant_disagree",
+      "large_residuals", "unphysical",        "spin_poorly_measured", "spin_impulse_disagree"};
   return flags;
 }
 

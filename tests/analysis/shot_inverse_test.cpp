@@ -139,4 +139,22 @@ TEST(UnphysicalFindings, EachBoundBothWays) {
   EXPECT_EQ(unphysicalFindings({1.001, nan}, beta_ok, dke_ok).size(), 1u);
 }
 
+// Angular momentum about the contact point: beta from the spins and from the
+// impulse agree within k sigma of their difference; beyond it, one sentence
+// that gives both values and the distance in sigma.
+TEST(SpinImpulseDisagreement, OnlyBeyondKSigmaOfTheDifference) {
+  EXPECT_FALSE(spinImpulseDisagreement(0.40, 0.44, 0.011));     // 3.6 sigma
+  const auto far = spinImpulseDisagreement(0.40, 0.44, 0.009);  // 4.4 sigma
+  ASSERT_TRUE(far);
+  EXPECT_NE(far->find("+0.400"), std::string::npos) << *far;
+  EXPECT_NE(far->find("+0.440"), std::string::npos) << *far;
+  EXPECT_NE(far->find("4.4 sigma"), std::string::npos) << *far;
+  EXPECT_TRUE(spinImpulseDisagreement(0.44, 0.40, 0.009));  // either sign
+  EXPECT_FALSE(spinImpulseDisagreement(0.40, 0.44, 0.009, 5.0));
+  // Nothing to compare: a value or the yardstick missing.
+  EXPECT_FALSE(spinImpulseDisagreement(NAN, 0.44, 0.001));
+  EXPECT_FALSE(spinImpulseDisagreement(0.40, 0.44, NAN));
+  EXPECT_FALSE(spinImpulseDisagreement(0.40, 0.44, 0.0));
+}
+
 }  // namespace

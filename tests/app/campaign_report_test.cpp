@@ -104,6 +104,35 @@ TEST_F(CampaignReportTest, LeavesOutWhatCannotBeUsedAndSaysWhy) {
   EXPECT_EQ(usableShots(*with_flagged).size(), 25u);
 }
 
+// A shot whose spins break angular momentum has a wrong beta: left out of the
+// fit (with the flag named), kept with --include-flagged; a flag that says
+// nothing about the result (extra_blobs_ignored) leaves the shot in.
+TEST(CampaignReport, ASpinThatBreaksAngularMomentumLeavesTheShotOut) {
+  testing::ScratchDir dir;
+  std::mt19937 rng(9);
+  const std::vector<std::vector<std::string>> flags = {
+      {"spin_impulse_disagree"}, {"extra_blobs_ignored"}, {}};
+  for (std::size_t i = 0; i < flags.size(); ++i) {
+    testing::ShotSpec spec;
+    spec.id = idFor(static_cast<int>(i));
+    auto shot = testing::makeShot(spec);
+    shot.results_json = resultsAt(20.0 + 10 * i, rng, flags[i]);
+    ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+  }
+  auto entries = loadCampaign(dir.path());
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  ASSERT_EQ(entries->size(), 3u);
+  for (const auto& e : *entries) {
+    EXPECT_EQ(!e.shot, e.id == idFor(0)) << e.id;
+    if (e.id == idFor(0))
+      EXPECT_NE(e.excluded_because.find("spin_impulse_disagree"), std::string::npos)
+          << e.excluded_because;
+  }
+  auto kept = loadCampaign(dir.path(), /*include_flagged=*/true);
+  ASSERT_TRUE(kept.ok());
+  EXPECT_EQ(usableShots(*kept).size(), 3u);
+}
+
 TEST_F(CampaignReportTest, FitRecoversTheMaterialTheShotsWereMadeFrom) {
   auto entries = loadCampaign(dir_.path());
   ASSERT_TRUE(entries.ok());

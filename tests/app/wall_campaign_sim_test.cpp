@@ -4,6 +4,7 @@
 // 0.005, beta within 0.03); the campaign fits give mu and beta_0 back.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -130,6 +131,9 @@ TEST(WallCampaignSim, ShotsAnalysedAsWallShotsMatchTheTruthAndTheFitsGiveTheMate
         c.gamma_deg.value, c.e.value, m->e, c.e.sigma, c.beta.value, m->beta, c.beta.sigma,
         m->before.v_s_m_s, truth.before.spin_rad_s.norm());
     EXPECT_NEAR(c.gamma_deg.value, m->before.gamma_rad * 180.0 / M_PI, 0.5) << file;
+    // Honest shots conserve angular momentum about the contact point.
+    const auto& flags = results->quality_flags;
+    EXPECT_EQ(std::count(flags.begin(), flags.end(), "spin_impulse_disagree"), 0) << file;
     worst_e = std::max(worst_e, std::abs(c.e.value - m->e));
     worst_beta = std::max(worst_beta, std::abs(c.beta.value - m->beta));
     auto cs = toCampaignShot(*results);

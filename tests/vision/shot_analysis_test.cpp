@@ -499,6 +499,33 @@ TEST(AnalyzeBurstFlags, EachFlagFiresWithItsCauseAndOnlyThen) {
   }
 }
 
+// Angular momentum about the contact point: sphere 1's spin after the impact
+// 25 rad/s (0.3 m/s at its surface) more than the impulse gave it, as a dot
+// mistaken for another would make it seem. beta read from the spins is then
+// wrong, beta from the impulse is not, and the shot is flagged; the same
+// shots drawn honestly are not.
+TEST(AnalyzeBurstFlags, SpinImpulseDisagreeWhenASpinBreaksAngularMomentum) {
+  for (const std::uint64_t seed : {41, 42, 43}) {
+    ShotSpec spec = quickSpec(seed);
+    const SimulatedShot honest = simulateShot(spec);
+    auto r = analyzeBurst(honest.burst, honest.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_FALSE(hasFlag(*r, "spin_impulse_disagree"))
+        << "seed " << seed << ": beta " << r->collision.beta.value << ", from the impulse "
+        << r->collision.beta_from_impulse.value;
+    spec.spin_kick_after_rad_s = 25;
+    const SimulatedShot kicked = simulateShot(spec);
+    r = analyzeBurst(kicked.burst, kicked.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const CollisionProperties& c = r->collision;
+    EXPECT_NEAR(c.beta_from_impulse.value, kicked.truth.beta, 5 * c.beta_from_impulse.sigma + 1e-3)
+        << "seed " << seed;
+    EXPECT_TRUE(hasFlag(*r, "spin_impulse_disagree"))
+        << "seed " << seed << ": beta " << c.beta.value << ", from the impulse "
+        << c.beta_from_impulse.value << " (true " << kicked.truth.beta << ")";
+  }
+}
+
 // Spheres flying out of the image plane at ~0.1 m/s, seen by a camera 0.5 m
 // away: their images grow or shrink, and the velocity towards the camera
 // comes out of the radii. Without the camera's distance, nothing is claimed.

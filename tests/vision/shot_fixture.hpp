@@ -44,6 +44,10 @@ struct ShotSpec {
   /// stay where an orthographic camera puts them). 0: radius constant.
   double camera_distance_m = 0;
   Material material{0.97, 0.176, 0.44};
+  /// Not physics: sphere 1 drawn after the contact with this much more spin
+  /// about the camera axis (rad/s) than the impact gave it, as a dot taken for
+  /// another would make it seem (angular momentum then not conserved).
+  double spin_kick_after_rad_s = 0;
   std::uint64_t seed = 1;
 };
 
@@ -135,6 +139,11 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
       v.orientation = st[i].orientation;
       v.velocity_px_s = {st[i].velocity_m_s.x() / px, -st[i].velocity_m_s.y() / px};
       v.spin_rad_s = st[i].spin_rad_s;
+      if (i == 0 && t > t_contact && spec.spin_kick_after_rad_s != 0) {
+        const double turn = spec.spin_kick_after_rad_s * (t - t_contact);
+        v.orientation = Quat(Eigen::AngleAxisd(turn, Vec3::UnitZ())) * v.orientation;
+        v.spin_rad_s.z() += spec.spin_kick_after_rad_s;
+      }
       v.dots = &shot.dots[i];
       views.push_back(v);
     }
