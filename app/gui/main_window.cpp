@@ -451,9 +451,10 @@ void MainWindow::onShotFired(ShotPtr shot, QString file, QString save_error) {
   shot_browser_->refresh();
 }
 
-void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file) {
+void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file,
+                            QString results_json) {
   if (tag == "batch" && progress_) progress_->setValue(++batch_done_);
-  if (tag != "overlay") storeResults(file, shot->id, app::resultsToJson(*analysis));
+  if (tag != "overlay") storeResults(file, shot->id, results_json.toStdString());
   std::erase_if(launches_, [&](const MeasuredLaunch& m) { return m.shot_id == qs(shot->id); });
   for (MeasuredLaunch& m : measuredLaunches(*shot, analysis->sphere)) launches_.push_back(m);
   if (replay_view_->shot() && replay_view_->shot()->id == shot->id) {

@@ -113,7 +113,8 @@ class MainWindow : public QMainWindow {
   void restoreSettings();
   void saveSettings();
   void onShotFired(ShotPtr shot, QString file, QString save_error);
-  void onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file);
+  void onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QString file,
+                  QString results_json);
   void onAnalysisFailed(ShotPtr shot, QString message, QString tag, QString file);
   void showShot(ShotPtr shot);
   void reanalyse(const QStringList& files);

@@ -8,16 +8,41 @@
 #include "app/report/results_json.hpp"
 #include "app/store/catalog.hpp"
 #include "app/store/shot_file.hpp"
+#include "app/wall_analyze.hpp"
 
 namespace collide::gui {
 
-Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot) {
+Result<AnalysedShot> analyzeShot(const hw::Shot& shot) {
   if (shot.status != hw::ShotStatus::Ok)
     return fail("shot " + shot.id + " failed (" + shot.failure_reason +
                 "): there is no burst to analyse");
   if (shot.burst.frames.empty() || shot.burst.frames.front().image.empty())
     return fail("shot " + shot.id + " has no frame images: open the shot file with its frames");
-  return vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
+  AnalysedShot out;
+  if (auto wall = app::analyzeWallShot(shot)) {  // a sphere-on-wall shot
+    if (!*wall) return wall->error();
+    auto analysis = analysisFromResultsJson(wall->value());
+    if (!analysis) return fail("shot " + shot.id + ": the wall analysis' results do not parse");
+    out.analysis = std::move(*analysis);
+    out.results_json = std::move(wall->value());
+    return out;
+  }
+  auto analysis = vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
+  if (!analysis) return analysis.error();
+  out.analysis = std::move(analysis).value();
+  out.results_json = app::resultsToJson(out.analysis);
+  return out;
+}
+
+std::optional<vision::ShotAnalysis> analysisFromResultsJson(const std::string& json) {
+  auto r = app::parseResultsJson(json);
+  if (!r || r->error) return std::nullopt;
+  vision::ShotAnalysis a;
+  a.pixel_size_m = r->pixel_size_m;
+  a.sphere = r->sphere;
+  a.collision = r->collision;
+  a.quality_flags = r->quality_flags;
+  return a;
 }
 
 std::optional<CampaignShot> campaignPoint(const vision::ShotAnalysis& a) {
@@ -82,14 +107,7 @@ Result<std::vector<MeasuredLaunch>> measuredLaunchesInFolder(const std::string& 
 
 std::optional<vision::ShotAnalysis> storedAnalysis(const hw::Shot& shot) {
   if (shot.results_json.empty()) return std::nullopt;
-  auto r = app::parseResultsJson(shot.results_json);
-  if (!r || r->error) return std::nullopt;
-  vision::ShotAnalysis a;
-  a.pixel_size_m = r->pixel_size_m;
-  a.sphere = r->sphere;
-  a.collision = r->collision;
-  a.quality_flags = r->quality_flags;
-  return a;
+  return analysisFromResultsJson(shot.results_json);
 }
 
 AnalysisRunner::AnalysisRunner(QObject* parent) : QObject(parent) {
@@ -99,7 +117,7 @@ AnalysisRunner::AnalysisRunner(QObject* parent) : QObject(parent) {
     running_ = false;
     --pending_;
     if (outcome.analysis)
-      emit analysed(outcome.shot, outcome.analysis, job.tag, job.path);
+      emit analysed(outcome.shot, outcome.analysis, job.tag, job.path, outcome.results_json);
     else
       emit failed(outcome.shot, outcome.message, job.tag, job.path);
     emit pendingChanged(pending_);
@@ -145,9 +163,12 @@ void AnalysisRunner::startNext() {
       if (!read) return {nullptr, nullptr, QString::fromStdString(read.error().message)};
       shot = std::make_shared<const hw::Shot>(std::move(read).value());
     }
-    Result<vision::ShotAnalysis> result = analyzeShot(*shot);
-    if (!result) return {shot, nullptr, QString::fromStdString(result.error().message)};
-    return {shot, std::make_shared<const vision::ShotAnalysis>(std::move(result).value()), {}};
+    Result<AnalysedShot> result = analyzeShot(*shot);
+    if (!result) return {shot, nullptr, QString::fromStdString(result.error().message), {}};
+    return {shot,
+            std::make_shared<const vision::ShotAnalysis>(std::move(result->analysis)),
+            {},
+            QString::fromStdString(result->results_json)};
   }));
 }
 

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "analysis/campaign.hpp"
@@ -22,10 +23,22 @@ namespace collide::gui {
 using ShotPtr = std::shared_ptr<const hw::Shot>;
 using AnalysisPtr = std::shared_ptr<const vision::ShotAnalysis>;
 
-/// Analyses the shot's burst with the settings its record implies
-/// (app::analysisSettingsFor). Errors: the shot failed or has no frames, the
-/// analysis failed (its message).
-Result<vision::ShotAnalysis> analyzeShot(const hw::Shot& shot);
+/// A shot's analysis as the views show it, and as its file stores it.
+struct AnalysedShot {
+  vision::ShotAnalysis analysis;
+  std::string results_json;  ///< docs/results-format.md (a wall shot's own form for a wall)
+};
+
+/// Analyses the shot as `collide analyze` does: a sphere-on-wall shot (its
+/// recorded profile has a [wall]) with the wall analysis, any other with the
+/// two-sphere one (app::analysisSettingsFor). Errors: the shot failed or has
+/// no frames, the analysis failed (its message).
+Result<AnalysedShot> analyzeShot(const hw::Shot& shot);
+
+/// A results JSON (either form) as the views' ShotAnalysis: collision,
+/// spheres and flags (no notes, no per-frame detections); nothing when it
+/// does not parse or records a failed analysis.
+std::optional<vision::ShotAnalysis> analysisFromResultsJson(const std::string& json);
 
 /// The campaign fits' view of one analysed shot; nothing when the shot has no
 /// usable collision (e.g. v_n >= 0).
@@ -78,8 +91,9 @@ class AnalysisRunner : public QObject {
   int pending() const { return pending_; }
 
  signals:
+  /// `results_json`: what the shot's file should store (results-format.md).
   void analysed(collide::gui::ShotPtr shot, collide::gui::AnalysisPtr analysis, QString tag,
-                QString file);
+                QString file, QString results_json);
   /// `shot` is null when the file could not be read.
   void failed(collide::gui::ShotPtr shot, QString message, QString tag, QString file);
   /// Queue length changed (running + waiting).
@@ -96,6 +110,7 @@ class AnalysisRunner : public QObject {
     ShotPtr shot;
     AnalysisPtr analysis;
     QString message;
+    QString results_json;
   };
   std::vector<Job> queue_;
   Job current_;

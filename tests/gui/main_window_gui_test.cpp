@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <fstream>
 #include <numbers>
+#include <tuple>
 
 #include "analysis/walton.hpp"
 #include "app/gui/calibration_dialog.hpp"
@@ -162,6 +163,80 @@ TEST(MainWindowGui, FireAShotAndReadTheResultCard) {
     // The label shows the same number (to its displayed precision).
     EXPECT_NEAR(shown(card, c.label), v->value, 0.01 * std::abs(v->value) + 0.01) << c.label;
   }
+}
+
+// A sphere-on-wall rig (config/sim-wall.toml): the GUI fires launcher 1 at
+// the plate and analyses the shot as `collide analyze` does, with the wall
+// analysis (the two-sphere one finds only one sphere); the card's e, beta and
+// gamma match Walton's wall operator applied to the simulation's truth, and
+// the shot file stores the wall's results form.
+TEST(MainWindowGui, FireAWallShotAndReadTheResultCard) {
+  application();
+  const std::string dir = freshDir("wall");
+  const std::string profile_path = sourcePath("config/sim-wall.toml");
+  MainWindow w(windowOptions(profile_path, dir + "/shots"));
+  w.resize(1500, 950);
+  w.show();
+  ASSERT_TRUE(waitUntilRigRunning(w)) << w.messages().join("\n").toStdString();
+  ASSERT_TRUE(w.profile()->wall.has_value());
+
+  RigPanel* panel = w.rigPanel();
+  auto* fire = child<QPushButton>(panel, "fire_button");
+  child<QDoubleSpinBox>(panel, "speed_0")->setValue(2.0);
+  QTest::mouseClick(child<QPushButton>(panel, "arm_button"), Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return fire->isEnabled(); }, 10000))
+      << "never armed and settled: " << w.messages().join("\n").toStdString();
+  QSignalSpy analysed(&w, &MainWindow::shotAnalysed);
+  QSignalSpy stored(&w, &MainWindow::resultsStored);
+  QTest::mouseClick(fire, Qt::LeftButton);
+  ASSERT_TRUE(QTest::qWaitFor([&] { return analysed.count() >= 1; }, 120000))
+      << w.messages().join("\n").toStdString();
+  ASSERT_NE(w.lastShot(), nullptr);
+  const hw::Shot& shot = *w.lastShot();
+  ASSERT_EQ(shot.status, hw::ShotStatus::Ok) << shot.failure_reason;
+  ASSERT_TRUE(shot.truth.has_value());
+  EXPECT_TRUE(analysed.front().at(1).toBool()) << "the analysis failed";
+  ResultCard* card = w.replayView()->resultCard();
+  ASSERT_TRUE(card->hasResult()) << card->message().toStdString();
+  EXPECT_TRUE(screenshot(w.replayView(), "replay_wall"));
+
+  // The truth: sphere 1 flown from the last simulated state before the
+  // impact to the contact instant, then Walton's wall operator with the
+  // simulator's material.
+  const hw::TruthRecord& t = *shot.truth;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < t.t_s.size(); ++i)
+    if (t.t_s[i] < t.t_collision_s) k = i;
+  const double dt = t.t_collision_s - t.t_s[k];
+  const SphereState& st = t.states[k][0];
+  Sphere s;
+  s.mass_kg = shot.scene.mass_kg[0];
+  s.diameter_m = shot.scene.diameter_m[0];
+  s.position_m = st.position_m + st.velocity_m_s * dt + 0.5 * kGravity_m_s2 * dt * dt;
+  s.velocity_m_s = st.velocity_m_s + kGravity_m_s2 * dt;
+  s.spin_rad_s = st.spin_rad_s;
+  auto recorded = hw::parseRigProfile(shot.rig_profile_toml, "shot");
+  ASSERT_TRUE(recorded && recorded->wall);
+  auto truth = collideWithWall(s, *recorded->wall, t.material);
+  ASSERT_TRUE(truth) << truth.error().message;
+  const ContactOutcome& c = truth->contact;
+  const double gamma_deg = c.before.gamma_rad * 180.0 / std::numbers::pi;
+  for (const auto& [key, value, tolerance] :
+       {std::tuple{"e", c.e, 0.005}, {"beta", c.beta, 0.03}, {"gamma_deg", gamma_deg, 0.5}}) {
+    const auto v = card->value(key);
+    ASSERT_TRUE(v.has_value()) << key;
+    std::printf("wall result card %-10s %10.5f +- %8.5f   truth %10.5f\n", key, v->value, v->sigma,
+                value);
+    EXPECT_NEAR(v->value, value, tolerance) << key;
+  }
+
+  // The file holds the wall's own results (its plate, its contact and
+  // separation), as `collide analyze` writes them.
+  ASSERT_TRUE(QTest::qWaitFor([&] { return stored.count() >= 1; }, 30000));
+  auto reread = app::readShot(dir + "/shots/" + app::shotFileName(shot.id), {.frames = false});
+  ASSERT_TRUE(reread) << reread.error().message;
+  EXPECT_NE(reread->results_json.find("\"target\": \"wall\""), std::string::npos)
+      << reread->results_json.substr(0, 300);
 }
 
 TEST(MainWindowGui, OpenAShotFromTheBrowser) {
