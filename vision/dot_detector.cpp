@@ -231,7 +231,7 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
         if (ldlt.info() != Eigen::Success) break;
         coef = ldlt.solve(rhs);
         local = coef.allFinite();
-        if (!local) break;
+        if (!local || round == 1) break;  // the last round's residuals are not used
         std::vector<double> res(fy.size());
         std::vector<double> absr;
         for (std::size_t i = 0; i < fy.size(); ++i) {
