@@ -69,12 +69,16 @@ std::optional<Replanned> nearestFeasible(const hw::RigProfile& profile,
   auto plan = planShot(profile, want, &why);
   if (!plan && why.nearest) plan = planShot(profile, *why.nearest);
   if (!plan) return std::nullopt;
-  char note[160];
+  char speeds[64];
+  if (plan->isWall())  // one sphere, at the plate
+    std::snprintf(speeds, sizeof speeds, "%.2f m/s", plan->speed_at_contact_m_s[0]);
+  else
+    std::snprintf(speeds, sizeof speeds, "%.2f and %.2f m/s", plan->speed_at_contact_m_s[0],
+                  plan->speed_at_contact_m_s[1]);
+  char note[200];
   std::snprintf(note, sizeof note,
-                "planned %.1f deg at %.2f and %.2f m/s instead of %.1f deg (the nearest shot "
-                "the rig can fire)",
-                plan->incidence_deg, plan->speed_at_contact_m_s[0], plan->speed_at_contact_m_s[1],
-                planned.incidence_deg);
+                "planned %.1f deg at %s instead of %.1f deg (the nearest shot the rig can fire)",
+                plan->incidence_deg, speeds, planned.incidence_deg);
   return Replanned{std::move(*plan), note};
 }
 
@@ -208,8 +212,9 @@ Result<AimedShot> aimCampaignShot(const hw::RigProfile& profile, const PlannedSh
     out.profile = std::move(aimed).value();
     return out;
   }
-  if (profile.wall) return aimed.error();
-  // The rig cannot fire this one: the planner's nearest shot instead.
+  // The rig cannot fire this one (the slide out of travel, a plate turned so
+  // far that the launcher would sit behind it, a speed beyond the
+  // calibration): the planner's nearest shot instead.
   auto replanned = nearestFeasible(profile, planned);
   if (!replanned) return aimed.error();
   out.profile = std::move(replanned->plan.aimed);

@@ -224,6 +224,35 @@ TEST(Plan, CampaignReplansWhatTheRigCannotFire) {
     EXPECT_NE(r.find("nearest shot the rig can fire"), std::string::npos) << r;
 }
 
+// The same on a wall rig: a sweep towards grazing would turn the plate so far
+// that launcher 1 sits behind its face; those shots are replanned to the
+// nearest incidence the plate allows, fired and saved, not lost.
+TEST(Plan, WallCampaignReplansWhatThePlateCannotTake) {
+  auto profile = hw::loadRigProfile(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-wall.toml");
+  ASSERT_TRUE(profile.ok()) << profile.error().message;
+  PlanRequest far;
+  far.incidence_deg = 86;
+  far.speed_m_s = {2.0, 2.0};
+  ASSERT_FALSE(planShot(*profile, far).ok()) << "86 deg should be beyond this plate";
+  collide::testing::ScratchDir scratch;
+  CampaignOptions o;
+  o.shots = 2;
+  o.out_dir = scratch.file("shots");
+  o.angle_min_deg = 86;
+  o.angle_max_deg = 88;
+  o.speed_min_m_s = 2.0;
+  o.speed_max_m_s = 2.1;
+  auto report = runCampaign(*profile, o);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  EXPECT_EQ(report->failed, 0) << (report->failures.empty() ? "" : report->failures[0]);
+  EXPECT_EQ(report->ok, 2);
+  ASSERT_EQ(report->replanned.size(), 2u);
+  for (const std::string& r : report->replanned) {
+    EXPECT_NE(r.find("nearest shot the rig can fire"), std::string::npos) << r;
+    EXPECT_EQ(r.find(" and "), std::string::npos) << "one sphere, one speed: " << r;
+  }
+}
+
 TEST(PlanCli, ExitCodesAndUnits) {
   using collide::testing::q;
   using collide::testing::runCollide;
