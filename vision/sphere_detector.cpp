@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "vision/silhouette_fit.hpp"
@@ -111,7 +112,9 @@ Grid sampleGrid(const cv::Mat& img, int step) {
   return g;
 }
 
-Levels measureLevels(const Grid& grid, int max_value) {
+// `clip_value`: the level at which a pixel is clipped (full scale; none for a
+// backlit frame's negative, where full scale is the silhouette's black).
+Levels measureLevels(const Grid& grid, int max_value, int clip_value) {
   // Histogram in at most 4096 bins.
   int shift = 0;
   while ((max_value >> shift) >= 4096) ++shift;
@@ -125,7 +128,7 @@ Levels measureLevels(const Grid& grid, int max_value) {
     for (int x = (y / 2) % 2; x < grid.w; x += 2) {
       const int v = std::min<int>(grid.at(x, y), max_value);
       ++hist[v >> shift];
-      at_max += v >= max_value;
+      at_max += v >= clip_value;
       ++n;
     }
   auto quantile = [&](const std::vector<int>& h, double q) {
@@ -354,8 +357,8 @@ bool splitPair(const Blob& blob, int step, std::array<CircleFit, 2>& out) {
 
 struct EdgeContext {
   double threshold = 0, dark_limit = 0, sigma = 0;
-  double min_contrast = 0;  // smallest step off the background taken for an edge
-  int max_value = 0;
+  double min_contrast = 0;       // smallest step off the background taken for an edge
+  int clip_value = 0;            // a sample at or above this is clipped (saturated)
   int hw = 2;                    // transition window: [c - 1 - hw, c + hw]
   int n_out = 3;                 // background samples before it
   int n_in = 5;                  // sphere samples after it (the brightness at the limb)
@@ -565,7 +568,7 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
   for (int j = 1; j <= ctx.n_in; ++j) {
     const float y = p[s0 + j - 1];
     if (y < thr) return;
-    if (y >= ctx.max_value) {
+    if (y >= ctx.clip_value) {
       ++st.saturated;
       return;
     }
@@ -819,8 +822,12 @@ void refineSmallSpheres(const cv::Mat& img, const SphereDetectorSettings& set,
   }
 }
 
+// `top_clips`: full scale is where the sensor clipped (false for a backlit
+// frame's negative: there full scale is black, no light, the silhouette's
+// true level, and the profiles into it are whole).
 template <class T>
-FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetectorSettings& set) {
+FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetectorSettings& set,
+                         bool top_clips) {
   FrameSpheres out;
   const int w = img.cols, h = img.rows;
   const double max_r = set.max_radius_px > 0 ? set.max_radius_px : 0.5 * std::min(w, h);
@@ -830,7 +837,8 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   if (std::min(w, h) < 4 * step) step = 1;
 
   const Grid grid = sampleGrid<T>(img, step);
-  const Levels lv = measureLevels(grid, max_value);
+  const int clip_value = top_clips ? max_value : std::numeric_limits<int>::max();
+  const Levels lv = measureLevels(grid, max_value, clip_value);
   out.background = lv.bg;
   out.noise_sigma = lv.sigma;
   out.threshold = lv.threshold;
@@ -858,7 +866,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
   ctx.dark_limit = lv.bg + std::max(5.0 * lv.sigma + 1.0, 0.1 * (lv.threshold - lv.bg));
   ctx.dark_limit = std::min(ctx.dark_limit, lv.threshold);
   ctx.min_contrast = 0.01 * (lv.bright - lv.bg);
-  ctx.max_value = max_value;
+  ctx.clip_value = clip_value;
   ctx.hw = std::max(1, static_cast<int>(std::ceil(set.edge_half_width_px)));
 
   struct Candidate {
@@ -1127,15 +1135,15 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
     dark = 2 * above > n && 5 * clipped < n;
   }
   if (!dark) {
-    if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_);
-    return detectTyped<std::uint16_t>(image, max_value, settings_);
+    if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_, true);
+    return detectTyped<std::uint16_t>(image, max_value, settings_, true);
   }
   // Saturating: levels above full scale give 0.
   cv::Mat negative;
   cv::subtract(cv::Scalar(max_value), image, negative);
   FrameSpheres out = image.depth() == CV_8U
-                         ? detectTyped<std::uint8_t>(negative, max_value, settings_)
-                         : detectTyped<std::uint16_t>(negative, max_value, settings_);
+                         ? detectTyped<std::uint8_t>(negative, max_value, settings_, false)
+                         : detectTyped<std::uint16_t>(negative, max_value, settings_, false);
   out.dark_spheres = true;
   out.background = max_value - out.background;
   out.threshold = max_value - out.threshold;

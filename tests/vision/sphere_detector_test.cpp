@@ -218,6 +218,9 @@ struct ShadedSetup {
   double full_well_e = 20000, read_noise_e = 15;
   double dot_fraction = 0.1;
   bool backlit = false;  // sim-backlit's bright field and dark silhouettes instead
+  /// Backlit: the room light on the spheres' faces; negative: drawn from
+  /// 0.15-0.35 (sim-backlit's); 0: bare silhouettes, black to the sensor.
+  double backlit_ambient = -1;
 };
 
 // One frame of two dotted spheres, apart, under a random one-sided lamp
@@ -258,6 +261,7 @@ ShadedFrame shadedFrame(std::mt19937_64& rng, const ShadedSetup& s, int frame) {
     // config/sim-backlit.toml's field, with a bright central spot.
     im.lighting.mode = Lighting::Mode::Back;
     im.lighting.ambient = 0.15 + 0.2 * uni(rng);
+    if (s.backlit_ambient >= 0) im.lighting.ambient = s.backlit_ambient;
     im.lighting.sphere_albedo = 0.5;
     im.lighting.dot_albedo = 0.05;
     im.lighting.backdrop_level = 0.7 + 0.2 * uni(rng);
@@ -384,6 +388,36 @@ TEST(SphereDetector, BacklitSilhouettesAreMeasured) {
     const Errors err = shadedErrors(s, 12, 90 + bits, missed);
     char what[64];
     std::snprintf(what, sizeof what, "backlit 60 px, %d-bit", bits);
+    err.print(what);
+    EXPECT_EQ(missed, 0) << what;
+    ASSERT_GT(err.n, 0) << what;
+    EXPECT_LE(err.centreRms(), 0.05) << what;
+    EXPECT_LE(err.radiusRms(), 0.05) << what;
+    EXPECT_LE(err.max_c, 0.2) << what;
+    EXPECT_LE(err.max_r, 0.2) << what;
+  }
+}
+
+// Bare silhouettes (no light on their faces): the sphere is black, 0 in the
+// frame, so full scale in the negative the detector reads. That is no light,
+// not a clipped sensor: the profiles into it are whole. They were all
+// refused as saturated, and such frames (the classic backlit picture) gave
+// "no sphere found".
+TEST(SphereDetector, BareSilhouettesAtBlackAreMeasured) {
+  for (const auto& [format, bits] :
+       {std::pair{PixelFormat::Mono8, 8}, std::pair{PixelFormat::Mono12, 12},
+        std::pair{PixelFormat::Mono16, 16}}) {
+    ShadedSetup s;
+    s.format = format;
+    s.adc_bits = bits;
+    s.backlit = true;
+    s.backlit_ambient = 0;
+    s.full_well_e = 12000;
+    s.read_noise_e = 12;
+    int missed = 0;
+    const Errors err = shadedErrors(s, 12, 190 + bits, missed);
+    char what[64];
+    std::snprintf(what, sizeof what, "bare silhouettes 60 px, %d-bit", bits);
     err.print(what);
     EXPECT_EQ(missed, 0) << what;
     ASSERT_GT(err.n, 0) << what;
