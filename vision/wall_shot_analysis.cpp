@@ -326,18 +326,16 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.before = *fb;
   a.after = *fa;
 
-  // Spins from the dots (front light only: a silhouette shows none).
+  // Spins from the dots: on a backlit sphere too, as the two-sphere analysis
+  // does (room light on its face shows them); a bare silhouette shows none,
+  // and the reason says so.
   std::vector<double> radii;
   for (const Sample& smp : samples) radii.push_back(smp.m.circle.radius);
   std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
   const double r_med = radii[radii.size() / 2];
-  SpinSide sb, sa;
-  if (dark) {
-    sb.why = sa.why = "backlit: a silhouette shows no dots";
-  } else {
-    sb = spinOf(burst, before, r_med);
-    sa = spinOf(burst, after, r_med);
-  }
+  SpinSide sb = spinOf(burst, before, r_med), sa = spinOf(burst, after, r_med);
+  for (SpinSide* side : {&sb, &sa})
+    if (dark && !side->known) side->why = "backlit, no dots seen on the silhouette: " + side->why;
   a.spin_before_known = sb.known;
   a.spin_after_known = sa.known;
   a.spin_sigma_before = sb.known ? Vec3(sb.cov.diagonal().cwiseSqrt()) : Vec3::Constant(kNaN);

@@ -6,6 +6,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "analysis/campaign.hpp"
@@ -154,6 +157,73 @@ TEST(WallCampaignSim, ShotsAnalysedAsWallShotsMatchTheTruthAndTheFitsGiveTheMate
   EXPECT_NEAR(e->e.value, truth.e, 0.005);
   EXPECT_NEAR(fr->mu.value, truth.mu, 0.005);
   EXPECT_NEAR(fr->beta0.value, truth.beta0, 0.02);
+}
+
+// config/sim-wall.toml seen against a backlight: the sphere a silhouette on a
+// bright field, with `ambient` room light on its face (0: bare, black).
+hw::RigProfile backlitWallProfile(double ambient) {
+  std::ifstream in(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-wall.toml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string toml = text.str();
+  const std::size_t at = toml.find("\n[burst]");
+  EXPECT_NE(at, std::string::npos);
+  toml.insert(at + 1,
+              "[camera.imaging]\nlighting = \"back\"\nambient = " + std::to_string(ambient) +
+                  "\nsphere_albedo = 0.5\ndot_albedo = 0.05\nbackdrop_level = 0.85\n"
+                  "spot_level = 0.35\nspot_fraction = 0.15\nfull_well_e = 12000.0\n"
+                  "read_noise_e = 12.0\n\n");
+  auto p = hw::parseRigProfile(toml, "sim-wall.toml, backlit");
+  EXPECT_TRUE(p.ok()) << p.error().message;
+  return *p;
+}
+
+// Backlit plate shots: with room light on the sphere's face its dots show and
+// spins (so beta) are measured, as in the two-sphere analysis; a bare
+// silhouette (black) is found all the same, gives e and says the spins are
+// unknown (no beta guessed).
+TEST(WallCampaignSim, BacklitShotsGiveEAndSpinsWhereTheDotsShow) {
+  for (const double ambient : {0.25, 0.0}) {
+    testing::ScratchDir dir;
+    const hw::RigProfile profile = backlitWallProfile(ambient);
+    CampaignOptions options;
+    options.shots = 4;
+    options.out_dir = dir.path();
+    options.seed = 7;
+    options.angle_min_deg = 15;
+    options.angle_max_deg = 60;
+    auto report = runCampaign(profile, options);
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    ASSERT_EQ(report->ok, options.shots)
+        << (report->failures.empty() ? "" : report->failures.front());
+    for (const std::string& file : report->files) {
+      auto shot = readShot(file);
+      ASSERT_TRUE(shot.ok()) << shot.error().message;
+      auto settings = wallAnalysisSettingsFor(*shot);
+      ASSERT_TRUE(settings);
+      auto a = vision::analyzeWallBurst(shot->burst, *settings);
+      ASSERT_TRUE(a.ok()) << "ambient " << ambient << ": " << a.error().message;
+      auto reread = hw::parseRigProfile(shot->rig_profile_toml, "shot");
+      ASSERT_TRUE(reread);
+      const TrueImpact truth = trueImpact(*shot, *reread->wall);
+      auto m = measureWallCollision(truth.before, truth.after, *reread->wall);
+      ASSERT_TRUE(m) << m.error().message;
+      std::printf("backlit wall, ambient %.2f: e %.4f (truth %.4f), beta %.4f (truth %.4f)\n",
+                  ambient, a->measured.e, m->e, a->measured.beta, m->beta);
+      EXPECT_NEAR(a->measured.e, m->e, 0.005) << file;
+      const auto& flags = a->quality_flags;
+      const bool no_spin = std::count(flags.begin(), flags.end(), "no_spin_before") > 0;
+      if (ambient > 0) {
+        EXPECT_TRUE(a->spin_before_known && a->spin_after_known) << file;
+        EXPECT_FALSE(no_spin) << file;
+        EXPECT_NEAR(a->measured.beta, m->beta, 0.03) << file;
+      } else {
+        EXPECT_FALSE(a->spin_before_known || a->spin_after_known) << file;
+        EXPECT_TRUE(no_spin) << file;
+        EXPECT_TRUE(std::isnan(a->measured.beta)) << file;
+      }
+    }
+  }
 }
 
 }  // namespace
