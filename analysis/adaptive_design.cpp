@@ -172,7 +172,7 @@ AdaptiveStatus assessCampaign(std::span<const CampaignShot> shots, const Adaptiv
   st.restitution = *e;
   std::vector<CampaignShot> oblique;
   for (const CampaignShot& s : shots)
-    if (s.v_s_m_s > 0) oblique.push_back(s);
+    if (s.v_s_m_s > 0 && !std::isnan(s.beta)) oblique.push_back(s);  // spins measured
   auto f = fitFriction(oblique, e->e, o.friction);
   if (!f) {
     st.fit_error = f.error().message;

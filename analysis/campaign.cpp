@@ -386,11 +386,12 @@ Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
   Result<RestitutionMean> mean = fitRestitutionMean(shots, options.robust);
   if (!mean) return mean.error();
 
-  // Head-on shots inform e but have no beta; fit friction on the others and
-  // keep their input indices for messages.
+  // Head-on shots, and shots whose spins were not measured (a silhouette),
+  // inform e but have no beta; fit friction on the others and keep their
+  // input indices for messages.
   FrictionInput in;
   for (std::size_t i = 0; i < shots.size(); ++i) {
-    if (shots[i].v_s_m_s == 0) continue;
+    if (shots[i].v_s_m_s == 0 || std::isnan(shots[i].beta)) continue;
     in.shots.push_back(shots[i]);
     in.index.push_back(i);
   }

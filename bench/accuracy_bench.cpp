@@ -9,7 +9,9 @@
 //   fast12   config/sim-fast12.toml  4000 frames/s, 12-bit, 90 px spheres
 //   unequal  config/sim-unequal.toml a 2.54 and a 1.905 cm sphere
 //   backlit  config/sim-backlit.toml silhouettes; spin (and beta) not asked
+//   silhouette bench/profiles/bare-silhouettes.toml  black silhouettes, no dots
 //   wall     config/sim-wall.toml    one sphere on a plate (the wall analysis)
+//   wall-backlit bench/profiles/wall-backlit.toml  the plate against a backlight
 //
 //   build/bench/accuracy_bench [--shots N] [--preset NAME,NAME] [--profile FILE] [--seed S]
 //                              [--verbose] [--save-bad DIR] [--reanalyse FILE]
@@ -87,7 +89,7 @@ struct Stat {
 // One imaging preset: a rig profile and the launch speeds it is fired at.
 struct Preset {
   const char* name;
-  const char* profile;  // under config/
+  const char* profile;  // from the source tree's root
   double speed_min_m_s, speed_max_m_s;
   bool spin;    // spins (and so beta) are asked of the analysis
   bool thesis;  // the thesis' targets (RMS over shots) rather than per shot
@@ -95,15 +97,21 @@ struct Preset {
 };
 
 const Preset kPresets[] = {
-    {"ideal", "sim.toml", 1.6, 2.6, true, false, "640x480, 120 px spheres, even light, 1000 f/s"},
-    {"lab", "sim-lab.toml", 1.0, 2.0, true, false,
+    {"ideal", "config/sim.toml", 1.6, 2.6, true, false,
+     "640x480, 120 px spheres, even light, 1000 f/s"},
+    {"lab", "config/sim-lab.toml", 1.0, 2.0, true, false,
      "640x480, perspective, one-sided light, 150 us, drift, tilt"},
-    {"thesis", "sim-thesis.toml", 1.6, 2.6, true, true,
+    {"thesis", "config/sim-thesis.toml", 1.6, 2.6, true, true,
      "240x192, 37 px spheres, 1000 f/s, intensifier noise"},
-    {"fast12", "sim-fast12.toml", 2.0, 3.5, true, false, "4000 f/s, 12-bit, 90 px spheres"},
-    {"unequal", "sim-unequal.toml", 1.6, 2.6, true, false, "2.54 and 1.905 cm spheres"},
-    {"backlit", "sim-backlit.toml", 1.6, 2.6, false, false, "dark silhouettes, no spin asked"},
-    {"wall", "sim-wall.toml", 1.6, 2.6, true, false, "one sphere on a plate, 640x480"},
+    {"fast12", "config/sim-fast12.toml", 2.0, 3.5, true, false, "4000 f/s, 12-bit, 90 px spheres"},
+    {"unequal", "config/sim-unequal.toml", 1.6, 2.6, true, false, "2.54 and 1.905 cm spheres"},
+    {"backlit", "config/sim-backlit.toml", 1.6, 2.6, false, false,
+     "dark silhouettes, no spin asked"},
+    {"silhouette", "bench/profiles/bare-silhouettes.toml", 1.6, 2.6, false, false,
+     "bare black silhouettes, no dots: spins unknown"},
+    {"wall", "config/sim-wall.toml", 1.6, 2.6, true, false, "one sphere on a plate, 640x480"},
+    {"wall-backlit", "bench/profiles/wall-backlit.toml", 1.6, 2.6, true, false,
+     "one sphere on a plate against a backlight"},
 };
 
 // What one preset's shots gave.
@@ -158,12 +166,21 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
   std::printf("\n");
 }
 
+// The flags that say a shot cannot be trusted for what the preset asks:
+// where spins are not asked (silhouettes), "no spin" is what is expected.
+std::vector<std::string> countedFlags(const Preset& pr, const vision::ShotAnalysis& r) {
+  std::vector<std::string> out;
+  for (const std::string& f : r.quality_flags)
+    if (pr.spin || (f != "no_spin_before" && f != "no_spin_after")) out.push_back(f);
+  return out;
+}
+
 // Errors of one analysed shot against the truth, into `out`.
 void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeasurement& truth,
                const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta, int spheres,
                PresetResult& out) {
   const vision::CollisionProperties& c = r.collision;
-  const bool flagged = !r.quality_flags.empty();
+  const bool flagged = !countedFlags(pr, r).empty();
   const double e_err = c.e.value - truth.e;
   const double g_err = c.gamma_deg.value - truth.before.gamma_rad * 180 / std::numbers::pi;
   out.pe_all.add(e_err / c.e.sigma);
@@ -217,11 +234,12 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
                 const vision::ShotAnalysis& r, const WaltonMeasurement& truth,
                 const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta, int spheres,
                 PresetResult& out) {
-  out.flagged += !r.quality_flags.empty();
-  for (const std::string& f : r.quality_flags) ++out.flag_count[f];
+  const std::vector<std::string> flags = countedFlags(pr, r);
+  out.flagged += !flags.empty();
+  for (const std::string& f : flags) ++out.flag_count[f];
   scoreShot(pr, r, truth, tb, ta, spheres, out);
   const vision::CollisionProperties& c = r.collision;
-  if (r.quality_flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 && c.e.sigma > 0)
+  if (flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 && c.e.sigma > 0)
     out.points.push_back(app::campaignShotFrom(c));
   const double e_err = c.e.value - truth.e, b_err = c.beta.value - truth.beta;
   const double g_err = c.gamma_deg.value - truth.before.gamma_rad * 180 / std::numbers::pi;
@@ -229,8 +247,8 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
                    (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
   if (bad)
     saveBad(shot, "error beyond 4 sigma");
-  else if (!r.quality_flags.empty())
-    saveBad(shot, "flagged " + r.quality_flags.front());
+  else if (!flags.empty())
+    saveBad(shot, "flagged " + flags.front());
   if (g_verbose || bad) {
     std::printf(
         "shot %2zu: psi %4.1f | e %.4f (err %+.4f, %.1f sigma) beta %+.3f (err %+.3f, %.1f "
@@ -530,7 +548,7 @@ int main(int argc, char** argv) {
     if (!presets.empty() &&
         ("," + presets + ",").find("," + std::string(pr.name) + ",") == std::string::npos)
       continue;
-    auto profile = hw::loadRigProfile(root + "/config/" + pr.profile);
+    auto profile = hw::loadRigProfile(root + "/" + pr.profile);
     if (!profile) {
       std::fprintf(stderr, "%s\n", profile.error().message.c_str());
       return 1;

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <string>
 
@@ -403,6 +404,22 @@ void flagSpinImpulse(ShotAnalysis& out, const FlagInputs& q) {
   out.notes.push_back(*why);
 }
 
+// A spin not measured gives no beta: reported unavailable (NaN, null in the
+// JSON), never guessed from the 0 +- 50 rad/s the Monte Carlo draws it from
+// (issue 13: a silhouette shows no spin), as the wall analysis does. gamma,
+// v_s and f, which the spins before only shift, keep that prior's width.
+void withoutUnmeasuredSpins(CollisionProperties& c, const ShotSpins& spins) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  bool before = true, after = true;
+  for (int s = 0; s < 2; ++s) {
+    before = before && !spins.side[s][0].unknown_reason;
+    after = after && !spins.side[s][1].unknown_reason;
+  }
+  if (!before || !after) c.beta = {kNaN, kNaN};
+  if (!after) c.vs_after_m_s = {kNaN, kNaN};
+  if (!before) c.beta_from_impulse = {kNaN, kNaN};
+}
+
 // Values physics forbids, beyond their uncertainty.
 void flagUnphysical(ShotAnalysis& out) {
   const CollisionProperties& c = out.collision;
@@ -594,6 +611,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         "the measured kinematics are not a collision (the spheres do not approach at "
         "the contact instant); check the tracks");
   fillKinematics(out, u, *fits, spins, model.vz_fraction);
+  withoutUnmeasuredSpins(out.collision, spins);
   fillFrames(out, burst, data, spins);
 
   // ---- quality flags

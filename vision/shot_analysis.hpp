@@ -186,7 +186,9 @@ struct ShotAnalysis {
   ///  "e_untrustworthy_geometry", "beta_untrustworthy_geometry": SPEC eq. 5.1
   ///    (with the residual scatter as s) gives |v_n| or v_s a relative error > 5 %;
   ///  "no_spin_before", "no_spin_after": a sphere's spin could not be measured
-  ///    on that side (taken as 0 +- 50 rad/s per axis, so sigmas show it);
+  ///    on that side (taken as 0 +- 50 rad/s per axis, so the sigmas of gamma,
+  ///    v_s and f show it); beta (and vs_after after, beta_from_impulse
+  ///    before) is then NaN: unavailable, never guessed;
   ///  "spin_poorly_measured": a measured spin's sigma exceeds those 50 rad/s
   ///    on some axis (dots followed too briefly or matched badly; its errors
   ///    can reach hundreds of rad/s, beyond what beta's and gamma's sigmas

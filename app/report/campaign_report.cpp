@@ -107,7 +107,7 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
     // Head-on shots have no beta: the friction bootstrap takes the others.
     std::vector<CampaignShot> oblique;
     for (const auto& s : shots)
-      if (s.v_s_m_s > 0) oblique.push_back(s);
+      if (s.v_s_m_s > 0 && !std::isnan(s.beta)) oblique.push_back(s);  // spins measured
     auto boot = bootstrapFriction(oblique, resamples, seed, options);
     if (boot) {
       report.bootstrap = *boot;

@@ -332,6 +332,27 @@ TEST(Campaign, HeadOnShotsCountForEOnly) {
   EXPECT_EQ(fit->laws->fits.size(), 4u);
 }
 
+// Shots whose spins were not measured (bare backlit silhouettes: beta NaN,
+// unavailable) count for e and are left out of the friction fit, which the
+// others still give; before, one such shot stopped the whole fit.
+TEST(Campaign, ShotsWithoutSpinsCountForEOnly) {
+  auto shots = shotsOf(simulateCampaign(kNylon, 8));
+  const std::size_t measured = shots.size();
+  for (std::size_t i = 0; i < 3; ++i) {
+    CampaignShot silhouette = shots[i];
+    silhouette.beta = silhouette.beta_sigma = std::nan("");
+    shots.push_back(silhouette);
+  }
+  auto fit = fitCampaign(shots);
+  ASSERT_TRUE(fit.ok()) << fit.error().message;
+  EXPECT_EQ(fit->restitution.count, int(shots.size()));
+  EXPECT_EQ(fit->friction.sliding_count + fit->friction.rolling_count, int(measured));
+  auto without = fitCampaign(std::span(shots).first(measured));
+  ASSERT_TRUE(without.ok()) << without.error().message;
+  EXPECT_NEAR(fit->friction.mu.value, without->friction.mu.value, 1e-3);
+  EXPECT_NEAR(fit->friction.beta0.value, without->friction.beta0.value, 1e-3);
+}
+
 TEST(Campaign, OneSpeedCampaignStillFitsFriction) {
   // An angle campaign at one pressure (thesis section 5.2): rescale each shot
   // to |v_n| = 1 m/s, which keeps x = -v_n/v_s and beta.

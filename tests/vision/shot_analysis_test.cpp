@@ -418,6 +418,12 @@ TEST(AnalyzeBurstFlags, EachFlagFiresWithItsCauseAndOnlyThen) {
     ASSERT_TRUE(r.ok()) << r.error().message;
     EXPECT_TRUE(hasFlag(*r, "no_spin_before"));
     EXPECT_TRUE(hasFlag(*r, "no_spin_after"));
+    // Spin-dependent results unavailable, never guessed; e still measured.
+    const CollisionProperties& c = r->collision;
+    EXPECT_TRUE(std::isnan(c.beta.value)) << c.beta.value;
+    EXPECT_TRUE(std::isnan(c.beta_from_impulse.value)) << c.beta_from_impulse.value;
+    EXPECT_TRUE(std::isnan(c.vs_after_m_s.value)) << c.vs_after_m_s.value;
+    EXPECT_NEAR(c.e.value, shot.truth.e, 5 * c.e.sigma + 1e-3);
   }
 
   // Every other frame displaced by one pixel (a shaking camera): the centres
