@@ -144,8 +144,10 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
     const vision::SphereKinematics& k = r.sphere[s];
     const auto row = [](const char* what, const Estimate3& e, const Vec3& truth) {
       const Vec3 d = e.value - truth;
-      std::printf("    %-10s err (%+.5f %+.5f %+.5f) sigma (%.5f %.5f %.5f)\n", what, d.x(), d.y(),
-                  d.z(), e.sigma.x(), e.sigma.y(), e.sigma.z());
+      std::printf(
+          "    %-10s err (%+.5f %+.5f %+.5f) sigma (%.5f %.5f %.5f) truth (%+.3f %+.3f %+.3f)\n",
+          what, d.x(), d.y(), d.z(), e.sigma.x(), e.sigma.y(), e.sigma.z(), truth.x(), truth.y(),
+          truth.z());
     };
     std::printf("  sphere %d:\n", s + 1);
     row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
