@@ -105,6 +105,21 @@ TEST(RigProfile, BuiltInDefaultIsConfigSimToml) {
   EXPECT_EQ(p->name, "sim");
 }
 
+// Every profile the project ships (config/, and bench/profiles/ that the
+// accuracy bench fires, which no other test loads) is still a valid profile.
+TEST(RigProfile, EveryShippedProfileLoads) {
+  int loaded = 0;
+  for (const char* folder : {"config", "bench/profiles"})
+    for (const auto& e :
+         std::filesystem::directory_iterator(std::string(COLLIDE_SOURCE_DIR) + "/" + folder)) {
+      if (e.path().extension() != ".toml") continue;
+      auto p = loadRigProfile(e.path().string());
+      EXPECT_TRUE(p.ok()) << e.path() << ": " << p.error().message;
+      ++loaded;
+    }
+  EXPECT_GE(loaded, 10);
+}
+
 TEST(RigProfile, MissingFileNamesThePath) {
   const auto p = loadRigProfile("/nonexistent/rig.toml");
   ASSERT_FALSE(p.ok());
