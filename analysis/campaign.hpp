@@ -232,8 +232,9 @@ FrictionOptions campaignOptions();
 
 /// e's mean and the friction fit use options.robust (Huber by default); the
 /// laws of e(|v_n|) are least-squares fits. Head-on shots (v_s = 0) and shots
-/// whose beta is NaN (spins not measured) count for e only. friction.robust_weight and
-/// restitution.robust_weight say which shots the loss set aside.
+/// whose beta is NaN (spins not measured) count for e only.
+/// friction.robust_weight and restitution.robust_weight say which shots the
+/// loss set aside.
 Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
                                 const FrictionOptions& options = campaignOptions());
 

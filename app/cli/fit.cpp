@@ -165,9 +165,9 @@ void setupFit(CLI::App& sub, std::function<int()>& run) {
       "Plots: beta_vs_cot, tangent_form, f_vs_tan, e_vs_tan, e_vs_vn (each .png and .svg).\n"
       "Shots flagged few_frames_*, collision_instant_disagree, large_residuals, unphysical,\n"
       "spin_poorly_measured, spin_impulse_disagree or analysis_failed are left out unless\n"
-      "--include-flagged; every\n"
-      "left-out shot is listed with its flags, and every shot the robust loss down-weights\n"
-      "with its weights.");
+      "--include-flagged; every left-out shot is listed with its flags, and every shot the\n"
+      "robust loss down-weights with its weights. A shot whose spins were not measured\n"
+      "(beta null, e.g. a bare backlit silhouette) counts for e only.");
   run = [o] { return runFit(*o); };
 }
 

@@ -104,10 +104,11 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
     ++k;
   }
   if (resamples > 0) {
-    // Head-on shots have no beta: the friction bootstrap takes the others.
+    // Head-on shots, and shots whose spins were not measured, have no beta:
+    // the friction bootstrap takes the others.
     std::vector<CampaignShot> oblique;
     for (const auto& s : shots)
-      if (s.v_s_m_s > 0 && !std::isnan(s.beta)) oblique.push_back(s);  // spins measured
+      if (s.v_s_m_s > 0 && !std::isnan(s.beta)) oblique.push_back(s);
     auto boot = bootstrapFriction(oblique, resamples, seed, options);
     if (boot) {
       report.bootstrap = *boot;
