@@ -390,12 +390,20 @@ Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
   // inform e but have no beta; fit friction on the others and keep their
   // input indices for messages.
   FrictionInput in;
+  std::size_t without_spins = 0;
   for (std::size_t i = 0; i < shots.size(); ++i) {
-    if (shots[i].v_s_m_s == 0 || std::isnan(shots[i].beta)) continue;
+    const bool no_beta = std::isnan(shots[i].beta) && shots[i].v_s_m_s != 0;
+    without_spins += no_beta;
+    if (shots[i].v_s_m_s == 0 || no_beta) continue;
     in.shots.push_back(shots[i]);
     in.index.push_back(i);
   }
   Result<FrictionFit> friction = fitFrictionIndexed(in, mean->e, options);
+  if (!friction && without_spins > 0)
+    return fail(std::to_string(without_spins) + " of " + std::to_string(shots.size()) +
+                " shots have no beta (their spins were not measured: no dots seen, e.g. bare "
+                "backlit silhouettes), so they count for e only; " +
+                friction.error().message);
   if (!friction) return friction.error();
   std::vector<CollisionRegime> regime(shots.size(), CollisionRegime::Rolling);
   for (std::size_t k = 0; k < in.index.size(); ++k) regime[in.index[k]] = friction->regime[k];

@@ -351,6 +351,13 @@ TEST(Campaign, ShotsWithoutSpinsCountForEOnly) {
   ASSERT_TRUE(without.ok()) << without.error().message;
   EXPECT_NEAR(fit->friction.mu.value, without->friction.mu.value, 1e-3);
   EXPECT_NEAR(fit->friction.beta0.value, without->friction.beta0.value, 1e-3);
+  // With too few spins left for friction, the refusal says why.
+  for (std::size_t i = 3; i < measured; ++i) shots[i].beta = std::nan("");
+  auto few = fitCampaign(shots);
+  ASSERT_FALSE(few.ok());
+  EXPECT_NE(few.error().message.find("have no beta (their spins were not measured"),
+            std::string::npos)
+      << few.error().message;
 }
 
 TEST(Campaign, OneSpeedCampaignStillFitsFriction) {
