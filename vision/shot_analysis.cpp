@@ -391,11 +391,9 @@ void flagInstants(ShotAnalysis& out, const FlagInputs& q) {
 
 // Angular momentum about the contact point (spinImpulseDisagreement): a
 // spin or velocity is wrong (a dot taken for another, a track through the
-// wrong blob). Not checked where a spin was not measured.
+// wrong blob). Where a spin was not measured beta is NaN
+// (withoutUnmeasuredSpins), and nothing is compared.
 void flagSpinImpulse(ShotAnalysis& out, const FlagInputs& q) {
-  const auto& flags = out.quality_flags;
-  for (const char* f : {"no_spin_before", "no_spin_after"})
-    if (std::find(flags.begin(), flags.end(), f) != flags.end()) return;
   const CollisionProperties& c = out.collision;
   const auto why = spinImpulseDisagreement(c.beta.value, c.beta_from_impulse.value,
                                            q.u->beta_spin_minus_impulse.sigma());

@@ -380,12 +380,6 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   };
   propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
             sa, velocitySigma(*fb, *tc), velocitySigma(*fa, *ts));
-  if (sb.known && sa.known)
-    if (auto why = spinImpulseDisagreement(a.measured.beta, a.measured.beta_from_impulse,
-                                           a.beta_spin_minus_impulse_sigma)) {
-      a.quality_flags.push_back("spin_impulse_disagree");
-      a.notes.push_back(*why);
-    }
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;
@@ -393,6 +387,12 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   }
   if (!sb.known) {
     a.measured.beta_from_impulse = kNaN;
+  }
+  // Angular momentum about the contact point (nothing compared without beta).
+  if (auto why = spinImpulseDisagreement(a.measured.beta, a.measured.beta_from_impulse,
+                                         a.beta_spin_minus_impulse_sigma)) {
+    a.quality_flags.push_back("spin_impulse_disagree");
+    a.notes.push_back(*why);
   }
   return a;
 }
