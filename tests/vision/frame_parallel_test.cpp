@@ -42,25 +42,29 @@ TEST(FrameParallel, EveryFrameOnceProgressOnTheCallingThreadInOrder) {
 }
 
 TEST(FrameParallel, TheFirstErrorStopsTheRestAndIsRethrown) {
-  // Frames after the bad one wait (up to 2 s) until it has thrown: otherwise
-  // another thread may finish every frame while the throw is still being set
-  // up (slow under ASan on a loaded machine), and nothing is left to stop.
+  // Frames after the bad one wait (up to 2 s) until it has thrown, then take
+  // 1 ms each: otherwise another thread may finish every frame while the
+  // throw is still being unwound and caught (slow under ASan, or when the
+  // throwing thread is preempted on a loaded machine; seen in a full ctest
+  // run), and nothing is left to stop. Without the stop, the 10,000 frames
+  // take 10 s and the check below fails.
   std::atomic<int> ran{0};
   std::atomic<bool> thrown{false};
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_THROW(
-      forEachFrame(10000,
-                   [&](std::size_t k) {
-                     ran.fetch_add(1);
-                     if (k == 3) {
-                       thrown = true;
-                       throw std::runtime_error("frame 3 is corrupt");
-                     }
-                     while (k > 3 && !thrown &&
-                            std::chrono::steady_clock::now() - start < std::chrono::seconds(2))
-                       std::this_thread::yield();
-                   }),
-      std::runtime_error);
+  EXPECT_THROW(forEachFrame(10000,
+                            [&](std::size_t k) {
+                              ran.fetch_add(1);
+                              if (k == 3) {
+                                thrown = true;
+                                throw std::runtime_error("frame 3 is corrupt");
+                              }
+                              if (k < 3) return;
+                              while (!thrown && std::chrono::steady_clock::now() - start <
+                                                    std::chrono::seconds(2))
+                                std::this_thread::yield();
+                              std::this_thread::sleep_for(std::chrono::milliseconds(1));
+                            }),
+               std::runtime_error);
   EXPECT_LT(ran.load(), 10000) << "frames went on after the error";
   forEachFrame(0, [](std::size_t) { FAIL() << "no frame to run"; });
 }
