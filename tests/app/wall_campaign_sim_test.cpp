@@ -159,21 +159,20 @@ TEST(WallCampaignSim, ShotsAnalysedAsWallShotsMatchTheTruthAndTheFitsGiveTheMate
   EXPECT_NEAR(fr->beta0.value, truth.beta0, 0.02);
 }
 
-// config/sim-wall.toml seen against a backlight: the sphere a silhouette on a
-// bright field, with `ambient` room light on its face (0: bare, black).
+// bench/profiles/wall-backlit.toml (config/sim-wall.toml seen against a
+// backlight: the sphere a silhouette on a bright field), with `ambient` room
+// light on its face instead of the file's 0.25 (0: bare, black).
 hw::RigProfile backlitWallProfile(double ambient) {
-  std::ifstream in(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-wall.toml");
+  std::ifstream in(std::string(COLLIDE_SOURCE_DIR) + "/bench/profiles/wall-backlit.toml");
   std::stringstream text;
   text << in.rdbuf();
   std::string toml = text.str();
-  const std::size_t at = toml.find("\n[burst]");
-  EXPECT_NE(at, std::string::npos);
-  toml.insert(at + 1,
-              "[camera.imaging]\nlighting = \"back\"\nambient = " + std::to_string(ambient) +
-                  "\nsphere_albedo = 0.5\ndot_albedo = 0.05\nbackdrop_level = 0.85\n"
-                  "spot_level = 0.35\nspot_fraction = 0.15\nfull_well_e = 12000.0\n"
-                  "read_noise_e = 12.0\n\n");
-  auto p = hw::parseRigProfile(toml, "sim-wall.toml, backlit");
+  const std::string line = "\nambient = 0.25";
+  const std::size_t at = toml.find(line);
+  EXPECT_NE(at, std::string::npos) << "wall-backlit.toml no longer sets ambient = 0.25";
+  if (at != std::string::npos)
+    toml.replace(at, line.size(), "\nambient = " + std::to_string(ambient));
+  auto p = hw::parseRigProfile(toml, "wall-backlit.toml");
   EXPECT_TRUE(p.ok()) << p.error().message;
   return *p;
 }
