@@ -399,12 +399,14 @@ Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
     in.index.push_back(i);
   }
   Result<FrictionFit> friction = fitFrictionIndexed(in, mean->e, options);
-  if (!friction && without_spins > 0)
-    return fail(std::to_string(without_spins) + " of " + std::to_string(shots.size()) +
-                " shots have no beta (their spins were not measured: no dots seen, e.g. bare "
-                "backlit silhouettes), so they count for e only; " +
-                friction.error().message);
-  if (!friction) return friction.error();
+  if (!friction) {
+    if (without_spins > 0)
+      friction = fail(std::to_string(without_spins) + " of " + std::to_string(shots.size()) +
+                      " shots have no beta (their spins were not measured: no dots seen, e.g. "
+                      "bare backlit silhouettes), so they count for e only; " +
+                      friction.error().message);
+    return CampaignFit{*mean, std::move(friction), fitRestitutionLaws(shots)};
+  }
   std::vector<CollisionRegime> regime(shots.size(), CollisionRegime::Rolling);
   for (std::size_t k = 0; k < in.index.size(); ++k) regime[in.index[k]] = friction->regime[k];
   friction->regime = std::move(regime);
@@ -413,7 +415,7 @@ Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,
     weight[in.index[k]] = friction->robust_weight[k];
   friction->robust_weight = std::move(weight);
 
-  return CampaignFit{*mean, std::move(*friction), fitRestitutionLaws(shots)};
+  return CampaignFit{*mean, std::move(friction), fitRestitutionLaws(shots)};
 }
 
 Result<FrictionBootstrap> bootstrapFriction(std::span<const CampaignShot> shots, int resamples,

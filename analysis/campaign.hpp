@@ -223,7 +223,10 @@ Result<RestitutionLaws> fitRestitutionLaws(std::span<const CampaignShot> shots);
 /// speeds (an angle campaign at one pressure is still a valid campaign).
 struct CampaignFit {
   RestitutionMean restitution;
-  FrictionFit friction;
+  /// Empty, with the reason, when the shots cannot give mu and beta_0 (too few
+  /// oblique shots with measured spins, e.g. a campaign of bare backlit
+  /// silhouettes): e and its laws are still fitted.
+  Result<FrictionFit> friction;
   Result<RestitutionLaws> laws;
 };
 
@@ -232,7 +235,9 @@ FrictionOptions campaignOptions();
 
 /// e's mean and the friction fit use options.robust (Huber by default); the
 /// laws of e(|v_n|) are least-squares fits. Head-on shots (v_s = 0) and shots
-/// whose beta is NaN (spins not measured) count for e only.
+/// whose beta is NaN (spins not measured) count for e only. Fails only when e
+/// cannot be fitted; a friction fit the shots cannot give is an error inside
+/// (friction.error() says why and what to add).
 /// friction.robust_weight and restitution.robust_weight say which shots the
 /// loss set aside.
 Result<CampaignFit> fitCampaign(std::span<const CampaignShot> shots,

@@ -22,6 +22,19 @@ double beforeInstantWeight(double sigma_before_s, double sigma_after_s) {
   return (std::isfinite(vb) && std::isfinite(va) && vb + va > 0) ? va / (va + vb) : 0.5;
 }
 
+double beforeInstantWeight(double sigma_before_s, double sigma_after_s, double contact_sigma_m,
+                           double vn_before_m_s, double vn_after_m_s) {
+  const double vb = sigma_before_s * sigma_before_s, va = sigma_after_s * sigma_after_s;
+  if (!(contact_sigma_m > 0) || !(vn_before_m_s > 0) || !(vn_after_m_s > 0) || !std::isfinite(vb) ||
+      !std::isfinite(va))
+    return beforeInstantWeight(sigma_before_s, sigma_after_s);
+  // Covariance of (t_before, t_after): [[vb + a^2, -a b], [-a b, va + b^2]]
+  // with a = dd / |v_n|, b = dd / |v_n'|; w = (C^-1 1)_0 / (1' C^-1 1).
+  const double a = contact_sigma_m / vn_before_m_s, b = contact_sigma_m / vn_after_m_s;
+  const double r0 = va + b * b + a * b, r1 = vb + a * a + a * b;
+  return r0 + r1 > 0 ? r0 / (r0 + r1) : 0.5;
+}
+
 InstantAgreement compareInstants(double t_before_s, double t_after_s,
                                  const InstantAgreementModel& m) {
   InstantAgreement r;

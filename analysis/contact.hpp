@@ -33,6 +33,18 @@ double contactTime(const PlaneTrack& a, const PlaneTrack& b, double dist_m, doub
 /// inverse variances, var_a / (var_a + var_b); 0.5 when either is unknown.
 double beforeInstantWeight(double sigma_before_s, double sigma_after_s);
 
+/// The same with the contact distance's uncertainty: an error dd of the
+/// distance at which the centres touch moves the pre-impact instant by
+/// -dd / |v_n| and the post-impact one by +dd / |v_n'| (fully correlated), so
+/// the weights that minimise the combined instant's variance (generalised
+/// least squares over both) lean towards cancelling it: w -> |v_n| / (|v_n| +
+/// |v_n'|) when dd dominates. Where the line of centres is set by the
+/// instant (grazing impacts, whose relative motion is mostly along the
+/// tangent), this is what keeps gamma, and e through it, off dd. Falls back
+/// to the two-sigma form when a speed is not > 0.
+double beforeInstantWeight(double sigma_before_s, double sigma_after_s, double contact_sigma_m,
+                           double vn_before_m_s, double vn_after_m_s);
+
 /// What the two instants may differ by without anything being wrong.
 struct InstantAgreementModel {
   /// Standard deviation of (t_before - t_after) from the fits' random errors

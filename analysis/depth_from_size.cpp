@@ -1,5 +1,6 @@
 #include "analysis/depth_from_size.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -33,6 +34,24 @@ double apparentRadiusPx(const PinholeCamera& camera, const Vec3& c, double radiu
   double r = 0;
   for (const Eigen::Vector2d& p : pts) r += (p - mean).norm() / kN;
   return r;
+}
+
+double planeRadiusPx(const PinholeCamera& camera, double u_px, double v_px, double radius_m) {
+  return apparentRadiusPx(camera, camera.sphereCentre(u_px, v_px, radius_m), radius_m);
+}
+
+double depthResidualScale(const DepthMotion& d) {
+  return d.dof > 0 ? std::max(1.0, std::sqrt(d.chi2 / d.dof)) : 1.0;
+}
+
+void completeDepthSigmas(DepthMotion& d, double camera_distance_m, double radius_px, double span_s,
+                         double radius_systematic_px) {
+  const double sc = depthResidualScale(d);
+  d.dz0_sigma_m *= sc;
+  d.vz_sigma_m_s =
+      std::hypot(sc * d.vz_sigma_m_s, camera_distance_m * std::max(0.0, radius_systematic_px) /
+                                          (radius_px * std::max(span_s, 1e-6)));
+  d.chi2 = d.dof;  // the scale is in the sigmas now
 }
 
 Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& t, const Eigen::VectorXd& r,

@@ -38,6 +38,11 @@ double depthFromRadius(double r_px, double r_plane_px, double camera_distance_m)
 /// after this is taken out. NaN when the sphere is not in front of the camera.
 double apparentRadiusPx(const PinholeCamera& camera, const Vec3& centre_m, double radius_m);
 
+/// The radius (px) the lens gives a sphere of radius `radius_m` whose
+/// silhouette is centred at (u, v) with its centre on the plane z = 0: what a
+/// radius measured there is compared with for its depth. NaN as apparentRadiusPx.
+double planeRadiusPx(const PinholeCamera& camera, double u_px, double v_px, double radius_m);
+
 struct DepthMotion {
   double dz0_m = 0, dz0_sigma_m = 0;    ///< depth at t_ref, m
   double vz_m_s = 0, vz_sigma_m_s = 0;  ///< velocity towards the camera, m/s
@@ -60,6 +65,17 @@ Result<DepthMotion> fitDepthMotion(const Eigen::VectorXd& times_s, const Eigen::
                                    const Eigen::VectorXd& radius_sigma_px,
                                    const Eigen::VectorXd& r_plane_px, double camera_distance_m,
                                    double t_ref_s);
+
+/// How far the fit's residuals exceed its sigmas: sqrt(chi2 / dof), at least 1.
+double depthResidualScale(const DepthMotion& d);
+
+/// The fit's sigmas made whole, for a track of radius `radius_px` spanning
+/// `span_s`: scaled by depthResidualScale (then chi2 = dof), and v_z's with a
+/// radius bias that changes by `radius_systematic_px` over the track (the lit
+/// part of the limb seen from a changing angle): Z0 sigma_r / (r span). A
+/// bias that stays the same cancels in v_z.
+void completeDepthSigmas(DepthMotion& d, double camera_distance_m, double radius_px, double span_s,
+                         double radius_systematic_px);
 
 /// Momentum along z is conserved in the impact (the impulse is internal):
 /// m1 (v1' - v1) + m2 (v2' - v2) = 0. Adjusts the four measured velocities

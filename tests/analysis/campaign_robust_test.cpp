@@ -80,8 +80,8 @@ TEST(CampaignRobust, RobustLossesRecoverTheMaterialDespiteOutliers) {
     ASSERT_TRUE(ls.ok()) << ls.error().message;
     for (const RobustLoss loss : {RobustLoss::Huber, RobustLoss::Cauchy}) {
       auto r = fitCampaign(shots, withLoss(loss));
-      ASSERT_TRUE(r.ok()) << r.error().message;
-      const FrictionFit& f = r->friction;
+      ASSERT_TRUE(r.ok() && r->friction.ok());
+      const FrictionFit& f = *r->friction;
       std::printf("seed %d %-8s mu %.4f +- %.4f  beta0 %.4f +- %.4f  e %.4f +- %.4f\n", int(seed),
                   robustLossName(loss).c_str(), f.mu.value, f.mu.sigma, f.beta0.value,
                   f.beta0.sigma, r->restitution.e.value, r->restitution.e.sigma);
@@ -97,7 +97,8 @@ TEST(CampaignRobust, RobustLossesRecoverTheMaterialDespiteOutliers) {
       for (std::size_t i = 0; i < shots.size(); ++i) full += f.robust_weight[i] > 0.5;
       EXPECT_GE(full, int(shots.size() - bad.size()) - 6);
     }
-    const FrictionFit& f = ls->friction;
+    ASSERT_TRUE(ls->friction.ok()) << ls->friction.error().message;
+    const FrictionFit& f = *ls->friction;
     std::printf("seed %d LS       mu %.4f +- %.4f  beta0 %.4f +- %.4f  e %.4f +- %.4f\n", int(seed),
                 f.mu.value, f.mu.sigma, f.beta0.value, f.beta0.sigma, ls->restitution.e.value,
                 ls->restitution.e.sigma);
@@ -116,11 +117,12 @@ TEST(CampaignRobust, CleanCampaignsGiveWhatLeastSquaresGives) {
     const auto shots = campaign(seed);
     auto ls = fitCampaign(shots, withLoss(RobustLoss::LeastSquares));
     auto hu = fitCampaign(shots);  // Huber: the campaign default
-    ASSERT_TRUE(ls.ok() && hu.ok());
-    EXPECT_NEAR(hu->friction.mu.value, ls->friction.mu.value, 0.5 * ls->friction.mu.sigma);
-    EXPECT_NEAR(hu->friction.beta0.value, ls->friction.beta0.value, 0.5 * ls->friction.beta0.sigma);
+    ASSERT_TRUE(ls.ok() && hu.ok() && ls->friction.ok() && hu->friction.ok());
+    EXPECT_NEAR(hu->friction->mu.value, ls->friction->mu.value, 0.5 * ls->friction->mu.sigma);
+    EXPECT_NEAR(hu->friction->beta0.value, ls->friction->beta0.value,
+                0.5 * ls->friction->beta0.sigma);
     EXPECT_NEAR(hu->restitution.e.value, ls->restitution.e.value, 0.5 * ls->restitution.e.sigma);
-    EXPECT_NEAR(hu->friction.mu.value, kNylon.mu, 4 * hu->friction.mu.sigma);
+    EXPECT_NEAR(hu->friction->mu.value, kNylon.mu, 4 * hu->friction->mu.sigma);
   }
 }
 

@@ -323,11 +323,12 @@ TEST(Campaign, HeadOnShotsCountForEOnly) {
   shots.push_back(head_on);
   auto fit = fitCampaign(shots);
   ASSERT_TRUE(fit.ok()) << fit.error().message;
+  ASSERT_TRUE(fit->friction.ok()) << fit->friction.error().message;
   EXPECT_EQ(fit->restitution.count, int(shots.size()));
-  EXPECT_EQ(fit->friction.sliding_count + fit->friction.rolling_count, int(shots.size()) - 1);
-  ASSERT_EQ(fit->friction.regime.size(), shots.size());
-  EXPECT_EQ(fit->friction.regime.back(), CollisionRegime::Rolling);
-  EXPECT_EQ(fit->friction.e.value, fit->restitution.e.value);
+  EXPECT_EQ(fit->friction->sliding_count + fit->friction->rolling_count, int(shots.size()) - 1);
+  ASSERT_EQ(fit->friction->regime.size(), shots.size());
+  EXPECT_EQ(fit->friction->regime.back(), CollisionRegime::Rolling);
+  EXPECT_EQ(fit->friction->e.value, fit->restitution.e.value);
   ASSERT_TRUE(fit->laws.ok()) << fit->laws.error().message;
   EXPECT_EQ(fit->laws->fits.size(), 4u);
 }
@@ -344,20 +345,31 @@ TEST(Campaign, ShotsWithoutSpinsCountForEOnly) {
     shots.push_back(silhouette);
   }
   auto fit = fitCampaign(shots);
-  ASSERT_TRUE(fit.ok()) << fit.error().message;
+  ASSERT_TRUE(fit.ok() && fit->friction.ok());
   EXPECT_EQ(fit->restitution.count, int(shots.size()));
-  EXPECT_EQ(fit->friction.sliding_count + fit->friction.rolling_count, int(measured));
+  EXPECT_EQ(fit->friction->sliding_count + fit->friction->rolling_count, int(measured));
   auto without = fitCampaign(std::span(shots).first(measured));
-  ASSERT_TRUE(without.ok()) << without.error().message;
-  EXPECT_NEAR(fit->friction.mu.value, without->friction.mu.value, 1e-3);
-  EXPECT_NEAR(fit->friction.beta0.value, without->friction.beta0.value, 1e-3);
-  // With too few spins left for friction, the refusal says why.
+  ASSERT_TRUE(without.ok() && without->friction.ok());
+  EXPECT_NEAR(fit->friction->mu.value, without->friction->mu.value, 1e-3);
+  EXPECT_NEAR(fit->friction->beta0.value, without->friction->beta0.value, 1e-3);
+  // With too few spins left for friction, e is still fitted from every shot
+  // (the same mean as with all spins), and the friction refusal says why.
   for (std::size_t i = 3; i < measured; ++i) shots[i].beta = std::nan("");
   auto few = fitCampaign(shots);
-  ASSERT_FALSE(few.ok());
-  EXPECT_NE(few.error().message.find("have no beta (their spins were not measured"),
+  ASSERT_TRUE(few.ok()) << few.error().message;
+  EXPECT_EQ(few->restitution.count, int(shots.size()));
+  EXPECT_DOUBLE_EQ(few->restitution.e.value, fit->restitution.e.value);
+  ASSERT_FALSE(few->friction.ok());
+  EXPECT_NE(few->friction.error().message.find("have no beta (their spins were not measured"),
             std::string::npos)
-      << few.error().message;
+      << few->friction.error().message;
+  // A campaign of silhouettes only: e and its laws, no friction.
+  for (auto& s : shots) s.beta = std::nan("");
+  auto none = fitCampaign(shots);
+  ASSERT_TRUE(none.ok()) << none.error().message;
+  EXPECT_NEAR(none->restitution.e.value, kNylon.e, 4 * none->restitution.e.sigma);
+  EXPECT_TRUE(none->laws.ok()) << none->laws.error().message;
+  EXPECT_FALSE(none->friction.ok());
 }
 
 TEST(Campaign, OneSpeedCampaignStillFitsFriction) {
@@ -372,8 +384,8 @@ TEST(Campaign, OneSpeedCampaignStillFitsFriction) {
     s.v_s_sigma_m_s *= k;
   }
   auto fit = fitCampaign(shots);
-  ASSERT_TRUE(fit.ok()) << fit.error().message;
-  EXPECT_NEAR(fit->friction.mu.value, kNylon.mu, 4 * fit->friction.mu.sigma);
+  ASSERT_TRUE(fit.ok() && fit->friction.ok());
+  EXPECT_NEAR(fit->friction->mu.value, kNylon.mu, 4 * fit->friction->mu.sigma);
   ASSERT_FALSE(fit->laws.ok());
   EXPECT_THAT(fit->laws.error().message, AllOf(HasSubstr("same |v_n|"), HasSubstr("pressure")));
 }

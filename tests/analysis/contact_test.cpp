@@ -44,6 +44,70 @@ TEST(BeforeInstantWeight, InverseVariances) {
   EXPECT_DOUBLE_EQ(beforeInstantWeight(0, 0), 0.5);
 }
 
+// A grazing impact (70 degrees off head-on): the relative motion is mostly
+// along the tangent, so the line of centres at the combined instant turns by
+// v_t dt / d for an instant dt off. Spheres of diameter d meet at t = 0 with
+// their centres d apart along n; before, the relative velocity is
+// (-v_n n + v_t t); after, (e v_n n + v_t' t).
+struct Grazing {
+  double d = 0.0254, vn = 0.6, vt = 1.65, e = 0.9, vt_after = 1.4;
+  Eigen::Vector2d n{std::cos(0.3), std::sin(0.3)}, t{-std::sin(0.3), std::cos(0.3)};
+  // Sphere 2 fixed at the origin, sphere 1 moving: a relative track.
+  PlaneTrack relative(bool after) const {
+    const Eigen::Vector2d v =
+        after ? Eigen::Vector2d(e * vn * n + vt_after * t) : Eigen::Vector2d(-vn * n + vt * t);
+    PlaneTrack p;
+    for (int k = 0; k < 2; ++k) p.c[k] = Eigen::Vector3d(d * n[k], v[k], 0);
+    return p;
+  }
+  static PlaneTrack still() { return PlaneTrack{}; }
+};
+
+TEST(BeforeInstantWeight, AContactDistanceErrorCancelsInTheCombinedInstant) {
+  const Grazing g;
+  const double dd = 0.2 * 2.1e-4;  // 0.2 px at 0.21 mm/px
+  // The instants where the fitted centres are the misstated distance apart.
+  const double tb = contactTime(g.relative(false), Grazing::still(), g.d + dd, -1e-3);
+  const double ta = contactTime(g.relative(true), Grazing::still(), g.d + dd, 1e-3);
+  // To first order (the tangential motion adds ~1 %): 70 us early, 78 us late.
+  EXPECT_NEAR(tb, -dd / g.vn, 0.01 * dd / g.vn);
+  EXPECT_NEAR(ta, dd / (g.e * g.vn), 0.01 * dd / g.vn);
+  // Fits precise to 5 and 15 us: by their variances alone, the instant is
+  // pulled to the better side and lands ~60 us off, turning the line of
+  // centres by ~0.2 degrees.
+  const double w_fits = beforeInstantWeight(5e-6, 15e-6);
+  const double t_fits = w_fits * tb + (1 - w_fits) * ta;
+  EXPECT_GT(std::abs(t_fits), 40e-6);
+  // With the distance's uncertainty (0.2 px, as dd) the weights lean to
+  // cancelling it: the instant is off by what the fits' own errors allow.
+  const double w = beforeInstantWeight(5e-6, 15e-6, dd, g.vn, g.e * g.vn);
+  const double t_c = w * tb + (1 - w) * ta;
+  EXPECT_LT(std::abs(t_c), 0.25 * std::abs(t_fits));
+  const auto angle = [&](double t) {
+    const Eigen::Vector2d r = g.relative(false).pos(t);
+    return std::atan2(r.y(), r.x()) - std::atan2(g.n.y(), g.n.x());
+  };
+  EXPECT_LT(std::abs(angle(t_c)), 0.25 * std::abs(angle(t_fits)));
+  // With no distance error at all, both forms agree.
+  EXPECT_DOUBLE_EQ(beforeInstantWeight(5e-6, 15e-6, 0, g.vn, g.e * g.vn), w_fits);
+  // And a perfect distance with perfect fits: exactly 1 / (1 + e).
+  EXPECT_NEAR(beforeInstantWeight(0, 0, dd, g.vn, g.e * g.vn), 1 / (1 + g.e), 1e-12);
+}
+
+TEST(BeforeInstantWeight, WithTheDistanceTermItHasTheSmallestVariance) {
+  // Variance of w t_b + (1 - w) t_a under the covariance the weight assumes,
+  // computed here from its definition: no other weight does better.
+  const double sb = 8e-6, sa = 20e-6, dd = 4e-5, vnb = 0.8, vna = 0.7;
+  const double a = dd / vnb, b = dd / vna;
+  const auto variance = [&](double w) {
+    return w * w * (sb * sb + a * a) + (1 - w) * (1 - w) * (sa * sa + b * b) -
+           2 * w * (1 - w) * a * b;
+  };
+  const double w = beforeInstantWeight(sb, sa, dd, vnb, vna);
+  for (double dw : {-0.1, -0.01, -0.001, 0.001, 0.01, 0.1})
+    EXPECT_LT(variance(w), variance(w + dw)) << dw;
+}
+
 InstantAgreementModel model() {
   InstantAgreementModel m;
   m.fit_sigma_s = 4e-6;

@@ -117,8 +117,8 @@ TEST(ApparentRadius, OffTheAxisGrowsAsTheEllipseAndDistortionShrinksIt) {
   const double L = (c.centre_m - centre).norm(), t = std::atan(0.08 / c.centre_m.z());
   const double a = std::asin(kR / L);
   const double radial = c.focal_px * 0.5 * (std::tan(t + a) - std::tan(t - a));
-  const double across = c.focal_px * std::sin(a) / std::sqrt(std::pow(std::cos(t), 2) -
-                                                             std::pow(std::sin(a), 2));
+  const double across =
+      c.focal_px * std::sin(a) / std::sqrt(std::pow(std::cos(t), 2) - std::pow(std::sin(a), 2));
   const double r = apparentRadiusPx(c, centre, kR);
   EXPECT_GT(r, std::min(radial, across));
   EXPECT_LT(r, std::max(radial, across));
@@ -150,4 +150,25 @@ TEST(ConserveMomentumZ, MovesThePoorlyMeasuredVelocityOntoTheConstraint) {
   std::array<double, 4> v0 = vz, s0{0.002, NAN, 0.002, 0.002};
   conserveMomentumZ(v0, s0, m);
   EXPECT_EQ(v0, vz);
+}
+
+// The sigmas made whole: scaled by sqrt(chi2 / dof) when the residuals exceed
+// the sigmas (never shrunk), and v_z's joined by a radius bias changing by
+// sigma_r over the track: Z0 sigma_r / (r T) = 0.5 x 0.1 / (50 x 0.04) m/s.
+TEST(CompleteDepthSigmas, ResidualScaleAndAChangingRadiusBias) {
+  DepthMotion d;
+  d.dz0_sigma_m = 1e-4;
+  d.vz_sigma_m_s = 0.01;
+  d.chi2 = 40;
+  d.dof = 10;
+  completeDepthSigmas(d, 0.5, 50, 0.04, 0.1);
+  EXPECT_DOUBLE_EQ(d.dz0_sigma_m, 2e-4);
+  EXPECT_DOUBLE_EQ(d.vz_sigma_m_s, std::hypot(0.02, 0.025));
+  EXPECT_DOUBLE_EQ(d.chi2, 10);
+  DepthMotion good;
+  good.vz_sigma_m_s = 0.01;
+  good.chi2 = 2;
+  good.dof = 10;
+  completeDepthSigmas(good, 0.5, 50, 0.04, 0.0);
+  EXPECT_DOUBLE_EQ(good.vz_sigma_m_s, 0.01);
 }
