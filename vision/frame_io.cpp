@@ -6,9 +6,13 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
+#include <memory>
+#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <optional>
 #include <set>
 #include <system_error>
 #include <vector>
@@ -268,62 +272,145 @@ Result<Burst> loadFrameFolder(const std::string& dir, double fps) {
   return burst;
 }
 
-Result<Burst> loadVideo(const std::string& path, double fps_or_0) {
+namespace {
+
+// A video opened for decoding in order: OpenCV's capture (FFmpeg, or its own
+// MJPEG reader) and the number of the frame it decodes next.
+struct VideoReader {
+  std::string path;
+  double fps = 0;
+  cv::VideoCapture cap;
+  std::int64_t next = 0;
+  cv::Size size;  ///< frame 0's, which every other must have
+
+  std::string convert() const {
+    return ": convert it to PNG frames (e.g. ffmpeg -i " + path +
+           " frame_%05d.png) and load the folder instead";
+  }
+  Error decodeFailed(const cv::Exception& e) const {
+    return fail("decoding " + path + " failed at frame " + std::to_string(next) + " (" + e.what() +
+                ")" + convert());
+  }
+  Status open() {
+    // Not CAP_ANY: on an undecodable file that also tries the GStreamer and
+    // image-sequence backends, which print errors to stderr.
+    cap.release();
+    for (const int api : {cv::CAP_FFMPEG, cv::CAP_OPENCV_MJPEG}) {
+      try {
+        if (cap.open(path, api)) break;
+      } catch (const cv::Exception&) {
+        cap.release();
+      }
+    }
+    next = 0;
+    if (!cap.isOpened())
+      return fail("cannot open " + path +
+                  " as a video (damaged file, or a format this OpenCV build cannot decode)" +
+                  convert());
+    return Ok{};
+  }
+  /// The next frame, grey, or none at the end of the file.
+  Result<std::optional<Frame>> readNext() {
+    cv::Mat img;
+    try {
+      if (!cap.read(img)) return std::optional<Frame>{};
+    } catch (const cv::Exception& e) {
+      return decodeFailed(e);
+    }
+    Result<cv::Mat> grey = toGrey(img.clone(), path + " frame " + std::to_string(next));
+    if (!grey) return grey.error();
+    if (size.empty()) size = grey->size();
+    if (grey->size() != size)
+      return fail(path + " changes frame size at frame " + std::to_string(next) + convert());
+    Frame f;
+    f.id = next;
+    f.timestamp_ns = timestampNs(static_cast<std::size_t>(next), fps);
+    f.image = std::move(*grey);
+    ++next;
+    return std::optional<Frame>(std::move(f));
+  }
+  /// Frames skipped (decoded, not converted) until `next` is i or the file ends.
+  Status skipTo(std::int64_t i) {
+    try {
+      while (next < i && cap.grab()) ++next;
+    } catch (const cv::Exception& e) {
+      return decodeFailed(e);
+    }
+    return Ok{};
+  }
+  /// Frame i: decoded forward from the last one read, the file opened again
+  /// to go back.
+  Result<Frame> read(std::int64_t i) {
+    if (i < next)
+      if (Status st = open(); !st) return st.error();
+    if (Status st = skipTo(i); !st) return st.error();
+    auto f = readNext();
+    if (!f) return f.error();
+    if (!*f) return fail(path + " ends before frame " + std::to_string(i));
+    return std::move(**f);
+  }
+};
+
+Result<std::shared_ptr<VideoReader>> openVideoReader(const std::string& path, double fps_or_0) {
   if (!(fps_or_0 >= 0) || !std::isfinite(fps_or_0))
     return fail("frame rate " + std::to_string(fps_or_0) + " for " + path +
                 " must be > 0, or 0 to use the rate recorded in the file");
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
     return fail("video file " + path + " does not exist (or is not a file): check the path");
-  // FFmpeg decodes nearly everything; OpenCV's own reader covers MJPEG AVI
-  // without it. Not CAP_ANY: on an undecodable file that also tries the
-  // GStreamer and image-sequence backends, which print errors to stderr.
-  cv::VideoCapture cap;
-  for (const int api : {cv::CAP_FFMPEG, cv::CAP_OPENCV_MJPEG}) {
-    try {
-      if (cap.open(path, api)) break;
-    } catch (const cv::Exception&) {
-      cap.release();
-    }
-  }
-  const std::string convert = ": convert it to PNG frames (e.g. ffmpeg -i " + path +
-                              " frame_%05d.png) and load the folder instead";
-  if (!cap.isOpened())
-    return fail("cannot open " + path +
-                " as a video (damaged file, or a format this OpenCV build cannot decode)" +
-                convert);
-  double fps = fps_or_0;
-  if (fps == 0) {
-    fps = cap.get(cv::CAP_PROP_FPS);
-    if (!(fps > 0) || !std::isfinite(fps))
+  auto v = std::make_shared<VideoReader>();
+  v->path = path;
+  if (Status st = v->open(); !st) return st.error();
+  v->fps = fps_or_0;
+  if (v->fps == 0) {
+    v->fps = v->cap.get(cv::CAP_PROP_FPS);
+    if (!(v->fps > 0) || !std::isfinite(v->fps))
       return fail(path + " does not record its frame rate: give the frames/s explicitly");
   }
+  return v;
+}
 
+}  // namespace
+
+Result<Burst> loadVideo(const std::string& path, double fps_or_0) {
+  auto v = openVideoReader(path, fps_or_0);
+  if (!v) return v.error();
   Burst burst;
-  burst.fps = fps;
-  cv::Mat img;
-  try {
-    while (cap.read(img)) {
-      Result<cv::Mat> grey =
-          toGrey(img.clone(), path + " frame " + std::to_string(burst.frames.size()));
-      if (!grey) return grey.error();
-      if (!burst.frames.empty() && grey->size() != burst.frames.front().image.size())
-        return fail(path + " changes frame size at frame " + std::to_string(burst.frames.size()) +
-                    convert);
-      Frame f;
-      f.id = static_cast<std::int64_t>(burst.frames.size());
-      f.timestamp_ns = timestampNs(burst.frames.size(), fps);
-      f.image = std::move(*grey);
-      burst.frames.push_back(std::move(f));
-    }
-  } catch (const cv::Exception& e) {
-    return fail("decoding " + path + " failed at frame " + std::to_string(burst.frames.size()) +
-                " (" + e.what() + ")" + convert);
+  burst.fps = (*v)->fps;
+  for (;;) {
+    auto f = (*v)->readNext();
+    if (!f) return f.error();
+    if (!*f) break;
+    burst.frames.push_back(std::move(**f));
   }
-  if (burst.frames.empty()) return fail("no frames could be decoded from " + path + convert);
+  if (burst.frames.empty())
+    return fail("no frames could be decoded from " + path + (*v)->convert());
   burst.format = formatOf(burst.frames);
   burst.stats.completed = burst.frames.size();
   return burst;
+}
+
+Result<VideoStream> openVideoStream(const std::string& path, double fps_or_0) {
+  auto v = openVideoReader(path, fps_or_0);
+  if (!v) return v.error();
+  VideoReader& r = **v;
+  // Frame 0 for the size and format, then the rest only counted.
+  auto f0 = r.readNext();
+  if (!f0) return f0.error();
+  if (!*f0) return fail("no frames could be decoded from " + path + r.convert());
+  VideoStream out;
+  out.fps = r.fps;
+  out.width = (*f0)->image.cols;
+  out.height = (*f0)->image.rows;
+  out.format = formatOf({**f0});
+  if (Status st = r.skipTo(std::numeric_limits<std::int64_t>::max()); !st) return st.error();
+  out.count = r.next;  // at the end: the first read opens the file again
+  auto shared = std::make_shared<std::mutex>();
+  out.read = [v = *v, shared](std::int64_t i) -> Result<Frame> {
+    std::lock_guard lock(*shared);
+    return v->read(i);
+  };
+  return out;
 }
 
 Status writeFramePng(const Frame& frame, const std::string& path) {

@@ -10,6 +10,7 @@
 // index has 4 digits, or more when the burst needs them; one burst uses one width.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,22 @@ Status checkSameFrame(const cv::Mat& first, const std::string& first_path, const
 /// OpenCV cannot open or decode, no frames, fps_or_0 < 0, or no frame rate in
 /// the file when fps_or_0 = 0. Any thread.
 Result<Burst> loadVideo(const std::string& path, double fps_or_0);
+
+/// A video read one frame at a time, for a pass over footage larger than
+/// memory (collide track): a first pass counts the frames (decoding, not
+/// converting); read(i) decodes forward from the frame read last and opens
+/// the file again to go back, so reading in order costs one decode a frame.
+/// Frames are grey and numbered as loadVideo's; read() is serialised.
+struct VideoStream {
+  std::int64_t count = 0;
+  double fps = 0;
+  int width = 0, height = 0;
+  PixelFormat format = PixelFormat::Mono8;
+  std::function<Result<Frame>(std::int64_t index)> read;
+};
+/// Errors: as loadVideo's (at opening, or from read() for a frame that does
+/// not decode).
+Result<VideoStream> openVideoStream(const std::string& path, double fps_or_0);
 
 /// Writes one frame as a PNG: 8-bit for CV_8UC1, 16-bit for CV_16UC1 (Mono12
 /// values stay 0..4095, not rescaled). Errors: empty or unsupported image,

@@ -61,12 +61,6 @@ Result<double> pixelSize(const AnalysisSettings& set, const std::array<double, 2
 
 using DepthFits = std::array<std::array<std::optional<DepthMotion>, 2>, 2>;
 
-// A depth fit's sigma, widened when its residuals scatter more than the
-// radii's own uncertainties say.
-double depthScale(const DepthMotion& d) {
-  return d.dof > 0 ? std::max(1.0, std::sqrt(d.chi2 / d.dof)) : 1.0;
-}
-
 // The line of centres' z part at the instant t_c from the two spheres'
 // depths: (z_1 - z_2) / D, each side's fits weighted by their variance.
 std::optional<Measured> lineOfCentresZFromSize(const DepthFits& depth, double t_split, double t_c,
@@ -77,7 +71,7 @@ std::optional<Measured> lineOfCentresZFromSize(const DepthFits& depth, double t_
     const DepthMotion &a = *depth[0][side], &b = *depth[1][side];
     const double dt = t_c - t_split;
     const double dz = (a.dz0_m + a.vz_m_s * dt) - (b.dz0_m + b.vz_m_s * dt);
-    const double sa = depthScale(a), sb = depthScale(b);
+    const double sa = depthResidualScale(a), sb = depthResidualScale(b);
     const double var = std::pow(sa * a.dz0_sigma_m, 2) + std::pow(sa * a.vz_sigma_m_s * dt, 2) +
                        std::pow(sb * b.dz0_sigma_m, 2) + std::pow(sb * b.vz_sigma_m_s * dt, 2);
     if (!(var > 0)) continue;
@@ -109,7 +103,7 @@ void useDepths(ShotModel& model, const DepthFits& depth, const std::optional<Mea
       const auto& d = depth[s][side];
       if (!d) continue;
       const TrajectoryFit& f = fits.fit[s][side]->fit;
-      const double sc = depthScale(*d), s_vz = d->vz_sigma_m_s;
+      const double sc = depthResidualScale(*d), s_vz = d->vz_sigma_m_s;
       if (side == 0) {
         // Combined with the prior N(0, (fraction x speed)^2) the rig's alignment gives.
         const double sp = model.vz_fraction * f.velocityAt_m_s(f.tRef_s()).value.norm();
@@ -147,17 +141,12 @@ void completeDepths(DepthFits& depth, const CollisionFits& fits, const AnalysisS
   const double z0 = set.camera_distance_m > 0 ? set.camera_distance_m
                                               : (set.camera ? set.camera->centre_m.z() : 0);
   if (!(z0 > 0)) return;
-  const double sys_px = std::max(0.0, set.radius_systematic_px);
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       auto& d = depth[s][side];
       if (!d) continue;
       const TrajectoryFit& f = fits.fit[s][side]->fit;
-      const double span = std::max(f.tLast_s() - f.tFirst_s(), 1e-6);
-      const double sc = depthScale(*d);
-      d->dz0_sigma_m *= sc;
-      d->vz_sigma_m_s = std::hypot(sc * d->vz_sigma_m_s, z0 * sys_px / (r_med[s] * span));
-      d->chi2 = d->dof;  // the scale is in the sigmas now
+      completeDepthSigmas(*d, z0, r_med[s], f.tLast_s() - f.tFirst_s(), set.radius_systematic_px);
     }
   if (!depth[0][0] || !depth[0][1] || !depth[1][0] || !depth[1][1]) return;
   std::array<double, 4> vz, sigma;
@@ -175,6 +164,21 @@ void completeDepths(DepthFits& depth, const CollisionFits& fits, const AnalysisS
 double massOf(const AnalysisSettings& set, int s) {
   const double d = set.diameter_m[s];
   return set.mass_kg[s] > 0 ? set.mass_kg[s] : 1000.0 * std::numbers::pi / 6 * d * d * d;
+}
+
+// |v_n| before and after: the fits' relative velocity along the centres'
+// separation at their own contact instants, m/s (0 where undefined).
+std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
+  std::array<double, 2> vn{0, 0};
+  for (int side = 0; side < 2; ++side) {
+    std::mt19937_64 unused;  // nominal tracks draw nothing
+    const double t = side == 0 ? fits.t_before : fits.t_after;
+    const PlaneTrack a = drawTrack(fits.fit[0][side]->fit, 1, 0, 0, unused, true);
+    const PlaneTrack b = drawTrack(fits.fit[1][side]->fit, 1, 0, 0, unused, true);
+    const Eigen::Vector2d dr = a.pos(t) - b.pos(t), dv = a.vel(t) - b.vel(t);
+    if (dr.norm() > 0) vn[side] = std::abs(dr.dot(dv)) / dr.norm();
+  }
+  return vn;
 }
 
 // The Monte Carlo's inputs: fits, their inflation and systematics, spins, the priors.
@@ -208,8 +212,11 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.offset[s] = std::max(in.offset[s], bias_m);
     }
   }
-  // Collision instant: both estimates, combined by their uncertainties.
-  in.w_before = beforeInstantWeight(fits.sigma_before, fits.sigma_after);
+  // Collision instant: both estimates, combined by their uncertainties
+  // (with the contact distance's, which moves them in opposite directions).
+  const std::array<double, 2> vn = normalSpeedsAtInstants(fits);
+  in.w_before =
+      beforeInstantWeight(fits.sigma_before, fits.sigma_after, in.contact_sigma, vn[0], vn[1]);
   in.t_before = fits.t_before;
   in.t_after = fits.t_after;
   return in;
@@ -304,11 +311,9 @@ DepthFits measureDepthMotion(std::vector<std::string>* notes, const std::vector<
       for (const int k : fits.fit[s][side]->frames) {
         const SphereMeasurement& m = *trackAt(data[k], s);
         if (m.cut_by_border || m.touching) continue;
-        const double plane_r =
-            set.camera ? apparentRadiusPx(
-                             *set.camera,
-                             set.camera->sphereCentre(m.circle.u, m.circle.v, radius_m), radius_m)
-                       : radius_m / scale.px;
+        const double plane_r = set.camera
+                                   ? planeRadiusPx(*set.camera, m.circle.u, m.circle.v, radius_m)
+                                   : radius_m / scale.px;
         if (!std::isfinite(plane_r)) continue;
         t.push_back(data[k].t);
         r.push_back(m.circle.radius);

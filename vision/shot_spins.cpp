@@ -20,6 +20,11 @@ Vec3 liftThroughLens(const PinholeCamera& camera, const Vec3& centre_m, double r
   return (camera.centre_m + t * d - centre_m).normalized();
 }
 
+void addLensSpinSystematic(Eigen::Matrix3d& cov, const Vec3& spin) {
+  const double sys = kLensSpinRelativeSigma * spin.norm();
+  cov.diagonal().array() += sys * sys;
+}
+
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const CollisionFits& fits, const std::array<double, 2>& r_med, int max_value,
                        const PixelScale* scale) {
@@ -76,7 +81,8 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
       if (spin) {
         r.spin = spin->spin_rad_s;
         r.cov = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
-        r.sigma = Vec3(kSpinSigmaScale * spin->sigma_rad_s);
+        if (scale && scale->camera) addLensSpinSystematic(r.cov, r.spin);
+        r.sigma = r.cov.diagonal().cwiseSqrt();
       } else {
         // Unknown spin: zero, with a spread wide enough for any spin these
         // launches give, so beta and f carry the ignorance in their sigmas.

@@ -121,6 +121,7 @@ TrackedSphere fromMeasurement(const SphereMeasurement& m) {
   s.v_px = m.circle.v;
   s.radius_px = m.circle.radius;
   s.sigma_px = std::max(m.circle.sigma_u, m.circle.sigma_v);
+  s.radius_sigma_px = m.circle.sigma_radius;
   s.cut_by_border = m.cut_by_border;
   s.touching = m.touching;
   return s;

@@ -47,7 +47,8 @@ struct SphereTrackSettings {
 struct TrackedSphere {
   bool found = false;
   double u_px = 0, v_px = 0, radius_px = 0;
-  double sigma_px = 0;  ///< standard uncertainty of the centre, per axis
+  double sigma_px = 0;         ///< standard uncertainty of the centre, per axis
+  double radius_sigma_px = 0;  ///< standard uncertainty of the radius
   bool cut_by_border = false;
   bool touching = false;  ///< its blob merged with another
   bool contact = false;   ///< within the contact margin of another sphere

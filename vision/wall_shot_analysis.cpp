@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <random>
 
@@ -58,8 +59,11 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
     Sample smp;
     smp.frame = i;
     smp.t_s = static_cast<double>(f.id) / s.fps;
-    smp.centre_m = Vec3((best->circle.u - s.origin_u_px) * px_m,
-                        -(best->circle.v - s.origin_v_px) * px_m, 0.0);
+    smp.centre_m = s.camera
+                       ? s.camera->sphereCentre(best->circle.u, best->circle.v, 0.5 * s.diameter_m)
+                       : Vec3((best->circle.u - s.origin_u_px) * px_m,
+                              -(best->circle.v - s.origin_v_px) * px_m, 0.0);
+    smp.centre_m.z() = 0.0;
     smp.sigma_m = std::max({best->circle.sigma_u, best->circle.sigma_v, 1e-3}) * px_m;
     smp.m = *best;
     out.push_back(smp);
@@ -71,12 +75,25 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
   return out;
 }
 
+// The face line in the world: with a lens, two of its points taken onto the
+// plane z = 0 (where the sphere's centre meets the face at contact).
 Wall worldWall(const WallAnalysisSettings& s, double px, const WallLine& line,
                const Vec3& sphere_m) {
   Wall w;
-  w.point_m = Vec3((line.point_px.x() - s.origin_u_px) * px,
-                   -(line.point_px.y() - s.origin_v_px) * px, 0.0);
-  w.normal = Vec3(line.normal.x(), -line.normal.y(), 0.0).normalized();
+  if (s.camera) {
+    const Eigen::Vector2d along(-line.normal.y(), line.normal.x());
+    const Eigen::Vector2d a = line.point_px - 50.0 * along.normalized();
+    const Eigen::Vector2d b = line.point_px + 50.0 * along.normalized();
+    const Vec3 pa = s.camera->onPlane(a.x(), a.y()), pb = s.camera->onPlane(b.x(), b.y());
+    w.point_m = s.camera->onPlane(line.point_px.x(), line.point_px.y());
+    const Vec3 d = pb - pa;
+    w.normal = Vec3(-d.y(), d.x(), 0.0).normalized();
+  } else {
+    w.point_m = Vec3((line.point_px.x() - s.origin_u_px) * px,
+                     -(line.point_px.y() - s.origin_v_px) * px, 0.0);
+    w.normal = Vec3(line.normal.x(), -line.normal.y(), 0.0).normalized();
+  }
+  w.point_m.z() = 0.0;
   if ((sphere_m - w.point_m).dot(w.normal) < 0) w.normal = -w.normal;
   return w;
 }
@@ -133,7 +150,11 @@ struct SpinSide {
   std::string why;
 };
 
-SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_med_px) {
+// `camera`: the dots lifted through the lens onto the sphere at its centre
+// (as the two-sphere analysis does, vision/shot_spins.hpp); none: orthographic.
+SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_med_px,
+                const std::optional<PinholeCamera>& camera, double radius_m,
+                const std::function<double(double)>& depth_m = {}) {
   const int max_value = maxValue(burst.format);
   std::vector<SpinFrame> frames;
   for (const Sample& smp : side) {
@@ -143,8 +164,14 @@ SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_me
     if (dots.dots.empty()) continue;
     SpinFrame f;
     f.t_s = smp.t_s;
+    // Dot centroids lie on a sphere of radius R cos(alpha) (alpha: their angular radius).
+    const double r_dots = radius_m * std::cos(dots.angular_radius_rad);
+    const Vec3 centre = camera ? camera->sphereCentre(m.circle.u, m.circle.v, radius_m,
+                                                      depth_m ? depth_m(smp.t_s) : 0.0)
+                               : Vec3::Zero();
     for (const Dot& d : dots.dots) {
-      f.dots.push_back(d.on_sphere);
+      f.dots.push_back(camera ? liftThroughLens(*camera, centre, r_dots, d.u_px, d.v_px)
+                              : d.on_sphere);
       f.weights.push_back(d.weight);
     }
     f.centre_sigma = 1.2 * std::max(m.circle.sigma_u, m.circle.sigma_v) / r_med_px;
@@ -159,6 +186,7 @@ SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_me
   out.known = true;
   out.spin = spin->spin_rad_s;
   out.cov = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
+  if (camera) addLensSpinSystematic(out.cov, out.spin);
   return out;
 }
 
@@ -316,7 +344,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   if (before.size() < 5) a.quality_flags.push_back("few_frames_before");
   if (after.size() < 5) a.quality_flags.push_back("few_frames_after");
   const auto tc = faceInstant(*fb, a.wall, R, true);
-  const auto ts = faceInstant(*fa, a.wall, R, false);
+  auto ts = faceInstant(*fa, a.wall, R, false);
   if (!tc || !ts)
     return fail(
         "the fitted flight never reaches the wall line one radius from it: check the "
@@ -333,7 +361,8 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   for (const Sample& smp : samples) radii.push_back(smp.m.circle.radius);
   std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
   const double r_med = radii[radii.size() / 2];
-  SpinSide sb = spinOf(burst, before, r_med), sa = spinOf(burst, after, r_med);
+  SpinSide sb = spinOf(burst, before, r_med, s.camera, R),
+           sa = spinOf(burst, after, r_med, s.camera, R);
   for (SpinSide* side : {&sb, &sa})
     if (dark && !side->known) side->why = "backlit, no dots seen on the silhouette: " + side->why;
   a.spin_before_known = sb.known;
@@ -361,8 +390,37 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   // The out-of-plane velocity the impact gave (not seen in the image) from
   // the spin change (appendix B): needs both spins.
   if (sb.known && sa.known) {
-    if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
+    if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall)) {
       a.sphere_after.velocity_m_s.z() = *vz;
+      // Under a lens that v_z moves the sphere off the plane z = 0 after the
+      // impact, and a centre taken on the wrong plane moves too fast or too
+      // slow by dz / Z0 (2 mm at 0.53 m: 0.4 %), its dots meet their rays at
+      // the wrong points: the post-impact centres and dots at their depth,
+      // refitted, and v_z again from the spins.
+      if (s.camera) {
+        const auto depth = [vz = *vz, t0 = *tc](double t) { return vz * (t - t0); };
+        for (Sample& smp : after) {
+          smp.centre_m = s.camera->sphereCentre(smp.m.circle.u, smp.m.circle.v, R, depth(smp.t_s));
+          smp.centre_m.z() = 0.0;
+        }
+        if (SpinSide at_depth = spinOf(burst, after, r_med, s.camera, R, depth); at_depth.known) {
+          sa = at_depth;
+          a.sphere_after.spin_rad_s = sa.spin;
+          a.spin_sigma_after = Vec3(sa.cov.diagonal().cwiseSqrt());
+        }
+        auto refit = fitSide(after, after.front().t_s);
+        const auto ts2 = refit ? faceInstant(*refit, a.wall, R, false) : std::nullopt;
+        if (refit && ts2) {
+          a.after = *refit;
+          a.t_separation_s = *ts2;
+          a.sphere_after.velocity_m_s = refit->velocityAt_m_s(*ts2).value;
+          fa = std::move(refit);
+          ts = ts2;
+          if (auto vz2 = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
+            a.sphere_after.velocity_m_s.z() = *vz2;
+        }
+      }
+    }
   }
   auto m = measureWallCollision(b, a.sphere_after, a.wall);
   if (!m) return fail("wall inverse: " + m.error().message);

@@ -9,11 +9,13 @@
 // (analysis/walton.hpp measureWallCollision): e, beta, gamma with standard
 // uncertainties from a Monte Carlo over the fits' and spins' covariances and
 // the face line's. World frame: x right, y up (image u right, v down); the
-// plate is taken perpendicular to the image plane.
+// plate is taken perpendicular to the image plane. With a lens (settings'
+// camera) every image position goes through it onto the plane z = 0.
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/trajectory.hpp"
 #include "analysis/walton.hpp"
@@ -42,6 +44,11 @@ struct WallAnalysisSettings {
   /// the values, it widens the uncertainties (as AnalysisSettings' field).
   double out_of_plane_speed_fraction = 0.005;
   int monte_carlo_draws = 400;
+  /// The lens the frames were taken through, when known (the rig profile's
+  /// camera calibration, or a simulated camera's perspective): centres, the
+  /// face line and the dots are then taken through it onto the collision
+  /// plane z = 0 rather than with one pixel size (as AnalysisSettings' field).
+  std::optional<PinholeCamera> camera;
 };
 
 struct WallShotAnalysis {

@@ -252,6 +252,16 @@ TEST_F(FrameIo, ExportRefusesToMixWithAnotherExport) {
   EXPECT_FALSE(exportBurstPng(dup, path("dup")));
 }
 
+// A 64 x 48 grey MJPEG AVI of `frames` flat frames, frame i at level
+// step * i + level0; false when this OpenCV build cannot write one.
+bool writeGreyAvi(const std::string& file, double fps, int frames, int step, int level0) {
+  cv::VideoWriter w(file, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, cv::Size(64, 48),
+                    false);
+  if (!w.isOpened()) return false;
+  for (int i = 0; i < frames; ++i) w.write(cv::Mat(48, 64, CV_8UC1, cv::Scalar(step * i + level0)));
+  return true;
+}
+
 TEST_F(FrameIo, VideoRoundTripAndErrors) {
   const Result<Burst> missing = loadVideo(path("none.avi"), 0);
   ASSERT_FALSE(missing);
@@ -262,11 +272,8 @@ TEST_F(FrameIo, VideoRoundTripAndErrors) {
   ASSERT_FALSE(junk);
   EXPECT_THAT(junk.error().message, HasSubstr(path("junk.avi")));
 
-  cv::VideoWriter w(path("shot.avi"), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 250,
-                    cv::Size(64, 48), false);
-  if (!w.isOpened()) GTEST_SKIP() << "this OpenCV build cannot write MJPG AVI files";
-  for (int i = 0; i < 6; ++i) w.write(cv::Mat(48, 64, CV_8UC1, cv::Scalar(30 * i + 20)));
-  w.release();
+  if (!writeGreyAvi(path("shot.avi"), 250, 6, 30, 20))
+    GTEST_SKIP() << "this OpenCV build cannot write MJPG AVI files";
 
   const Result<Burst> b = loadVideo(path("shot.avi"), 0);
   ASSERT_TRUE(b) << b.error().message;
@@ -285,6 +292,35 @@ TEST_F(FrameIo, VideoRoundTripAndErrors) {
   EXPECT_EQ(forced->fps, 1000.0);
   EXPECT_EQ(forced->frames[5].timestamp_ns, 5'000'000);
   EXPECT_FALSE(loadVideo(path("shot.avi"), -1));
+}
+
+// The streamed video (collide track): the same frames as loadVideo's, read
+// in any order (forward decodes on, backward opens the file again), without
+// holding the video; a frame past the end and a missing file are errors.
+TEST_F(FrameIo, AVideoStreamReadsTheSameFramesInAnyOrder) {
+  EXPECT_FALSE(openVideoStream(path("none.avi"), 0));
+  if (!writeGreyAvi(path("stream.avi"), 500, 9, 25, 10))
+    GTEST_SKIP() << "this OpenCV build cannot write MJPG AVI files";
+  const Result<Burst> whole = loadVideo(path("stream.avi"), 0);
+  ASSERT_TRUE(whole) << whole.error().message;
+  const Result<VideoStream> v = openVideoStream(path("stream.avi"), 0);
+  ASSERT_TRUE(v) << v.error().message;
+  EXPECT_EQ(v->count, 9);
+  EXPECT_DOUBLE_EQ(v->fps, 500.0);
+  EXPECT_EQ(v->width, 64);
+  EXPECT_EQ(v->height, 48);
+  EXPECT_EQ(v->format, PixelFormat::Mono8);
+  for (const int i : {0, 1, 2, 7, 8, 3, 3, 5, 0}) {
+    const Result<Frame> f = v->read(i);
+    ASSERT_TRUE(f) << "frame " << i << ": " << f.error().message;
+    EXPECT_EQ(f->id, i);
+    EXPECT_EQ(f->timestamp_ns, i * 2'000'000);
+    EXPECT_EQ(cv::norm(f->image, whole->frames[i].image, cv::NORM_INF), 0) << "frame " << i;
+  }
+  const Result<Frame> past = v->read(9);
+  ASSERT_FALSE(past);
+  EXPECT_THAT(past.error().message, HasSubstr("ends before frame 9"));
+  EXPECT_THAT(past.error().message, HasSubstr(path("stream.avi")));
 }
 
 }  // namespace
