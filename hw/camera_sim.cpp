@@ -341,12 +341,30 @@ std::vector<vision::SphereView> CameraSim::sceneAt(const SimLaunch& launch,
 
 std::optional<vision::WallLine> wallInImage(const RigProfile& p) {
   if (!p.wall) return std::nullopt;
-  // The plate's face where it crosses the collision plane z = 0, through the
-  // geometry's orthographic mapping (world y up, image v down).
+  // The plate's face where it crosses the collision plane z = 0 (where the
+  // sphere's centre meets it), through the geometry's orthographic mapping
+  // (world y up, image v down), or through the simulated lens when the
+  // camera images in perspective: the line through the images of two of its
+  // points 20 mm either side of wall.point_m.
   const double px = p.geometry.pixel_size_m;
   const Vec3& n = p.wall->normal;
   const Eigen::Vector2d n_img(n.x(), -n.y());
   if (!(n_img.norm() > 1e-9)) return std::nullopt;  // the face is the image plane itself
+  if (auto lens = simulatedLens(p); lens && *lens) {
+    Vec3 along = Vec3::UnitZ().cross(n);
+    if (!(along.norm() > 1e-9)) return std::nullopt;
+    along.normalize();
+    Vec3 centre = p.wall->point_m;
+    centre.z() = 0.0;
+    const Eigen::Vector2d a = (*lens)->project(centre - 0.02 * along);
+    const Eigen::Vector2d b = (*lens)->project(centre + 0.02 * along);
+    vision::WallLine line;
+    line.point_px = (*lens)->project(centre);
+    Eigen::Vector2d normal(-(b - a).y(), (b - a).x());
+    if (normal.dot(n_img) < 0) normal = -normal;
+    line.normal = normal.normalized();
+    return line;
+  }
   vision::WallLine line;
   line.point_px = {p.geometry.origin_u_px + p.wall->point_m.x() / px,
                    p.geometry.origin_v_px - p.wall->point_m.y() / px};

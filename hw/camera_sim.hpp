@@ -88,9 +88,10 @@ Result<std::optional<PinholeCamera>> simulatedLens(const RigProfile& profile);
 /// to draw calibration targets through its optics. Errors: not a simulated
 /// camera, or its settings do not parse.
 Result<vision::RenderSettings> simulatedRenderSettings(const RigProfile& profile);
-/// Where a wall rig's plate face appears in the image (the profile's [wall]
-/// through the orthographic geometry); none without a wall or when the face
-/// is parallel to the image.
+/// Where a wall rig's plate face appears in the image: the profile's [wall]
+/// on the collision plane z = 0, through the simulated camera's perspective
+/// lens when it has one, else the orthographic geometry; none without a wall
+/// or when the face is parallel to the image.
 std::optional<vision::WallLine> wallInImage(const RigProfile& profile);
 
 class CameraSim final : public Camera {

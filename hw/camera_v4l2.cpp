@@ -198,6 +198,18 @@ Status CameraV4l2::configureDevice(const CameraConfig& c) {
   return Ok{};
 }
 
+namespace {
+
+// Sets a control and reads back what the device holds: a driver may round a
+// value to its step, or clamp it, without an error, and a shot must record
+// what the camera really ran with.
+Result<std::int64_t> setAndReadBack(V4l2Device& d, const V4l2Control& c, std::int64_t value) {
+  COLLIDE_RETURN_IF_ERROR(d.setControl(c, value));
+  return d.getControl(c);
+}
+
+}  // namespace
+
 Status CameraV4l2::applyControls(const CameraConfig& c) {
   V4l2Device& d = *device_;
   if (settings_.exposure_control) {
@@ -219,7 +231,12 @@ Status CameraV4l2::applyControls(const CameraConfig& c) {
                   " us: set camera.exposure_us to one "
                   "of those (not " +
                   num(c.exposure_us) + ")");
-    COLLIDE_RETURN_IF_ERROR(d.setControl(*exposure, value));
+    COLLIDE_ASSIGN_OR_RETURN(const std::int64_t held, setAndReadBack(d, *exposure, value));
+    if (held != value)
+      return fail(d.name() + " took exposure " + num(held * 100.0) + " us when asked for " +
+                  num(c.exposure_us) + " us (its control's step is " +
+                  std::to_string(exposure->step * 100) +
+                  " us): set camera.exposure_us to a value it keeps");
   }
   if (settings_.gain_raw_per_db > 0) {
     if (auto gain = d.control(V4L2_CID_GAIN)) {
@@ -232,7 +249,13 @@ Status CameraV4l2::applyControls(const CameraConfig& c) {
                     std::to_string(gain->maximum) +
                     ": check camera.gain_db and "
                     "camera.gain_raw_per_db");
-      COLLIDE_RETURN_IF_ERROR(d.setControl(*gain, raw));
+      COLLIDE_ASSIGN_OR_RETURN(const std::int64_t held, setAndReadBack(d, *gain, raw));
+      if (held != raw)
+        return fail(d.name() + " took gain raw " + std::to_string(held) + " (" +
+                    num(static_cast<double>(held) / settings_.gain_raw_per_db) +
+                    " dB) when asked for raw " + std::to_string(raw) + " (" + num(c.gain_db) +
+                    " dB; its control's step is " + std::to_string(gain->step) +
+                    "): set camera.gain_db to a value it keeps");
     }
   }
   for (const auto& [key, value] : settings_.controls) {

@@ -527,6 +527,9 @@ Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
   COLLIDE_ASSIGN_OR_RETURN(
       a.contact_distance_sigma_px,
       r.number("contact_distance_sigma_px", a.contact_distance_sigma_px, {.ge = 0.0, .le = 5.0}));
+  COLLIDE_ASSIGN_OR_RETURN(
+      a.radius_systematic_px,
+      r.number("radius_systematic_px", a.radius_systematic_px, {.ge = 0.0, .le = 2.0}));
   return r.finish("[analysis]");
 }
 

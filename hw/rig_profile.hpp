@@ -162,6 +162,13 @@ struct AnalysisProfile {
   /// front light. At grazing incidence it moves the contact instant and so
   /// the line of centres; 0: no such bias (even or back light).
   double contact_distance_sigma_px = 0.0;
+  /// How much the detector's radius bias may differ between the two spheres
+  /// and change along a track (standard deviation, pixels): it bounds what
+  /// the apparent sizes can say about depth (the line of centres' z part,
+  /// v_z) and widens the contact instants' agreement. 0.1 px suits shaded
+  /// front-lit spheres; a bare backlit silhouette's sharp edge is good to
+  /// about 0.01 px.
+  double radius_systematic_px = 0.1;
 };
 
 struct RigProfile {

@@ -37,16 +37,18 @@ TEST(AnalysisProfile, AbsentGivesTodaysPriors) {
   EXPECT_NEAR(std::sin(r->analysis.line_of_centres_tilt_deg * M_PI / 180), 0.0100, 1e-5);
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.005);
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.0);
+  EXPECT_DOUBLE_EQ(r->analysis.radius_systematic_px, 0.1);
 }
 
 TEST(AnalysisProfile, StatedAlignmentIsRead) {
   const auto r = withAnalysis(
       "line_of_centres_tilt_deg = 3.0\nlaunch_out_of_plane_fraction = 0.03\n"
-      "contact_distance_sigma_px = 0.2\n");
+      "contact_distance_sigma_px = 0.2\nradius_systematic_px = 0.02\n");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_DOUBLE_EQ(r->analysis.line_of_centres_tilt_deg, 3.0);
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.03);
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.2);
+  EXPECT_DOUBLE_EQ(r->analysis.radius_systematic_px, 0.02);
 }
 
 TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchScatter) {
@@ -58,10 +60,10 @@ TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchScatter) {
 }
 
 TEST(AnalysisProfile, ImpossibleOrUnknownValuesAreRefusedByName) {
-  for (const char* bad :
-       {"line_of_centres_tilt_deg = 0.0\n", "line_of_centres_tilt_deg = 45.0\n",
-        "launch_out_of_plane_fraction = -0.01\n", "contact_distance_sigma_px = -0.1\n",
-        "contact_distance_sigma_px = 9.0\n"}) {
+  for (const char* bad : {"line_of_centres_tilt_deg = 0.0\n", "line_of_centres_tilt_deg = 45.0\n",
+                          "launch_out_of_plane_fraction = -0.01\n",
+                          "contact_distance_sigma_px = -0.1\n", "contact_distance_sigma_px = 9.0\n",
+                          "radius_systematic_px = -0.01\n", "radius_systematic_px = 3.0\n"}) {
     const auto r = withAnalysis(bad);
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_THAT(r.error().message, HasSubstr(std::string(bad).substr(0, 20))) << bad;

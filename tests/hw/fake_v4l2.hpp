@@ -8,7 +8,11 @@
 // at the rate last set, each stamped (CLOCK_MONOTONIC, start of exposure) on
 // its own schedule from STREAMON, one period apart, and DQBUF blocking until
 // the next one is due, as a blocking driver would. It lists no frame sizes,
-// rates or controls (ENOTTY), as some drivers do. Once `unplugged`, it
+// rates or controls (ENOTTY), as some drivers do, unless `with_controls` is set:
+// then it has exposure_auto, exposure_time_absolute (100 us units, 1..10000)
+// and gain (0..255 in steps of 4), and rounds and clamps a value it is given
+// to its control's step and range without an error, as the kernel's control
+// framework does (what the device holds is read back). Once `unplugged`, it
 // answers every ioctl with ENODEV, as the kernel does for a disconnected
 // UVC camera; `calls` counts the ioctls it was asked. Used by
 // camera_v4l2_lost_test.cpp and camera_v4l2_conformance_test.cpp.
@@ -41,8 +45,21 @@ constexpr std::size_t kSlot = 32768;  // per buffer in the memfd, page aligned, 
 
 // The fake capture device: one GREY format, any size asked (160x120 here),
 // frames at the rate last set, buffers in a memfd that mmap() maps as usual.
+struct FakeControl {
+  std::uint32_t id;
+  const char* name;
+  std::uint32_t type;
+  std::int64_t minimum, maximum, step, value;
+};
+
 struct FakeV4l2 {
   int memfd = -1;
+  bool with_controls = false;
+  std::vector<FakeControl> controls{
+      {V4L2_CID_EXPOSURE_AUTO, "Auto Exposure", V4L2_CTRL_TYPE_MENU, 0, 3, 1, 0},
+      {V4L2_CID_EXPOSURE_ABSOLUTE, "Exposure Time, Absolute", V4L2_CTRL_TYPE_INTEGER, 1, 10000, 1,
+       100},
+      {V4L2_CID_GAIN, "Gain", V4L2_CTRL_TYPE_INTEGER, 0, 255, 4, 0}};
   ino_t inode = 0;
   std::atomic<bool> unplugged{false};
   std::atomic<int> calls{0};  // ioctls on the device (answered or not)
@@ -59,6 +76,12 @@ struct FakeV4l2 {
     return memfd >= 0 && fstat(fd, &st) == 0 && st.st_ino == inode;
   }
   int answer(unsigned long request, void* arg);
+  int answerControls(unsigned long request, void* arg);
+  FakeControl* controlById(std::uint32_t id) {
+    for (FakeControl& c : controls)
+      if (c.id == id) return &c;
+    return nullptr;
+  }
 };
 
 inline FakeV4l2& fake() {
@@ -156,8 +179,45 @@ inline int FakeV4l2::answer(unsigned long request, void* arg) {
       next_ns = due + period_ns;
       return 0;
     }
+    case VIDIOC_QUERY_EXT_CTRL:
+    case VIDIOC_S_EXT_CTRLS:
+    case VIDIOC_G_EXT_CTRLS: return with_controls ? answerControls(request, arg) : refuse(ENOTTY);
     default: return refuse(ENOTTY);
   }
+}
+
+inline int FakeV4l2::answerControls(unsigned long request, void* arg) {
+  if (request == VIDIOC_QUERY_EXT_CTRL) {
+    auto* q = static_cast<v4l2_query_ext_ctrl*>(arg);
+    const bool next = (q->id & V4L2_CTRL_FLAG_NEXT_CTRL) != 0;
+    const std::uint32_t id = q->id & ~(V4L2_CTRL_FLAG_NEXT_CTRL | V4L2_CTRL_FLAG_NEXT_COMPOUND);
+    const FakeControl* found = nullptr;
+    for (const FakeControl& c : controls)  // the next by id, or this one
+      if (next ? c.id > id && (!found || c.id < found->id) : c.id == id) found = &c;
+    if (!found) return refuse(EINVAL);
+    *q = {};
+    q->id = found->id;
+    q->type = found->type;
+    std::strncpy(q->name, found->name, sizeof q->name - 1);
+    q->minimum = found->minimum;
+    q->maximum = found->maximum;
+    q->step = static_cast<__u64>(found->step);
+    q->default_value = found->value;
+    return 0;
+  }
+  auto* cs = static_cast<v4l2_ext_controls*>(arg);
+  for (__u32 i = 0; i < cs->count; ++i) {
+    v4l2_ext_control& e = cs->controls[i];
+    FakeControl* c = controlById(e.id);
+    if (!c) return refuse(EINVAL);
+    if (request == VIDIOC_G_EXT_CTRLS) {
+      e.value = static_cast<__s32>(c->value);
+    } else {  // clamped, then rounded to the step from the minimum
+      const std::int64_t v = std::clamp<std::int64_t>(e.value, c->minimum, c->maximum);
+      c->value = c->minimum + (v - c->minimum + c->step / 2) / c->step * c->step;
+    }
+  }
+  return 0;
 }
 
 // The fake's node (/proc/self/fd/N of its memfd, created on first use), or
