@@ -20,6 +20,27 @@
 namespace collide::app {
 namespace fs = std::filesystem;
 
+std::optional<PinholeCamera> recordedLens(const hw::RigProfile& profile) {
+  if (profile.camera_calibration) return profile.camera_calibration->lens(profile.geometry);
+  if (auto lens = hw::simulatedLens(profile); lens && *lens) return **lens;
+  return std::nullopt;
+}
+
+void applyProfileToAnalysis(const hw::RigProfile& profile, vision::AnalysisSettings& s) {
+  // The lens the frames were filmed through: centres through it, not one pixel size.
+  s.camera = recordedLens(profile);
+  // Footage that does not carry its scale takes the calibrated plane's (m/px).
+  if (!(s.pixel_size_m > 0) && profile.camera_calibration &&
+      profile.camera_calibration->plane_pixel_size_m)
+    s.pixel_size_m = *profile.camera_calibration->plane_pixel_size_m;
+  // The alignment the profile states ([analysis]): priors for the out-of-plane parts.
+  s.line_of_centres_z_sigma =
+      std::sin(profile.analysis.line_of_centres_tilt_deg * std::numbers::pi / 180.0);
+  s.out_of_plane_speed_fraction = profile.analysis.launch_out_of_plane_fraction;
+  s.contact_distance_sigma_px = profile.analysis.contact_distance_sigma_px;
+  s.radius_systematic_px = profile.analysis.radius_systematic_px;
+}
+
 vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
   vision::AnalysisSettings s;
   s.pixel_size_m = shot.scene.pixel_size_m;
@@ -28,20 +49,8 @@ vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
   s.origin_u_px = shot.scene.origin_u_px;
   s.origin_v_px = shot.scene.origin_v_px;
   s.fps = shot.burst.fps > 0 ? shot.burst.fps : shot.camera.fps;
-  // The lens the shot was filmed through, when its profile says: the
-  // camera's calibration ([camera.calibration]) first, else a simulated
-  // camera's perspective imaging. Centres through it, not one pixel size.
-  if (auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (recorded profile)")) {
-    if (profile->camera_calibration)
-      s.camera = profile->camera_calibration->lens(profile->geometry);
-    else if (auto lens = hw::simulatedLens(*profile); lens && *lens)
-      s.camera = **lens;
-    // The alignment the profile states ([analysis]): priors for the out-of-plane parts.
-    s.line_of_centres_z_sigma =
-        std::sin(profile->analysis.line_of_centres_tilt_deg * std::numbers::pi / 180.0);
-    s.out_of_plane_speed_fraction = profile->analysis.launch_out_of_plane_fraction;
-    s.contact_distance_sigma_px = profile->analysis.contact_distance_sigma_px;
-  }
+  if (auto profile = hw::parseRigProfile(shot.rig_profile_toml, shot.id + " (recorded profile)"))
+    applyProfileToAnalysis(*profile, s);
   return s;
 }
 

@@ -9,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
+#include "hw/rig_profile.hpp"
 #include "hw/shot.hpp"
 #include "vision/shot_analysis.hpp"
 
@@ -20,6 +22,18 @@ namespace collide::app {
 /// profile's [camera.calibration] when it has one, else its simulated
 /// camera's perspective lens, else none (one pixel size).
 vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot);
+
+/// What a rig profile says about its frames, for their analysis: the lens
+/// (recordedLens), the calibrated plane's pixel size when `settings` has none,
+/// and the alignment priors of its [analysis] table (line of
+/// centres tilt, out-of-plane launch, contact distance, radius systematic).
+/// Used for the rig's own shots and for its footage (analyze --frames --profile).
+void applyProfileToAnalysis(const hw::RigProfile& profile, vision::AnalysisSettings& settings);
+
+/// The lens a rig profile says its frames were taken through: its
+/// [camera.calibration] when it has one, else its simulated camera's
+/// perspective lens, else none (one pixel size). Shared by both analyses.
+std::optional<PinholeCamera> recordedLens(const hw::RigProfile& profile);
 
 /// What happened to one shot file.
 struct AnalyzeOutcome {

@@ -111,30 +111,69 @@ Result<OpenedFootage> openFolder(const TrackOptions& o) {
   return out;
 }
 
-/// A video, decoded whole (OpenCV reads it in sequence).
+/// A video, decoded one frame at a time as it is tracked (not held whole).
 Result<OpenedFootage> openVideo(const TrackOptions& o) {
-  auto burst = vision::loadVideo(o.footage, o.fps);
-  if (!burst) return burst.error();
+  auto video = vision::openVideoStream(o.footage, o.fps);
+  if (!video) return video.error();
   OpenedFootage out;
-  out.fps = o.fps > 0 ? o.fps : burst->fps;
-  out.width = burst->width();
-  out.height = burst->height();
-  out.note = burst->note;
-  out.source.count = static_cast<std::int64_t>(burst->frames.size());
-  out.source.max_value = vision::maxValue(burst->format);
-  auto shared = std::make_shared<vision::Burst>(std::move(*burst));
-  out.source.read = [shared](std::int64_t i) -> Result<vision::Frame> {
-    return shared->frames[static_cast<std::size_t>(i)];
-  };
+  out.fps = video->fps;
+  out.width = video->width;
+  out.height = video->height;
+  out.source.count = video->count;
+  out.source.max_value = vision::maxValue(video->format);
+  out.source.read = std::move(video->read);
   return out;
 }
 
+/// Gives each track its diameter (m) of `diameters`: all the same when they
+/// are; else, with a pixel size (m) known, the one whose image is nearest the
+/// track's median radius, or without one the largest to the largest image
+/// (then one diameter per track is needed). diameter_m becomes track 1's.
+Status assignDiameters(std::vector<double> diameters, double pixel_size_m, TrackResult& r) {
+  std::erase_if(diameters, [](double d) { return !(d > 0); });
+  if (diameters.empty()) return Ok{};
+  const auto [lo, hi] = std::minmax_element(diameters.begin(), diameters.end());
+  if (*hi == *lo) {
+    r.diameter_m = diameters.front();
+    return Ok{};
+  }
+  const std::vector<double>& radii = r.tracks.radius_px;
+  r.sphere_diameter_m.assign(radii.size(), diameters.front());
+  if (pixel_size_m > 0) {
+    for (std::size_t t = 0; t < radii.size(); ++t)
+      for (const double d : diameters)
+        if (std::abs(0.5 * d / pixel_size_m - radii[t]) <
+            std::abs(0.5 * r.sphere_diameter_m[t] / pixel_size_m - radii[t]))
+          r.sphere_diameter_m[t] = d;
+  } else {
+    if (diameters.size() != radii.size())
+      return fail(std::to_string(diameters.size()) + " diameters for " +
+                  std::to_string(radii.size()) +
+                  " spheres tracked: give one diameter for all, or one per sphere (--spheres to "
+                  "say how many)");
+    std::vector<std::size_t> order(radii.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return !(radii[a] >= radii[b]);  // a NaN radius counts as the smallest
+    });
+    std::sort(diameters.begin(), diameters.end());
+    for (std::size_t k = 0; k < order.size(); ++k) r.sphere_diameter_m[order[k]] = diameters[k];
+  }
+  r.diameter_m = r.sphere_diameter_m.front();
+  return Ok{};
+}
+
 /// The scale from a rig profile: its camera's lens, else its pixel size; the
-/// spheres' diameter from the profile unless given.
-Status scaleFromRig(const TrackOptions& o, TrackResult& r) {
+/// spheres' diameters (m) `given`, else the profile's.
+Status scaleFromRig(const TrackOptions& o, const std::vector<double>& given, TrackResult& r) {
   auto profile = hw::loadRigProfile(o.rig);
   if (!profile) return profile.error();
-  if (!(r.diameter_m > 0)) r.diameter_m = profile->spheres.diameter_m[0];
+  const auto& own = profile->spheres.diameter_m;
+  if (Status st = assignDiameters(given.empty() ? std::vector<double>{own[0], own[1]} : given,
+                                  profile->geometry.pixel_size_m, r);
+      !st)
+    return st.error();
+  r.radius_systematic_px = profile->analysis.radius_systematic_px;
   r.pixel_size_m = profile->geometry.pixel_size_m;
   r.pixel_size_from = "profile";
   // A camera calibrated with chessboard pictures ([camera.calibration])
@@ -160,23 +199,25 @@ Status scaleFromRig(const TrackOptions& o, TrackResult& r) {
 /// The scale: the camera file's own calibration, else the diameter over the
 /// spheres' measured size.
 Status chooseScale(const TrackOptions& o, const OpenedFootage& in, TrackResult& r) {
-  r.diameter_m = o.diameter_mm * 1e-3;
-  if (!o.rig.empty()) return scaleFromRig(o, r);
-  std::vector<double> radii;
-  for (const double rad : r.tracks.radius_px)
-    if (std::isfinite(rad)) radii.push_back(rad);
-  const double mean_r =
-      radii.empty() ? 0 : std::accumulate(radii.begin(), radii.end(), 0.0) / radii.size();
+  std::vector<double> given;
+  for (const double mm : o.diameters_mm) given.push_back(mm * 1e-3);
+  if (!o.rig.empty()) return scaleFromRig(o, given, r);
+  if (auto st = assignDiameters(given, in.file_pixel_size_m, r); !st)
+    return fail(o.footage + ": --diameter-mm: " + st.error().message);
+  // Each track's median radius against its own diameter.
+  std::vector<int> whole;  // tracks with a measured radius
+  for (int t = 0; t < static_cast<int>(r.tracks.radius_px.size()); ++t)
+    if (std::isfinite(r.tracks.radius_px[t]) && r.tracks.radius_px[t] > 0) whole.push_back(t);
   if (in.file_pixel_size_m > 0) {
     r.pixel_size_m = in.file_pixel_size_m;
     r.pixel_size_from = "file";
-    if (r.diameter_m > 0 && mean_r > 0) {
-      const double d_img = 2 * mean_r * r.pixel_size_m;
-      if (std::abs(d_img / r.diameter_m - 1) > 0.05)
-        r.notes.push_back("the spheres measure " + fmt("%.2f", d_img * 1e3) +
-                          " mm across at the file's pixel size, but --diameter-mm is " +
-                          fmt("%.2f", r.diameter_m * 1e3) +
-                          ": the file's pixel size is used; check the file's calibration");
+    for (const int t : whole) {
+      const double d_img = 2 * r.tracks.radius_px[t] * r.pixel_size_m, d = r.diameterOf(t);
+      if (d > 0 && std::abs(d_img / d - 1) > 0.05)
+        r.notes.push_back(
+            "sphere " + std::to_string(t + 1) + " measures " + fmt("%.2f", d_img * 1e3) +
+            " mm across at the file's pixel size, but --diameter-mm is " + fmt("%.2f", d * 1e3) +
+            ": the file's pixel size is used; check the file's calibration");
     }
     return Ok{};
   }
@@ -184,82 +225,198 @@ Status chooseScale(const TrackOptions& o, const OpenedFootage& in, TrackResult& 
     return fail(o.footage +
                 ": no pixel size in the file: give the spheres' diameter (--diameter-mm) to "
                 "scale pixels to metres");
-  if (!(mean_r > 0))
+  if (whole.empty())
     return fail(o.footage +
                 ": no whole sphere outline to scale from (every outline is cut by "
                 "the frame's edge or merged)");
-  r.pixel_size_m = r.diameter_m / (2 * mean_r);
-  r.pixel_size_from = "diameter";
-  // The radii's scatter over frames (their median's error) and the
+  // The mean of the tracks' scales; its uncertainty from the radii's scatter
+  // over frames (each radius relative to its track's median) and the
   // detector's systematic radius error, as in vision::AnalysisSettings.
-  std::vector<double> all;
+  double scale_sum = 0, mean_r = 0;
+  for (const int t : whole) {
+    scale_sum += r.diameterOf(t) / (2 * r.tracks.radius_px[t]);
+    mean_r += r.tracks.radius_px[t] / whole.size();
+  }
+  r.pixel_size_m = scale_sum / whole.size();
+  r.pixel_size_from = "diameter";
+  std::vector<double> rel;
   for (const auto& f : r.tracks.frames)
-    for (const auto& sp : f.spheres)
-      if (sp.found && !sp.cut_by_border && !sp.touching) all.push_back(sp.radius_px);
-  double var = 0;
-  for (const double x : all) var += (x - mean_r) * (x - mean_r);
-  const double sd_mean = all.size() > 1 ? std::sqrt(var / (all.size() - 1) / all.size()) : 0.0;
+    for (const int t : whole) {
+      const auto& sp = f.spheres[t];
+      if (sp.found && !sp.cut_by_border && !sp.touching)
+        rel.push_back(sp.radius_px / r.tracks.radius_px[t]);
+    }
+  double m = 0, var = 0;
+  for (const double x : rel) m += x / rel.size();
+  for (const double x : rel) var += (x - m) * (x - m);
+  const double sd_mean_rel = rel.size() > 1 ? std::sqrt(var / (rel.size() - 1) / rel.size()) : 0.0;
   constexpr double kRadiusSystematicPx = 0.1;
-  r.pixel_size_sigma_m = r.pixel_size_m * std::hypot(sd_mean, kRadiusSystematicPx) / mean_r;
-  if (radii.size() > 1) {
-    const auto [lo, hi] = std::minmax_element(radii.begin(), radii.end());
-    if (*hi / *lo > 1.05)
-      r.notes.push_back("the spheres' radii differ (" + fmt("%.1f", *lo) + " to " +
-                        fmt("%.1f", *hi) + " px); the scale takes their mean as --diameter-mm");
+  r.pixel_size_sigma_m = r.pixel_size_m * std::hypot(sd_mean_rel, kRadiusSystematicPx / mean_r);
+  if (r.sphere_diameter_m.empty() && whole.size() > 1) {
+    double lo = INFINITY, hi = 0;
+    for (const int t : whole)
+      lo = std::min(lo, r.tracks.radius_px[t]), hi = std::max(hi, r.tracks.radius_px[t]);
+    if (hi / lo > 1.05)
+      r.notes.push_back("the spheres' radii differ (" + fmt("%.1f", lo) + " to " + fmt("%.1f", hi) +
+                        " px) but one diameter was given: the scale takes it for all; give one "
+                        "per sphere if they differ (--diameter-mm 25.4,19.05)");
   }
   return Ok{};
 }
 
-/// Each sphere's centres as flight points (x right, y up, metres) and the
-/// footage position of each point.
-void fitSegments(TrackResult& r) {
-  const double s = r.pixel_size_m;
+double frameTime(const TrackResult& r, std::int64_t index) {
   const std::int64_t index0 = r.tracks.frames.empty() ? 0 : r.tracks.frames.front().index;
+  return (index - index0) / r.fps;
+}
+
+/// Sphere t's centres as flight points (x right, y up, metres), each at the
+/// depth `depth` gives it, and the footage position of each point.
+std::vector<FlightPoint> flightPoints(const TrackResult& r, int t, const SphereSegments& depth,
+                                      std::vector<std::int64_t>& frame_of) {
+  std::vector<FlightPoint> pts;
+  frame_of.clear();
+  for (const auto& f : r.tracks.frames) {
+    const vision::TrackedSphere& sp = f.spheres[t];
+    if (!sp.found) continue;
+    FlightPoint p;
+    p.t_s = frameTime(r, f.index);
+    p.position_m = toWorld(r, t, sp.u_px, sp.v_px, depth.depthAt(f.index, p.t_s));
+    p.sigma_m = std::max(sp.sigma_px, 1e-3) * r.pixel_size_m;
+    p.usable = !sp.cut_by_border && !sp.touching && !sp.contact;
+    p.contact = sp.contact;
+    pts.push_back(p);
+    frame_of.push_back(f.index);
+  }
+  return pts;
+}
+
+/// Sphere t's depth over frames first..last (footage positions) from its
+/// whole outlines' radii against what the lens gives it on the plane z = 0;
+/// none with fewer than 3 (the reason in `why`).
+std::optional<DepthMotion> segmentDepth(const TrackResult& r, int t, std::int64_t first,
+                                        std::int64_t last, std::string& why) {
+  const double radius_m = 0.5 * r.diameterOf(t);
+  std::vector<double> ts, rad, sr, r0;
+  for (const auto& f : r.tracks.frames) {
+    const vision::TrackedSphere& sp = f.spheres[t];
+    if (f.index < first || f.index > last || !sp.found || sp.cut_by_border || sp.touching ||
+        sp.contact)
+      continue;
+    const double plane = planeRadiusPx(*r.camera, sp.u_px, sp.v_px, radius_m);
+    if (!std::isfinite(plane)) continue;
+    ts.push_back(frameTime(r, f.index));
+    rad.push_back(sp.radius_px);
+    sr.push_back(std::max(sp.radius_sigma_px, 1e-3));
+    r0.push_back(plane);
+  }
+  const auto vec = [](const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
+  };
+  auto dm = fitDepthMotion(vec(ts), vec(rad), vec(sr), vec(r0), r.camera->centre_m.z(),
+                           frameTime(r, first));
+  if (!dm) {
+    why = dm.error().message;
+    return std::nullopt;
+  }
+  return *dm;
+}
+
+/// Fits sphere t's segments with its centres at `depth`'s depths.
+Result<SphereSegments> segmentsAtDepth(const TrackResult& r, int t, const SphereSegments& depth) {
   FreeFlightOptions fo;
-  fo.noise_floor_m = 0.01 * s;
+  fo.noise_floor_m = 0.01 * r.pixel_size_m;
+  std::vector<std::int64_t> frame_of;
+  const std::vector<FlightPoint> pts = flightPoints(r, t, depth, frame_of);
+  auto segs = fitFreeFlightSegments(pts, fo);
+  if (!segs) return segs.error();
+  SphereSegments out;
+  for (const auto& seg : *segs) {
+    out.first_frame.push_back(frame_of[seg.first]);
+    out.last_frame.push_back(frame_of[seg.last]);
+    int n = 0;
+    for (Eigen::Index i = 0; i < seg.fit.axisFit(0).weights.size(); ++i)
+      n += seg.fit.axisFit(0).weights[i] > 0;
+    out.frames_fitted.push_back(n);
+  }
+  out.segments = std::move(*segs);
+  out.depth.assign(out.segments.size(), std::nullopt);
+  return out;
+}
+
+/// A segment's depth sigmas made whole (completeDepthSigmas), and what an
+/// error of its depth line does to the centres placed on it, added to the
+/// segment's own sigmas: a centre x from the optical axis moving at v, put
+/// dz + v_z t off its depth, moves by x (dz + v_z t) / Z0, so the velocity at
+/// the first frame by (v dz + x v_z) / Z0 and the acceleration by 2 v v_z / Z0.
+void addDepthUncertainty(const TrackResult& r, int t, SphereSegments& s, std::size_t k) {
+  if (!s.depth[k]) return;
+  DepthMotion& d = *s.depth[k];
+  FreeFlightSegment& g = s.segments[k];
+  const double z0 = r.camera->centre_m.z();
+  completeDepthSigmas(d, z0, r.tracks.radius_px[t], g.fit.tLast_s() - g.fit.tFirst_s(),
+                      r.radius_systematic_px);
+  const Estimate3 x = g.fit.positionAt_m(g.fit.tRef_s());
+  for (int a = 0; a < 2; ++a) {
+    const double off = x.value[a] - r.camera->centre_m[a], v = g.velocity_m_s[a];
+    g.velocity_sigma_m_s[a] = std::hypot(g.velocity_sigma_m_s[a],
+                                         std::hypot(v * d.dz0_sigma_m, off * d.vz_sigma_m_s) / z0);
+    g.acceleration_sigma_m_s2[a] =
+        std::hypot(g.acceleration_sigma_m_s2[a], 2 * v * d.vz_sigma_m_s / z0);
+  }
+}
+
+/// Each sphere's free-flight segments. Through a lens, twice: the segments
+/// at the plane z = 0 give each one's frames, whose radii give its depth
+/// line; the centres are then placed at those depths and fitted again (a
+/// sphere drifting towards the camera at 3 % of its speed would otherwise
+/// show an acceleration of about 2 v v_z / Z0: 0.03 m/s^2 at 0.5 m/s from
+/// 0.5 m, 0.11 m/s^2 at 1 m/s).
+void fitSegments(TrackResult& r) {
   for (int t = 0; t < r.tracks.spheres; ++t) {
-    std::vector<FlightPoint> pts;
-    std::vector<std::int64_t> frame_of;
-    for (const auto& f : r.tracks.frames) {
-      const vision::TrackedSphere& sp = f.spheres[t];
-      if (!sp.found) continue;
-      FlightPoint p;
-      p.t_s = (f.index - index0) / r.fps;
-      p.position_m = toWorld(r, sp.u_px, sp.v_px);
-      p.sigma_m = std::max(sp.sigma_px, 1e-3) * s;
-      p.usable = !sp.cut_by_border && !sp.touching && !sp.contact;
-      p.contact = sp.contact;
-      pts.push_back(p);
-      frame_of.push_back(f.index);
+    const std::string name = "sphere " + std::to_string(t + 1) + ": ";
+    auto fitted = segmentsAtDepth(r, t, SphereSegments{});
+    if (!fitted) {
+      r.notes.push_back(name + fitted.error().message);
+      r.spheres.emplace_back();
+      continue;
     }
-    SphereSegments out;
-    auto segs = fitFreeFlightSegments(pts, fo);
-    if (!segs) {
-      r.notes.push_back("sphere " + std::to_string(t + 1) + ": " + segs.error().message);
-    } else {
-      for (const auto& seg : *segs) {
-        out.first_frame.push_back(frame_of[seg.first]);
-        out.last_frame.push_back(frame_of[seg.last]);
-        int n = 0;
-        for (Eigen::Index i = 0; i < seg.fit.axisFit(0).weights.size(); ++i)
-          n += seg.fit.axisFit(0).weights[i] > 0;
-        out.frames_fitted.push_back(n);
+    std::string why;
+    const auto measureDepths = [&](SphereSegments& s) {
+      for (std::size_t k = 0; k < s.segments.size(); ++k)
+        s.depth[k] = segmentDepth(r, t, s.first_frame[k], s.last_frame[k], why);
+    };
+    if (r.camera) {
+      measureDepths(*fitted);
+      if (auto again = segmentsAtDepth(r, t, *fitted)) {
+        fitted = std::move(again);
+        measureDepths(*fitted);
       }
-      out.segments = std::move(*segs);
+      for (std::size_t k = 0; k < fitted->segments.size(); ++k)
+        addDepthUncertainty(r, t, *fitted, k);
+      if (!why.empty()) r.notes.push_back(name + "no depth from the apparent size: " + why);
     }
-    r.spheres.push_back(std::move(out));
+    r.spheres.push_back(std::move(*fitted));
   }
 }
 
 }  // namespace
 
-Eigen::Vector2d toWorld(const TrackResult& r, double u_px, double v_px) {
-  if (r.camera) return r.camera->sphereCentre(u_px, v_px, 0.5 * r.diameter_m).head<2>();
+double SphereSegments::depthAt(std::int64_t index, double t_s) const {
+  for (std::size_t k = 0; k < segments.size(); ++k)
+    if (index >= first_frame[k] && index <= last_frame[k] && k < depth.size() && depth[k])
+      return depth[k]->dz0_m + depth[k]->vz_m_s * (t_s - segments[k].fit.tRef_s());
+  return 0.0;
+}
+
+Eigen::Vector2d toWorld(const TrackResult& r, int sphere, double u_px, double v_px,
+                        double depth_m) {
+  if (r.camera)
+    return r.camera->sphereCentre(u_px, v_px, 0.5 * r.diameterOf(sphere), depth_m).head<2>();
   return {u_px * r.pixel_size_m, -v_px * r.pixel_size_m};
 }
 
-Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m) {
-  if (r.camera) return r.camera->project(Vec3(xy_m.x(), xy_m.y(), 0));
+Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m, double depth_m) {
+  if (r.camera) return r.camera->project(Vec3(xy_m.x(), xy_m.y(), depth_m));
   return {xy_m.x() / r.pixel_size_m, -xy_m.y() / r.pixel_size_m};
 }
 
@@ -285,8 +442,8 @@ Result<TrackResult> trackFootage(const TrackOptions& o, const OpenedFootage& in,
   vision::SphereTrackSettings ts;
   ts.spheres = o.spheres;
   ts.detector.polarity = o.polarity;
-  if (in.file_pixel_size_m > 0 && o.diameter_mm > 0)
-    ts.expected_radius_px = 0.5 * o.diameter_mm * 1e-3 / in.file_pixel_size_m;
+  if (in.file_pixel_size_m > 0 && o.diameters_mm.size() == 1 && o.diameters_mm[0] > 0)
+    ts.expected_radius_px = 0.5 * o.diameters_mm[0] * 1e-3 / in.file_pixel_size_m;
   auto tracks = vision::trackFootageSpheres(in.source, ts, progress);
   if (!tracks) return fail(o.footage + ": " + tracks.error().message);
   r.tracks = std::move(*tracks);
@@ -314,6 +471,7 @@ std::string trackToJson(const TrackResult& r) {
   for (int t = 0; t < r.tracks.spheres; ++t) {
     ordered_json sp;
     sp["radius_px"] = number(r.tracks.radius_px[t]);
+    sp["diameter_m"] = r.diameterOf(t) > 0 ? ordered_json(r.diameterOf(t)) : ordered_json(nullptr);
     ordered_json frames = ordered_json::array();
     for (const auto& f : r.tracks.frames) {
       const vision::TrackedSphere& s = f.spheres[t];
@@ -325,7 +483,8 @@ std::string trackToJson(const TrackResult& r) {
       fr["centre_px"] = {s.u_px, s.v_px};
       fr["radius_px"] = s.radius_px;
       fr["sigma_px"] = s.sigma_px;
-      fr["position_m"] = pair(toWorld(r, s.u_px, s.v_px));
+      fr["position_m"] =
+          pair(toWorld(r, t, s.u_px, s.v_px, r.spheres[t].depthAt(f.index, frameTime(r, f.index))));
       if (s.cut_by_border) fr["cut_by_border"] = true;
       if (s.touching) fr["touching"] = true;
       if (s.contact) fr["contact"] = true;
@@ -345,6 +504,11 @@ std::string trackToJson(const TrackResult& r) {
       sj["acceleration_m_s2"] = pair(g.acceleration_m_s2);
       sj["acceleration_sigma_m_s2"] = pair(g.acceleration_sigma_m_s2);
       sj["residual_px_rms"] = number(g.residual_rms_m / r.pixel_size_m);
+      const std::optional<DepthMotion>& dz = ss.depth[k];
+      sj["depth_m"] = dz ? number(dz->dz0_m) : ordered_json(nullptr);
+      sj["depth_sigma_m"] = dz ? number(dz->dz0_sigma_m) : ordered_json(nullptr);
+      sj["velocity_z_m_s"] = dz ? number(dz->vz_m_s) : ordered_json(nullptr);
+      sj["velocity_z_sigma_m_s"] = dz ? number(dz->vz_sigma_m_s) : ordered_json(nullptr);
       sj["ends_at"] = g.ends_at;
       segs.push_back(std::move(sj));
     }
@@ -370,11 +534,12 @@ std::string trackToCsv(const TrackResult& r) {
       int segment = 0;  // 1-based; 0: in no segment
       for (std::size_t k = 0; k < ss.segments.size(); ++k)
         if (f.index >= ss.first_frame[k] && f.index <= ss.last_frame[k]) segment = k + 1;
+      const double t_s = (f.index - index0) / r.fps;
+      const Eigen::Vector2d xy = toWorld(r, t, s.u_px, s.v_px, ss.depthAt(f.index, t_s));
       std::snprintf(
           buf, sizeof buf, "%d,%lld,%lld,%.9g,%.4f,%.4f,%.4f,%.4f,%.9g,%.9g,%d,%d,%d,%d\n", t + 1,
-          static_cast<long long>(f.index), static_cast<long long>(f.id), (f.index - index0) / r.fps,
-          s.u_px, s.v_px, s.radius_px, s.sigma_px, toWorld(r, s.u_px, s.v_px).x(),
-          toWorld(r, s.u_px, s.v_px).y(), s.cut_by_border, s.touching, s.contact, segment);
+          static_cast<long long>(f.index), static_cast<long long>(f.id), t_s, s.u_px, s.v_px,
+          s.radius_px, s.sigma_px, xy.x(), xy.y(), s.cut_by_border, s.touching, s.contact, segment);
       out << buf;
     }
   }
@@ -404,8 +569,9 @@ Status writeTrackPng(const TrackResult& r, const OpenedFootage& in, const std::s
     for (std::size_t k = 0; k < ss.segments.size(); ++k) {
       std::vector<cv::Point> curve;
       for (std::int64_t i = ss.first_frame[k]; i <= ss.last_frame[k]; ++i) {
-        const Estimate3 p = ss.segments[k].fit.positionAt_m((i - index0) / r.fps);
-        const Eigen::Vector2d uv = toImage(r, p.value.head<2>());
+        const double t_s = (i - index0) / r.fps;
+        const Estimate3 p = ss.segments[k].fit.positionAt_m(t_s);
+        const Eigen::Vector2d uv = toImage(r, p.value.head<2>(), ss.depthAt(i, t_s));
         curve.emplace_back(cvRound(uv.x()), cvRound(uv.y()));
       }
       cv::polylines(img, curve, false, c, 1, cv::LINE_AA);

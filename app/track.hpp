@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "analysis/camera_model.hpp"
+#include "analysis/depth_from_size.hpp"
 #include "analysis/free_flight_segments.hpp"
 #include "analysis/result.hpp"
 #include "vision/footage.hpp"
@@ -20,9 +21,11 @@
 namespace collide::app {
 
 struct TrackOptions {
-  std::string footage;     ///< folder of images, video file, or camera file
-  double fps = 0;          ///< > 0 replaces the file's frame rate (required for a folder)
-  double diameter_mm = 0;  ///< the spheres' diameter; 0: unknown (the rig's, with rig)
+  std::string footage;  ///< folder of images, video file, or camera file
+  double fps = 0;       ///< > 0 replaces the file's frame rate (required for a folder)
+  /// The spheres' diameter, mm: one for all, or one per sphere (matched to
+  /// the tracks by size); empty: unknown (the rig profile's, with rig).
+  std::vector<double> diameters_mm;
   /// A rig profile: its camera's lens (the simulated camera's perspective
   /// lens) or, without one, its geometry.pixel_size_m, and its spheres' diameter.
   std::string rig;
@@ -37,6 +40,16 @@ struct SphereSegments {
   std::vector<FreeFlightSegment> segments;
   std::vector<std::int64_t> first_frame, last_frame;  ///< footage positions, per segment
   std::vector<int> frames_fitted;                     ///< per segment
+  /// Per segment, through a lens (TrackResult::camera): the sphere's depth
+  /// from its apparent size, a straight line dz(t) = dz0 + v_z (t - t0) from
+  /// the segment's first frame (m, towards the camera); none without a lens
+  /// or with fewer than 3 whole outlines. The segment's x, y are fitted with
+  /// each centre placed at this depth, so a drift towards or away from the
+  /// camera does not show as an acceleration.
+  std::vector<std::optional<DepthMotion>> depth;
+  /// The depth (m) at footage position `index`, time `t_s`: that of the
+  /// segment holding the frame, 0 in none or without a depth.
+  double depthAt(std::int64_t index, double t_s) const;
 };
 
 struct TrackResult {
@@ -53,7 +66,21 @@ struct TrackResult {
   /// centre back to its sphere's centre on the plane z = 0, distortion removed.
   /// None: x = u s, y = -v s.
   std::optional<PinholeCamera> camera;
-  double diameter_m = 0;  ///< 0 if not given
+  double diameter_m = 0;  ///< 0 if not given; sphere 1's when they differ
+  /// Per tracked sphere, m, when the diameters given differ (--diameter-mm
+  /// with one per sphere, or a rig profile's two): with a pixel size known
+  /// (the profile's, the file's), each the one whose image is nearest the
+  /// sphere's measured radius; else the largest to the largest image. Empty:
+  /// diameter_m for all.
+  std::vector<double> sphere_diameter_m;
+  double diameterOf(int sphere) const {
+    return sphere < static_cast<int>(sphere_diameter_m.size()) ? sphere_diameter_m[sphere]
+                                                               : diameter_m;
+  }
+  /// How much the detector's radius bias may change along a track, px: the
+  /// rig profile's [analysis] radius_systematic_px (0.1 without one). It
+  /// bounds what the apparent size tells of the depth (SphereSegments::depth).
+  double radius_systematic_px = 0.1;
   int width = 0, height = 0;
   vision::SphereTracks tracks;
   std::vector<SphereSegments> spheres;  ///< one per tracked sphere
@@ -77,9 +104,11 @@ Result<OpenedFootage> openFootage(const TrackOptions& options);
 Result<TrackResult> trackFootage(const TrackOptions& options, const OpenedFootage& footage,
                                  const std::function<void(int, int)>& progress = {});
 
-/// Image (u, v) px of a sphere centre -> physical (x, y) m, and back.
-Eigen::Vector2d toWorld(const TrackResult& r, double u_px, double v_px);
-Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m);
+/// Image (u, v) px of sphere `sphere`'s centre -> physical (x, y) m, and
+/// back; through a lens the centre lies `depth_m` in front of the plane z = 0.
+Eigen::Vector2d toWorld(const TrackResult& r, int sphere, double u_px, double v_px,
+                        double depth_m = 0);
+Eigen::Vector2d toImage(const TrackResult& r, const Eigen::Vector2d& xy_m, double depth_m = 0);
 
 std::string trackToJson(const TrackResult& r);  ///< schema collide.track/1
 std::string trackToCsv(const TrackResult& r);   ///< one row per sphere per frame

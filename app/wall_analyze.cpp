@@ -1,5 +1,6 @@
 #include "app/wall_analyze.hpp"
 
+#include "app/analyze.hpp"
 #include "app/report/wall_results_json.hpp"
 #include "hw/camera_sim.hpp"
 #include "hw/rig_profile.hpp"
@@ -21,15 +22,25 @@ std::optional<vision::WallAnalysisSettings> wallAnalysisSettingsFor(const hw::Sh
   s.wall_line = *line;
   // The alignment the profile states ([analysis]): the prior of the launch's v_z.
   s.out_of_plane_speed_fraction = profile->analysis.launch_out_of_plane_fraction;
+  // The lens, as the two-sphere analysis takes it.
+  s.camera = recordedLens(*profile);
   return s;
 }
 
-std::optional<Result<std::string>> analyzeWallShot(const hw::Shot& shot) {
+std::optional<Result<WallShotResults>> analyzeWallShotInFull(const hw::Shot& shot) {
   const auto settings = wallAnalysisSettingsFor(shot);
   if (!settings) return std::nullopt;
   auto a = vision::analyzeWallBurst(shot.burst, *settings);
-  if (!a) return Result<std::string>(a.error());
-  return Result<std::string>(wallResultsToJson(*a));
+  if (!a) return Result<WallShotResults>(a.error());
+  std::string json = wallResultsToJson(*a);
+  return Result<WallShotResults>(WallShotResults{std::move(*a), std::move(json)});
+}
+
+std::optional<Result<std::string>> analyzeWallShot(const hw::Shot& shot) {
+  auto full = analyzeWallShotInFull(shot);
+  if (!full) return std::nullopt;
+  if (!*full) return Result<std::string>(full->error());
+  return Result<std::string>(std::move((*full)->results_json));
 }
 
 }  // namespace collide::app

@@ -19,4 +19,12 @@ std::optional<vision::WallAnalysisSettings> wallAnalysisSettingsFor(const hw::Sh
 /// None: not a wall shot. Otherwise the results JSON, or why the analysis failed.
 std::optional<Result<std::string>> analyzeWallShot(const hw::Shot& shot);
 
+/// The same with the analysis itself (its trajectory fits, the face line it
+/// used), for the GUI to draw.
+struct WallShotResults {
+  vision::WallShotAnalysis analysis;
+  std::string results_json;
+};
+std::optional<Result<WallShotResults>> analyzeWallShotInFull(const hw::Shot& shot);
+
 }  // namespace collide::app

@@ -12,9 +12,11 @@
 //   silhouette bench/profiles/bare-silhouettes.toml  black silhouettes, no dots
 //   wall     config/sim-wall.toml    one sphere on a plate (the wall analysis)
 //   wall-backlit bench/profiles/wall-backlit.toml  the plate against a backlight
+//   wall-lab   bench/profiles/wall-lab.toml  the plate through sim-lab's lens and light
 //
 //   build/bench/accuracy_bench [--shots N] [--preset NAME,NAME] [--profile FILE] [--seed S]
-//                              [--verbose] [--save-bad DIR] [--reanalyse FILE]
+//                              [--verbose] [--detector-bias] [--save-bad DIR]
+//                              [--reanalyse FILE]
 //
 // Per preset: RMS and worst errors of e, beta, gamma, velocities and spins
 // over the shots the analysis did not flag; the pulls (error / stated sigma)
@@ -34,6 +36,7 @@
 #include <vector>
 
 #include "analysis/campaign.hpp"
+#include "analysis/depth_from_size.hpp"
 #include "analysis/walton.hpp"
 #include "app/analyze.hpp"
 #include "app/campaign.hpp"
@@ -52,6 +55,7 @@ using collide::bench::truthAtContact;
 namespace {
 
 bool g_verbose = false;
+bool g_detector_bias = false;  // --detector-bias
 std::string
     g_save_bad;  // --save-bad DIR: shots flagged or with an error beyond 4 sigma are saved there
 
@@ -84,6 +88,13 @@ struct Stat {
     for (double x : v) s += x;
     return v.empty() ? NAN : s / v.size();
   }
+  double sd() const {
+    if (v.size() < 2) return NAN;
+    const double m = mean();
+    double s = 0;
+    for (double x : v) s += (x - m) * (x - m);
+    return std::sqrt(s / (v.size() - 1));
+  }
 };
 
 // One imaging preset: a rig profile and the launch speeds it is fired at.
@@ -112,6 +123,8 @@ const Preset kPresets[] = {
     {"wall", "config/sim-wall.toml", 1.6, 2.6, true, false, "one sphere on a plate, 640x480"},
     {"wall-backlit", "bench/profiles/wall-backlit.toml", 1.6, 2.6, true, false,
      "one sphere on a plate against a backlight"},
+    {"wall-lab", "bench/profiles/wall-lab.toml", 1.6, 2.6, true, false,
+     "one sphere on a plate through sim-lab's lens and light"},
 };
 
 // What one preset's shots gave.
@@ -123,9 +136,17 @@ struct PresetResult {
   std::map<std::string, int> flag_count;
   // Errors over the analysed shots the analysis did not flag.
   Stat de, db, dg_deg, dv_rel, dspin, pe, pb, pg;
+  Stat pspin;  ///< spins' error / sigma per axis, measured spins only
   // The same shots analysed without the lens model (pixel_size_m everywhere),
   // where the profile has a perspective lens: what the camera model buys.
   Stat de_flat, dg_flat, dv_flat;
+  // --detector-bias: the sphere detector against the truth, by the sphere's
+  // distance from the principal point (bins of kBiasBinPx): the measured
+  // radius minus the radius the lens makes of the true sphere (px), and the
+  // detected centre, taken back to the sphere's true depth, minus the true
+  // centre along the direction away from the axis (um).
+  static constexpr double kBiasBinPx = 60;
+  std::map<int, Stat> radius_bias_px, centre_bias_um;
   // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
   Stat pe_all, pb_all, pg_all;
   std::vector<CampaignShot> points;  // unflagged, for the campaign fit
@@ -137,6 +158,37 @@ struct PresetResult {
   int frames = 0, max_frames = 0;
   double worst_shot_ms = 0;
 };
+
+// The detector's radius and centre in every frame where a sphere was
+// measured whole (neither merged nor cut by the border), against the truth
+// seen through the profile's lens. Shots without a lens are skipped.
+void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, PresetResult& out) {
+  const vision::AnalysisSettings set = app::analysisSettingsFor(shot);
+  if (!set.camera) return;
+  const PinholeCamera& cam = *set.camera;
+  const hw::TruthRecord& t = *shot.truth;
+  std::map<std::int64_t, std::size_t> by_id;
+  for (std::size_t k = 0; k < t.frame_id.size(); ++k) by_id[t.frame_id[k]] = k;
+  for (const vision::FrameDetections& fd : r.frames)
+    for (int s = 0; s < 2; ++s) {
+      const auto& d = fd.sphere[s];
+      const auto k = by_id.find(fd.frame_id);
+      if (!d || d->touching || d->cut_by_border || k == by_id.end()) continue;
+      const Vec3 c = t.states[k->second][s].position_m;
+      const double radius_m = 0.5 * shot.scene.diameter_m[s];
+      const Eigen::Vector2d p = cam.project(c);
+      const Eigen::Vector2d away(p.x() - cam.principal_u_px, p.y() - cam.principal_v_px);
+      const double rho = away.norm();
+      if (!(rho > 0)) continue;
+      // Image axes: v grows downwards, world y upwards.
+      const Vec3 back = cam.sphereCentre(d->u_px, d->v_px, radius_m, c.z());
+      const Eigen::Vector2d dir = away / rho;
+      const double radial_um = 1e6 * ((back.x() - c.x()) * dir.x() - (back.y() - c.y()) * dir.y());
+      const int bin = static_cast<int>(rho / PresetResult::kBiasBinPx);
+      out.radius_bias_px[bin].add(d->radius_px - apparentRadiusPx(cam, c, radius_m));
+      out.centre_bias_um[bin].add(radial_um);
+    }
+}
 
 void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>& tb,
                      const std::array<Sphere, 2>& ta) {
@@ -166,6 +218,17 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
   if (const auto& nz = r.collision.line_of_centres_z_from_size)
     std::printf(", from size %+.4f +- %.4f", nz->value, nz->sigma);
   std::printf("\n");
+  // Where an error of e comes from: the measured velocities along the true
+  // line of centres.
+  const Vec3 dvb = r.sphere[0].velocity_before_m_s.value - r.sphere[1].velocity_before_m_s.value;
+  const Vec3 dva = r.sphere[0].velocity_after_m_s.value - r.sphere[1].velocity_after_m_s.value;
+  const Vec3 tvb = tb[0].velocity_m_s - tb[1].velocity_m_s,
+             tva = ta[0].velocity_m_s - ta[1].velocity_m_s;
+  std::printf(
+      "  e along the true line of centres: measured velocities %.4f, true %.4f; v_n before %+.4f "
+      "(true %+.4f), after %+.4f (true %+.4f)\n",
+      -dva.dot(n) / dvb.dot(n), -tva.dot(n) / tvb.dot(n), dvb.dot(n), tvb.dot(n), dva.dot(n),
+      tva.dot(n));
 }
 
 // The flags that say a shot cannot be trusted for what the preset asks:
@@ -212,6 +275,11 @@ void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeas
     if (pr.spin) {
       out.dspin.add((k.spin_before_rad_s.value - tb[s].spin_rad_s).norm());
       out.dspin.add((k.spin_after_rad_s.value - ta[s].spin_rad_s).norm());
+      for (const auto& [m, t] : {std::pair{k.spin_before_rad_s, tb[s].spin_rad_s},
+                                 std::pair{k.spin_after_rad_s, ta[s].spin_rad_s}})
+        for (int a = 0; a < 3; ++a)
+          if (std::isfinite(m.sigma[a]) && m.sigma[a] > 0)
+            out.pspin.add((m.value[a] - t[a]) / m.sigma[a]);
     }
   }
 }
@@ -355,6 +423,7 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
       continue;
     }
     ++out.analysed;
+    if (g_detector_bias) addDetectorBias(shot, *r, out);
     if (vision::AnalysisSettings flat = app::analysisSettingsFor(shot); flat.camera) {
       flat.camera.reset();
       if (auto rf = vision::analyzeBurst(shot.burst, flat)) {
@@ -387,6 +456,19 @@ const char* verdict(double value, double bound) {
   return std::abs(value) <= bound ? "pass" : "FAIL";
 }
 
+void printDetectorBias(const PresetResult& r) {
+  if (r.radius_bias_px.empty()) return;
+  std::printf("   detector against the truth, by distance from the principal point:\n");
+  for (const auto& [bin, radius] : r.radius_bias_px) {
+    const Stat& centre = r.centre_bias_um.at(bin);
+    std::printf(
+        "     %3.0f-%3.0f px: %5zu outlines, radius %+.3f px (sd %.3f), centre %+.1f um outwards "
+        "(sd %.1f)\n",
+        bin * PresetResult::kBiasBinPx, (bin + 1) * PresetResult::kBiasBinPx, radius.v.size(),
+        radius.mean(), radius.sd(), centre.mean(), centre.sd());
+  }
+}
+
 void printPreset(const PresetResult& r) {
   const Preset& pr = *r.preset;
   std::printf("-- %s: fired %d of %d, analysed %d, flagged %d (%.0f %%)\n", pr.name, r.fired,
@@ -394,13 +476,17 @@ void printPreset(const PresetResult& r) {
   for (const std::string& f : r.failures) std::printf("   %s\n", f.c_str());
   for (const std::string& f : r.replanned) std::printf("   replanned %s\n", f.c_str());
   for (const auto& [flag, n] : r.flag_count) std::printf("   flag %s: %d shots\n", flag.c_str(), n);
+  printDetectorBias(r);
   std::printf(
       "   over %zu unflagged shots: e RMS %.5f worst %.5f | beta RMS %.4f worst %.4f (%zu) | "
       "gamma RMS %.3f worst %.3f deg\n",
       r.de.v.size(), r.de.rms(), r.de.maxAbs(), r.db.rms(), r.db.maxAbs(), r.db.v.size(),
       r.dg_deg.rms(), r.dg_deg.maxAbs());
-  std::printf("   velocity RMS %.3f %% worst %.3f %% | spin RMS %.2f worst %.2f rad/s\n",
-              100 * r.dv_rel.rms(), 100 * r.dv_rel.maxAbs(), r.dspin.rms(), r.dspin.maxAbs());
+  std::printf(
+      "   velocity RMS %.3f %% worst %.3f %% | spin RMS %.2f worst %.2f rad/s | spin pulls (per "
+      "axis) RMS %.2f worst %.1f\n",
+      100 * r.dv_rel.rms(), 100 * r.dv_rel.maxAbs(), r.dspin.rms(), r.dspin.maxAbs(), r.pspin.rms(),
+      r.pspin.maxAbs());
   std::printf(
       "   pulls (error/sigma), unflagged: e RMS %.2f worst %.1f | beta RMS %.2f worst %.1f "
       "| gamma RMS %.2f worst %.1f\n",
@@ -487,9 +573,11 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 4;
   std::string presets;         // empty: all
   std::string custom_profile;  // --profile FILE: one more preset, "custom"
-  for (int i = 1; i < argc; ++i)
+  for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--verbose")) g_verbose = true;
-  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--detector-bias")) g_detector_bias = true;
+  }
+  for (int i = 1; i + 1 < argc; ++i) {
     if (!std::strcmp(argv[i], "--shots")) shots = std::atoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--preset")) presets = argv[i + 1];
     if (!std::strcmp(argv[i], "--profile")) custom_profile = argv[i + 1];

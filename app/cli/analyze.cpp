@@ -44,6 +44,7 @@ struct Options {
   bool skip_analysed = false;
   std::string frames;
   double fps = kNotGiven;
+  double exposure_us = kNotGiven;  // --frames: when the file does not say
   double diameter_mm = kNotGiven, diameter2_mm = 0;
   std::string json_out;
   std::string gravity_dir = "down";
@@ -156,6 +157,52 @@ int analyzeWallFootage(const Options& o, const collide::vision::Burst& burst, do
   return writeJson(text, o.json_out);
 }
 
+// The frames' exposure (us), which the motion-blur model needs: the camera
+// file's own; else --exposure-us; else, with --profile, its [camera] exposure
+// (the rig's camera took them). Given both, --exposure-us wins, with a note.
+collide::Status setExposure(const Options& o, const std::optional<collide::hw::RigProfile>& profile,
+                            collide::vision::Burst& burst) {
+  const double period_us = burst.fps > 0 ? 1e6 / burst.fps : 1e6;
+  if (o.exposure_us != kNotGiven) {
+    if (!(o.exposure_us > 0 && o.exposure_us <= period_us * (1 + 1e-9)))
+      return collide::fail("--exposure-us " + std::to_string(o.exposure_us) +
+                           ": give the exposure time in microseconds, > 0 and at most one frame "
+                           "period (" +
+                           std::to_string(period_us) + " us)");
+    if (burst.exposure_us > 0 && std::abs(burst.exposure_us - o.exposure_us) > 1e-6)
+      std::cerr << "collide analyze: note: " << o.frames << " says exposure " << burst.exposure_us
+                << " us; using --exposure-us " << o.exposure_us << "\n";
+    burst.exposure_us = o.exposure_us;
+  } else if (!(burst.exposure_us > 0) && profile && profile->camera_config.exposure_us > 0) {
+    const double from_profile = profile->camera_config.exposure_us;
+    if (from_profile > period_us * (1 + 1e-9)) {  // not the settings these frames were taken with
+      std::cerr << "collide analyze: note: " << o.profile << " [camera] exposure_us "
+                << from_profile << " is longer than these frames' period (" << period_us
+                << " us): motion blur not modelled; give --exposure-us\n";
+      return collide::Ok{};
+    }
+    burst.exposure_us = from_profile;
+    std::cerr << "collide analyze: exposure " << burst.exposure_us << " us from " << o.profile
+              << " [camera] (the frames do not say; --exposure-us to give another)\n";
+  }
+  return collide::Ok{};
+}
+
+// A calibration holds for pictures of the size it was made on.
+collide::Status checkCalibratedSize(const std::string& path,
+                                    const collide::hw::CameraCalibrationProfile& cal,
+                                    const collide::vision::Burst& burst) {
+  if (burst.frames.empty() || (burst.frames[0].image.cols == cal.image_px[0] &&
+                               burst.frames[0].image.rows == cal.image_px[1]))
+    return collide::Ok{};
+  return collide::fail("--profile " + path + ": calibrated on " + std::to_string(cal.image_px[0]) +
+                       " x " + std::to_string(cal.image_px[1]) +
+                       " px pictures, but the frames are " +
+                       std::to_string(burst.frames[0].image.cols) + " x " +
+                       std::to_string(burst.frames[0].image.rows) +
+                       " px: calibrate with pictures of the footage's size");
+}
+
 int analyzeFootage(const Options& given) {
   Options o = given;
   if (o.diameter_mm == kNotGiven) {
@@ -203,6 +250,25 @@ int analyzeFootage(const Options& given) {
   }
   const double file_pixel_size_m = loaded->file_pixel_size_m;
   auto* burst = &loaded->burst;
+  std::optional<collide::hw::RigProfile> profile;
+  if (!o.profile.empty()) {  // the lens the camera was calibrated with (collide calibrate-camera)
+    auto loaded_profile = collide::hw::loadRigProfile(o.profile);
+    if (!loaded_profile || !loaded_profile->camera_calibration) {
+      std::cerr << "collide analyze: --profile "
+                << (loaded_profile ? o.profile +
+                                         " has no [camera.calibration]: run collide "
+                                         "calibrate-camera ... --profile " +
+                                         o.profile
+                                   : loaded_profile.error().message)
+                << "\n";
+      return kExitBadInput;
+    }
+    profile = std::move(*loaded_profile);
+  }
+  if (auto st = setExposure(o, profile, *burst); !st) {
+    std::cerr << "collide analyze: " << st.error().message << "\n";
+    return kExitBadInput;
+  }
   if (loaded->kind == collide::app::FootageKind::CameraFile)
     std::cerr << "collide analyze: " << o.frames << ": " << burst->frames.size() << " frames, "
               << burst->fps << " frames/s" << (o.fps > 0 ? " (--fps)" : " (from the file)")
@@ -214,29 +280,13 @@ int analyzeFootage(const Options& given) {
   settings.diameter_m = {o.diameter_mm * 1e-3,
                          (o.diameter2_mm > 0 ? o.diameter2_mm : o.diameter_mm) * 1e-3};
   settings.fps = burst->fps;
-  if (!o.profile.empty()) {  // the lens the camera was calibrated with (collide calibrate-camera)
-    auto profile = collide::hw::loadRigProfile(o.profile);
-    if (!profile || !profile->camera_calibration) {
-      std::cerr << "collide analyze: --profile "
-                << (profile ? o.profile +
-                                  " has no [camera.calibration]: run collide "
-                                  "calibrate-camera ... --profile " +
-                                  o.profile
-                            : profile.error().message)
-                << "\n";
+  if (profile) {
+    if (auto st = checkCalibratedSize(o.profile, *profile->camera_calibration, *burst); !st) {
+      std::cerr << "collide analyze: " << st.error().message << "\n";
       return kExitBadInput;
     }
-    const auto& cal = *profile->camera_calibration;
-    if (!burst->frames.empty() && (burst->frames[0].image.cols != cal.image_px[0] ||
-                                   burst->frames[0].image.rows != cal.image_px[1])) {
-      std::cerr << "collide analyze: --profile " << o.profile << ": calibrated on "
-                << cal.image_px[0] << " x " << cal.image_px[1]
-                << " px pictures, but the frames are " << burst->frames[0].image.cols << " x "
-                << burst->frames[0].image.rows
-                << " px: calibrate with pictures of the footage's size\n";
-      return kExitBadInput;
-    }
-    settings.camera = cal.lens(profile->geometry);
+    // Its lens, plane pixel size and [analysis] priors, as for the rig's own shots.
+    collide::app::applyProfileToAnalysis(*profile, settings);
   }
   if (o.wall || !o.wall_line.empty()) return analyzeWallFootage(o, *burst, file_pixel_size_m);
   collide::cli::ProgressBar bar("frames", static_cast<int>(burst->frames.size()));
@@ -395,6 +445,9 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
                  "may hold pco .b16 images");
   sub.add_option("--fps", o->fps,
                  "Frame rate of --frames, frames/s (a video's or camera file's own by default)");
+  sub.add_option("--exposure-us", o->exposure_us,
+                 "Exposure time of --frames, microseconds, for the motion-blur model (a camera "
+                 "file's own, else --profile's [camera] exposure, by default)");
   sub.add_option("--range", o->range,
                  "Frames of a camera file to analyse, FIRST:LAST ids (trigger = 0 where the file "
                  "says; default all)");
@@ -402,7 +455,8 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--diameter2-mm", o->diameter2_mm, "Second sphere's diameter, mm, if different");
   sub.add_option("--profile", o->profile,
                  "With --frames: a rig profile whose [camera.calibration] (collide "
-                 "calibrate-camera) is the lens the footage was filmed through");
+                 "calibrate-camera) is the lens the footage was filmed through; its [analysis] "
+                 "priors (alignment, radius systematic) are used too");
   sub.add_option("--json", o->json_out, "Write the results JSON here (default: stdout)");
   sub.add_option("--gravity-dir", o->gravity_dir,
                  "Gravity in the image: down (default), up, left, right, or U,V");

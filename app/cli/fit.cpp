@@ -114,16 +114,21 @@ int runFit(const Options& given) {
     std::printf("down-weighted by the %s loss: %s (weight %.2f in the beta fit, %.2f in e)\n",
                 collide::robustLossName(report->loss).c_str(), d.id.c_str(), d.beta_weight,
                 d.e_weight);
-  const auto& fr = report->fit.friction;
   const auto& e = report->fit.restitution.e;
-  std::printf("mu       %.4f ± %.4f\n", fr.mu.value, fr.mu.sigma);
-  std::printf("beta_0   %.4f ± %.4f\n", fr.beta0.value, fr.beta0.sigma);
+  if (const auto& fr = report->fit.friction) {
+    std::printf("mu       %.4f ± %.4f\n", fr->mu.value, fr->mu.sigma);
+    std::printf("beta_0   %.4f ± %.4f\n", fr->beta0.value, fr->beta0.sigma);
+  } else {
+    std::printf("mu, beta_0 not fitted: %s\n", fr.error().message.c_str());
+  }
   std::printf("e        %.4f ± %.4f (mean of %d shots)\n", e.value, e.sigma,
               report->fit.restitution.count);
-  std::printf(
-      "gamma_0  %.1f ± %.1f deg (incidence angle from head-on: rolling below, sliding above; %d "
-      "sliding, %d rolling shots)\n",
-      fr.switch_angle_deg.value, fr.switch_angle_deg.sigma, fr.sliding_count, fr.rolling_count);
+  if (const auto& fr = report->fit.friction)
+    std::printf(
+        "gamma_0  %.1f ± %.1f deg (incidence angle from head-on: rolling below, sliding above; "
+        "%d sliding, %d rolling shots)\n",
+        fr->switch_angle_deg.value, fr->switch_angle_deg.sigma, fr->sliding_count,
+        fr->rolling_count);
   if (report->fit.laws) {
     const auto& laws = *report->fit.laws;
     std::printf("e(|v_n|) %s law preferred (delta BIC %.1f; evidence: %s)\n",
@@ -167,7 +172,8 @@ void setupFit(CLI::App& sub, std::function<int()>& run) {
       "spin_poorly_measured, spin_impulse_disagree or analysis_failed are left out unless\n"
       "--include-flagged; every left-out shot is listed with its flags, and every shot the\n"
       "robust loss down-weights with its weights. A shot whose spins were not measured\n"
-      "(beta null, e.g. a bare backlit silhouette) counts for e only.");
+      "(beta null, e.g. a bare backlit silhouette) counts for e only; when too few spins\n"
+      "remain for mu and beta_0, e and its speed law are still fitted and the reason is said.");
   run = [o] { return runFit(*o); };
 }
 

@@ -22,7 +22,8 @@ constexpr double kNotGiven = -1.0;
 struct Options {
   std::string footage, json_out, csv_out, png_out, rig;
   std::string spheres = "auto", polarity = "auto", range;
-  double diameter_mm = kNotGiven, fps = kNotGiven;
+  std::vector<double> diameters_mm;
+  double fps = kNotGiven;
 };
 
 /// Checks the flags into TrackOptions; prints why and returns false if wrong.
@@ -48,12 +49,19 @@ bool toTrackOptions(const Options& o, collide::app::TrackOptions& t) {
                  "dark background)\n";
     return false;
   }
-  if (o.diameter_mm != kNotGiven && !(o.diameter_mm > 0 && o.diameter_mm < 1000)) {
-    std::cerr << "collide track: --diameter-mm " << o.diameter_mm
-              << ": give the spheres' diameter in millimetres, between 0 and 1000 (e.g. 25.4)\n";
+  if (o.diameters_mm.size() > 3) {
+    std::cerr << "collide track: --diameter-mm: " << o.diameters_mm.size()
+              << " values; give one for all spheres, or one per sphere (at most 3)\n";
     return false;
   }
-  t.diameter_mm = o.diameter_mm == kNotGiven ? 0 : o.diameter_mm;
+  for (const double d : o.diameters_mm)
+    if (!(d > 0 && d < 1000)) {
+      std::cerr << "collide track: --diameter-mm " << d
+                << ": give the spheres' diameter in millimetres, between 0 and 1000 (e.g. 25.4, "
+                   "or 25.4,19.05 for two sizes)\n";
+      return false;
+    }
+  t.diameters_mm = o.diameters_mm;
   if (o.fps != kNotGiven && !(o.fps > 0 && o.fps <= 2e7)) {
     std::cerr << "collide track: --fps " << o.fps
               << ": give the frame rate the camera recorded at, frames per second (> 0)\n";
@@ -163,11 +171,15 @@ void setupTrack(CLI::App& sub, std::function<int()>& run) {
   sub.add_option("--csv", o->csv_out, "Write one row per sphere per frame here");
   sub.add_option("--png", o->png_out, "Draw the tracks and fitted segments over a frame (PNG)");
   sub.add_option("--spheres", o->spheres, "How many spheres: 1, 2, 3 or auto (default)");
-  sub.add_option("--diameter-mm", o->diameter_mm,
-                 "Sphere diameter, mm: the scale, unless the camera file has a pixel size");
+  sub.add_option("--diameter-mm", o->diameters_mm,
+                 "Sphere diameter, mm: the scale, unless the camera file has a pixel size; "
+                 "spheres of different sizes: one per sphere, comma-separated (25.4,19.05), "
+                 "matched to the spheres by size")
+      ->delimiter(',');
   sub.add_option("--profile,--rig", o->rig,
-                 "A rig profile: pixels to metres through its camera's lens (or its pixel "
-                 "size), its spheres' diameter unless --diameter-mm");
+                 "A rig profile: pixels to metres through its camera's lens (then each "
+                 "segment's depth and speed towards the camera from the apparent size), or its "
+                 "pixel size; its spheres' diameter unless --diameter-mm");
   sub.add_option("--fps", o->fps,
                  "Frame rate, frames/s (required for a folder; a file's own by default)");
   sub.add_option("--polarity", o->polarity, collide::cli::kPolarityHelp);

@@ -96,14 +96,18 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
   std::size_t k = 0;  // index into the fitted shots
   for (const auto& e : entries) {
     if (!e.shot) continue;
-    const double wb = k < fit->friction.robust_weight.size() ? fit->friction.robust_weight[k] : 1;
+    const double wb = fit->friction && k < fit->friction->robust_weight.size()
+                          ? fit->friction->robust_weight[k]
+                          : 1;
     const double we =
         k < fit->restitution.robust_weight.size() ? fit->restitution.robust_weight[k] : 1;
     if (wb < 0.5 || we < 0.5)
       report.down_weighted.push_back({e.id.empty() ? e.file : e.id, wb, we});
     ++k;
   }
-  if (resamples > 0) {
+  if (resamples > 0 && !fit->friction) {
+    report.bootstrap_error = "no friction fit to cross-check";
+  } else if (resamples > 0) {
     // Head-on shots, and shots whose spins were not measured, have no beta:
     // the friction bootstrap takes the others.
     std::vector<CampaignShot> oblique;
@@ -212,9 +216,9 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
               std::nullopt,
               std::nullopt,
               std::nullopt};
-  if (report) {
-    const Material m = report->fit.friction.material();
-    const double K = report->fit.friction.inertia_factor_K;
+  if (report && report->fit.friction) {
+    const Material m = report->fit.friction->material();
+    const double K = report->fit.friction->inertia_factor_K;
     char label[160];
     std::snprintf(label, sizeof label, ": mu %.3f, beta0 %.3f, e %.3f", m.mu, m.beta0, m.e);
     for (PlotSpec* p : {&p1, &p2, &p3}) p->title += label;
@@ -229,6 +233,9 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
     p3.series.push_back(curve(
         label, linspace(0, tf_hi), [&](double t) { return campaignImpulseRatioCurve(t, m, K); },
         1));
+  }
+  if (report) {
+    char label[160];
     const auto& mean = report->fit.restitution.e;
     std::snprintf(label, sizeof label, "mean e %.4f", mean.value);
     const double te_hi = std::max(0.5, 1.1 * maxOr(e_tan.x, 0.5));
@@ -259,22 +266,26 @@ json fitted(const FittedValue& v) {
 
 std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
                                const CampaignFitReport& report) {
-  const auto& fr = report.fit.friction;
   const auto& em = report.fit.restitution;
   json j;
   j["schema"] = "collide.campaign-fit/1";
-  j["material"] = {{"mu", fitted(fr.mu)},
-                   {"beta0", fitted(fr.beta0)},
-                   {"e", fitted(em.e)},
-                   {"switch_angle_deg", fitted(fr.switch_angle_deg)},
-                   {"switch_cot", fitted(fr.switch_cot)}};
-  j["friction_fit"] = {{"slope", fitted(fr.slope)},
-                       {"chi2", fr.chi2},
-                       {"dof", fr.dof},
-                       {"scale_factor", fr.scale_factor},
-                       {"sliding_shots", fr.sliding_count},
-                       {"rolling_shots", fr.rolling_count},
-                       {"inertia_factor_K", fr.inertia_factor_K}};
+  j["material"] = {{"e", fitted(em.e)}};
+  if (report.fit.friction) {
+    const auto& fr = *report.fit.friction;
+    j["material"].update({{"mu", fitted(fr.mu)},
+                          {"beta0", fitted(fr.beta0)},
+                          {"switch_angle_deg", fitted(fr.switch_angle_deg)},
+                          {"switch_cot", fitted(fr.switch_cot)}});
+    j["friction_fit"] = {{"slope", fitted(fr.slope)},
+                         {"chi2", fr.chi2},
+                         {"dof", fr.dof},
+                         {"scale_factor", fr.scale_factor},
+                         {"sliding_shots", fr.sliding_count},
+                         {"rolling_shots", fr.rolling_count},
+                         {"inertia_factor_K", fr.inertia_factor_K}};
+  } else {
+    j["friction_fit"] = {{"error", report.fit.friction.error().message}};
+  }
   j["restitution_mean"] = {
       {"e", fitted(em.e)}, {"scatter", em.scatter},           {"chi2", em.chi2},
       {"dof", em.dof},     {"scale_factor", em.scale_factor}, {"shots", em.count}};
@@ -323,9 +334,10 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
                   {"f", e.shot->f},
                   {"vn_m_s", e.shot->v_n_m_s},
                   {"vs_m_s", e.shot->v_s_m_s}};
-      if (k < fr.regime.size())
-        row["regime"] = fr.regime[k] == CollisionRegime::Sliding ? "sliding" : "rolling";
-      if (k < fr.robust_weight.size()) row["beta_weight"] = fr.robust_weight[k];
+      if (const auto& fr = report.fit.friction; fr && k < fr->regime.size()) {
+        row["regime"] = fr->regime[k] == CollisionRegime::Sliding ? "sliding" : "rolling";
+        row["beta_weight"] = fr->robust_weight[k];
+      }
       if (k < report.fit.restitution.robust_weight.size())
         row["e_weight"] = report.fit.restitution.robust_weight[k];
       if (!e.excluding_flags.empty()) row["kept_despite_flags"] = e.excluding_flags;

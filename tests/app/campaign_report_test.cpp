@@ -4,6 +4,7 @@
 // docs/SPEC.md, independently of the fitting code), and the plots hold the points.
 #include "app/report/campaign_report.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +15,7 @@
 #include <set>
 
 #include "app/store/save.hpp"
+#include "cli_run.hpp"
 #include "shot_fixtures.hpp"
 
 namespace collide::app {
@@ -28,7 +30,10 @@ double waltonBeta(double v_n, double v_s) {
 
 // The results JSON of a shot at incidence psi (degrees, 0 = head-on) with
 // |v_c| = 2 m/s, with small Gaussian noise of the stated sigmas.
-std::string resultsAt(double psi_deg, std::mt19937& rng, std::vector<std::string> flags = {}) {
+// spins = false: a bare silhouette's results (no dots seen): beta, vs_after
+// and f null, flags no_spin_*.
+std::string resultsAt(double psi_deg, std::mt19937& rng, std::vector<std::string> flags = {},
+                      bool spins = true) {
   std::normal_distribution<double> noise(0.0, 1.0);
   const double psi = psi_deg * std::numbers::pi / 180.0;
   const double vn = -2.0 * std::cos(psi), vs = 2.0 * std::sin(psi);
@@ -44,6 +49,10 @@ std::string resultsAt(double psi_deg, std::mt19937& rng, std::vector<std::string
   const double f = std::min(kMu, (1 + kBeta0) * (vs / -vn) / ((1 + 1 / kK) * (1 + kE)));
   c.f = {f, 0.005};
   c.gamma_deg = {180.0 - psi_deg, 0.1};
+  if (!spins) {
+    c.beta = c.vs_after_m_s = c.f = {std::nan(""), std::nan("")};
+    flags.insert(flags.end(), {"no_spin_before_1", "no_spin_after_1"});
+  }
   a.quality_flags = std::move(flags);
   return resultsToJson(a);
 }
@@ -54,18 +63,26 @@ std::string idFor(int i) {
   return buf;
 }
 
+// Saves `n` analysed shots (ids idFor(0..n-1)) into `dir`, their incidences
+// evenly from `first_deg` to `last_deg` (resultsAt, in that order).
+void saveSweep(const std::string& dir, int n, double first_deg, double last_deg, std::mt19937& rng,
+               bool spins = true) {
+  for (int i = 0; i < n; ++i) {
+    testing::ShotSpec spec;
+    spec.id = idFor(i);
+    spec.frames = 2;
+    auto shot = testing::makeShot(spec);
+    shot.results_json =
+        resultsAt(first_deg + (last_deg - first_deg) * i / (n - 1.0), rng, {}, spins);
+    ASSERT_TRUE(saveShot(dir, shot).ok());
+  }
+}
+
 class CampaignReportTest : public ::testing::Test {
  protected:
   void SetUp() override {
     std::mt19937 rng(5);
-    for (int i = 0; i < 24; ++i) {
-      testing::ShotSpec spec;
-      spec.id = idFor(i);
-      spec.frames = 2;
-      auto shot = testing::makeShot(spec);
-      shot.results_json = resultsAt(5.0 + 75.0 * i / 23.0, rng);
-      ASSERT_TRUE(saveShot(dir_.path(), shot).ok());
-    }
+    ASSERT_NO_FATAL_FAILURE(saveSweep(dir_.path(), 24, 5.0, 80.0, rng));
     testing::ShotSpec failed;
     failed.id = idFor(90);
     failed.status = hw::ShotStatus::Failed;
@@ -138,7 +155,8 @@ TEST_F(CampaignReportTest, FitRecoversTheMaterialTheShotsWereMadeFrom) {
   ASSERT_TRUE(entries.ok());
   auto report = fitCampaignFolder(*entries, 50, 3);
   ASSERT_TRUE(report.ok()) << report.error().message;
-  const auto& fr = report->fit.friction;
+  ASSERT_TRUE(report->fit.friction.ok()) << report->fit.friction.error().message;
+  const auto& fr = *report->fit.friction;
   EXPECT_NEAR(fr.mu.value, kMu, 4 * fr.mu.sigma + 1e-4);
   EXPECT_LT(fr.mu.sigma, 0.01);
   EXPECT_NEAR(fr.beta0.value, kBeta0, 4 * fr.beta0.sigma + 1e-4);
@@ -153,6 +171,42 @@ TEST_F(CampaignReportTest, FitRecoversTheMaterialTheShotsWereMadeFrom) {
   int sliding = 0;
   for (const auto& row : j["shots_used"]) sliding += row["regime"] == "sliding";
   EXPECT_EQ(sliding, fr.sliding_count);
+}
+
+// A campaign of bare backlit silhouettes has no spins: `collide fit` gives e
+// (and its speed law) from every shot, says why mu and beta_0 are not
+// fitted, and writes fit.json and the plots all the same.
+TEST(CampaignReport, SilhouettesOnlyGiveEAndSayWhyNotFriction) {
+  testing::ScratchDir dir;
+  std::mt19937 rng(11);
+  ASSERT_NO_FATAL_FAILURE(saveSweep(dir.path(), 12, 5.0, 75.0, rng, /*spins=*/false));
+  auto entries = loadCampaign(dir.path());
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  ASSERT_EQ(usableShots(*entries).size(), 12u);
+  auto report = fitCampaignFolder(*entries, 50, 3);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  EXPECT_EQ(report->fit.restitution.count, 12);
+  EXPECT_NEAR(report->fit.restitution.e.value, kE, 4 * report->fit.restitution.e.sigma);
+  ASSERT_FALSE(report->fit.friction.ok());
+  EXPECT_THAT(report->fit.friction.error().message,
+              ::testing::HasSubstr("12 of 12 shots have no beta"));
+  EXPECT_FALSE(report->bootstrap.has_value());
+  const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+  EXPECT_DOUBLE_EQ(j["material"]["e"]["value"].get<double>(), report->fit.restitution.e.value);
+  EXPECT_FALSE(j["material"].contains("mu"));
+  EXPECT_THAT(j["friction_fit"]["error"].get<std::string>(), ::testing::HasSubstr("no beta"));
+  const auto plots = campaignPlots(*entries, &*report);
+  EXPECT_TRUE(plots[0].plot.series[0].x.empty());    // no beta to plot
+  EXPECT_EQ(plots[0].plot.series.size(), 1u);        // and no Walton line
+  EXPECT_EQ(plots[3].plot.series[0].x.size(), 12u);  // e against tan psi
+
+  auto run = testing::runCollide("fit " + testing::q(dir.path()) + " --bootstrap 20", dir);
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_THAT(run.out, ::testing::HasSubstr("12 of 12 shots used"));
+  EXPECT_THAT(run.out, ::testing::HasSubstr("mu, beta_0 not fitted: 12 of 12 shots have no beta"));
+  EXPECT_THAT(run.out, ::testing::HasSubstr("e        0.9"));
+  EXPECT_TRUE(std::filesystem::exists(dir.file("fit/fit.json")));
+  EXPECT_TRUE(std::filesystem::exists(dir.file("fit/e_vs_vn.png")));
 }
 
 TEST_F(CampaignReportTest, PlotsHoldEveryUsedShotAndTheModel) {
@@ -227,7 +281,8 @@ TEST(CampaignReportRobust, FlaggedShotsLeftOutOutliersDownWeighted) {
 
   auto robust = fitCampaignFolder(*entries, 0);
   ASSERT_TRUE(robust.ok()) << robust.error().message;
-  const auto& fr = robust->fit.friction;
+  ASSERT_TRUE(robust->fit.friction.ok()) << robust->fit.friction.error().message;
+  const auto& fr = *robust->fit.friction;
   EXPECT_EQ(robust->loss, RobustLoss::Huber);
   EXPECT_NEAR(fr.mu.value, kMu, 4 * fr.mu.sigma);
   EXPECT_NEAR(fr.beta0.value, kBeta0, 4 * fr.beta0.sigma);
@@ -243,7 +298,8 @@ TEST(CampaignReportRobust, FlaggedShotsLeftOutOutliersDownWeighted) {
   // part of it).
   EXPECT_GT(std::abs(ls->fit.restitution.e.value - kE),
             10 * std::abs(robust->fit.restitution.e.value - kE));
-  EXPECT_GT(std::abs(ls->fit.friction.mu.value - kMu), 5 * std::abs(fr.mu.value - kMu));
+  ASSERT_TRUE(ls->fit.friction.ok());
+  EXPECT_GT(std::abs(ls->fit.friction->mu.value - kMu), 5 * std::abs(fr.mu.value - kMu));
 
   const auto j = nlohmann::json::parse(campaignReportJson(*entries, *robust));
   EXPECT_EQ(j["loss"], "Huber");

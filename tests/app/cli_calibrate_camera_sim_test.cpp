@@ -160,10 +160,28 @@ TEST(CliCalibrateCamera, RecoversTheSimulatedLensAndTheAnalysisUsesIt) {
                               std::to_string(shot->camera.fps) + " --diameter-mm 25.4";
   run = runCollide(footage + " --profile " + q(profile) + " --json " + q(footage_json), scratch);
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  // PNG frames do not say their exposure: the profile's camera took them, so its.
+  EXPECT_NE(run.err.find("exposure " + std::to_string(static_cast<int>(shot->burst.exposure_us)) +
+                         " us from " + profile),
+            std::string::npos)
+      << run.err;
   const auto results = nlohmann::json::parse(readAll(footage_json));
   ASSERT_TRUE(results["e"].is_number()) << results.dump();
+  std::cout << "the same frames as footage: e " << results["e"].get<double>() << "\n";
   EXPECT_LT(std::abs(results["e"].get<double>() - e_cal.value), e_cal.sigma)
       << results["e"] << " vs " << e_cal.value;
+  // An exposure longer than a frame period is refused, naming the option.
+  const double period_us = 1e6 / shot->camera.fps;
+  run = runCollide(footage + " --exposure-us " + std::to_string(1.2 * period_us), scratch);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("--exposure-us"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("frame period"), std::string::npos) << run.err;
+  // Frames faster than the profile's camera ran: its exposure is not theirs, and is not used.
+  run = runCollide("analyze --frames " + q(png) + " --fps " + std::to_string(4 * shot->camera.fps) +
+                       " --diameter-mm 25.4 --profile " + q(profile),
+                   scratch);
+  EXPECT_NE(run.err.find("is longer than these frames' period"), std::string::npos) << run.err;
+  EXPECT_EQ(run.err.find(" us from " + profile), std::string::npos) << run.err;
   // A profile without the table is named.
   const std::string lab = std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml";
   run = runCollide(footage + " --profile " + q(lab), scratch);

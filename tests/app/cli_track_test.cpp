@@ -13,7 +13,10 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <sstream>
 
+#include "hw/camera_sim.hpp"
+#include "hw/rig_profile.hpp"
 #include "tests/app/cli_run.hpp"
 #include "tests/vision/footage_writers.hpp"
 #include "vision/frame_io.hpp"
@@ -198,6 +201,215 @@ TEST_F(CliTrack, AFloorBounceGivesTwoSegmentsSplitAtTheBounce) {
   const Eigen::Vector2d v_true = d.velocity(first_after / kFps);
   const double vy = segs[1]["velocity_m_s"][1];
   EXPECT_LT(std::abs(vy - v_true.y()), 0.002 * v_true.norm()) << vy << " vs " << v_true.y();
+}
+
+// Through a perspective lens (config/sim-lab.toml's, which `--rig` gives the
+// track, with its one-sided lamp, blur and sensor), a thrown sphere drifting
+// towards the camera at 3 % of its speed: its image grows and speeds up, which
+// at the plane z = 0 reads as an acceleration of about 2 v v_z / Z (0.11 m/s^2
+// along x here, 1 % of g). Each segment's depth from the apparent size places
+// the centres, so the fitted acceleration is gravity's within its sigma
+// (which carries the depth's), and the drift is measured. Truth: the world
+// motion the frames were rendered from.
+TEST_F(CliTrack, ADropDriftingTowardsTheCameraThroughALensStillGivesGravity) {
+  const std::string rig = std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml";
+  auto profile = collide::hw::loadRigProfile(rig);
+  ASSERT_TRUE(profile) << profile.error().message;
+  auto rs = collide::hw::simulatedRenderSettings(*profile);
+  ASSERT_TRUE(rs) << rs.error().message;
+  const double fps = profile->camera_config.fps, radius_m = 0.5 * profile->spheres.diameter_m[0];
+  const Eigen::Vector3d x0(-0.035, 0.02, 0.0), v0(1.0, 0.2, 0.03);
+  const auto at = [&](double t) {
+    return Eigen::Vector3d(x0 + v0 * t + Eigen::Vector3d(0, -0.5 * kG * t * t, 0));
+  };
+  const collide::vision::Renderer renderer(*rs);
+  const std::string dir = scratch_.file("drift");
+  fs::create_directories(dir);
+  const int frames = 120;
+  for (int k = 0; k < frames; ++k) {
+    const double t = k / fps;
+    collide::vision::SphereView v;
+    v.centre_m = at(t);
+    v.radius_m = radius_m;
+    v.velocity_m_s = v0 + Eigen::Vector3d(0, -kG * t, 0);
+    char name[64];
+    std::snprintf(name, sizeof name, "/frame%04d.png", k);
+    ASSERT_TRUE(cv::imwrite(dir + name, renderer.render({v}, k)));
+  }
+  const std::string js = scratch_.file("drift.json");
+  auto run = runCollide(
+      "track " + q(dir) + " --fps " + std::to_string(fps) + " --rig " + q(rig) + " --json " + q(js),
+      scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const json j = readJson(js);
+  EXPECT_EQ(j["pixel_size_from"], "camera");
+  const json& segs = j["spheres"][0]["segments"];
+  ASSERT_EQ(segs.size(), 1u) << segs.dump(1);
+  const json& g = segs[0];
+  std::printf("a %s +- %s, v_z %s +- %s\n", g["acceleration_m_s2"].dump().c_str(),
+              g["acceleration_sigma_m_s2"].dump().c_str(), g["velocity_z_m_s"].dump().c_str(),
+              g["velocity_z_sigma_m_s"].dump().c_str());
+  ASSERT_FALSE(g["velocity_z_m_s"].is_null()) << g.dump(1) << j["notes"].dump();
+  const double vz = g["velocity_z_m_s"], vz_sigma = g["velocity_z_sigma_m_s"];
+  EXPECT_LT(std::abs(vz - v0.z()), 3 * vz_sigma) << vz << " +- " << vz_sigma;
+  EXPECT_LT(vz_sigma, v0.z());  // the drift is measured, not only bounded
+  const double ax = g["acceleration_m_s2"][0], ay = g["acceleration_m_s2"][1];
+  const double ax_sigma = g["acceleration_sigma_m_s2"][0];
+  const double ay_sigma = g["acceleration_sigma_m_s2"][1];
+  EXPECT_LT(std::abs(ax), 3 * ax_sigma) << "a_x " << ax << " +- " << ax_sigma;
+  EXPECT_LT(std::abs(ay + kG), 3 * ay_sigma) << "a_y " << ay << " +- " << ay_sigma;
+  // At most half the false acceleration the drift gives centres left on the
+  // plane z = 0 (the sigmas also carry the depth's: a radius bias changing by
+  // the profile's radius_systematic_px along the track).
+  auto lens = collide::hw::simulatedLens(*profile);
+  ASSERT_TRUE(lens && *lens);
+  EXPECT_LT(std::abs(ax), 0.5 * 2 * v0.x() * v0.z() / (**lens).centre_m.z());
+  const int first = g["first_frame"];
+  const Eigen::Vector2d v(g["velocity_m_s"][0].get<double>(), g["velocity_m_s"][1].get<double>());
+  const Eigen::Vector3d v_true = v0 + Eigen::Vector3d(0, -kG * first / fps, 0);
+  EXPECT_LT((v - v_true.head<2>()).norm(), 0.002 * v_true.norm()) << v.transpose();
+  // The positions are at the sphere's depth: frame 60's is the truth's.
+  const json& f60 = j["spheres"][0]["frames"][60];
+  const Eigen::Vector3d c60 = at(f60["t_s"].get<double>());
+  EXPECT_NEAR(f60["position_m"][0].get<double>(), c60.x(), 2e-5);
+  EXPECT_NEAR(f60["position_m"][1].get<double>(), c60.y(), 2e-5);
+}
+
+// Two spheres of different sizes (1 inch and 3/4 inch, the profile's two)
+// through the lab's lens, drifting in depth in opposite directions: each
+// track takes the profile's diameter its image fits (the wrong one would put
+// the 3/4 inch sphere 0.13 m in front of the plane by its size), and each
+// gets gravity and its own drift. Truth: the rendered world motion.
+TEST_F(CliTrack, UnequalSpheresThroughALensEachTakeTheirOwnDiameter) {
+  const std::string lab = std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml";
+  std::ifstream in(lab);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string profile_text = text.str();
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = profile_text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    profile_text.replace(at, from.size(), to);
+  };
+  replace("diameter_m = 0.0254\n", "diameter_m = [0.0254, 0.01905]\n");
+  replace("mass_kg = 0.00978\n", "mass_kg = [0.00978, 0.004126]\n");
+  const std::string rig = scratch_.file("unequal-lab.toml");
+  std::ofstream(rig) << profile_text;
+  auto profile = collide::hw::loadRigProfile(rig);
+  ASSERT_TRUE(profile) << profile.error().message;
+  auto rs = collide::hw::simulatedRenderSettings(*profile);
+  ASSERT_TRUE(rs) << rs.error().message;
+  const double fps = profile->camera_config.fps;
+  struct Body {
+    double diameter_m;
+    Eigen::Vector3d x0, v0;
+    Eigen::Vector3d at(double t) const {
+      return x0 + v0 * t + Eigen::Vector3d(0, -0.5 * kG * t * t, 0);
+    }
+  };
+  const Body bodies[2] = {{0.0254, {-0.040, 0.022, 0}, {0.8, 0.1, 0.03}},
+                          {0.01905, {0.040, -0.022, 0}, {-0.8, 0.3, -0.02}}};
+  const collide::vision::Renderer renderer(*rs);
+  const std::string dir = scratch_.file("unequal");
+  fs::create_directories(dir);
+  for (int k = 0; k < 120; ++k) {
+    const double t = k / fps;
+    std::vector<collide::vision::SphereView> views;
+    for (const Body& b : bodies) {
+      collide::vision::SphereView v;
+      v.centre_m = b.at(t);
+      v.radius_m = 0.5 * b.diameter_m;
+      v.velocity_m_s = b.v0 + Eigen::Vector3d(0, -kG * t, 0);
+      views.push_back(v);
+    }
+    char name[64];
+    std::snprintf(name, sizeof name, "/frame%04d.png", k);
+    ASSERT_TRUE(cv::imwrite(dir + name, renderer.render(views, k)));
+  }
+  const std::string js = scratch_.file("unequal.json");
+  auto run = runCollide("track " + q(dir) + " --fps " + std::to_string(fps) + " --rig " + q(rig) +
+                            " --spheres 2 --json " + q(js),
+                        scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const json j = readJson(js);
+  ASSERT_EQ(j["spheres"].size(), 2u);
+  for (const json& sp : j["spheres"]) {
+    // The bigger image is the 1 inch sphere.
+    const bool big = sp["radius_px"].get<double>() > 52;
+    const Body& b = bodies[big ? 0 : 1];
+    EXPECT_DOUBLE_EQ(sp["diameter_m"].get<double>(), b.diameter_m);
+    ASSERT_EQ(sp["segments"].size(), 1u) << sp["segments"].dump(1);
+    const json& g = sp["segments"][0];
+    ASSERT_FALSE(g["velocity_z_m_s"].is_null()) << g.dump(1);
+    const double vz = g["velocity_z_m_s"], vz_sigma = g["velocity_z_sigma_m_s"];
+    EXPECT_LT(std::abs(vz - b.v0.z()), 3 * vz_sigma) << vz << " +- " << vz_sigma;
+    const double depth = g["depth_m"], depth_sigma = g["depth_sigma_m"];
+    const int first = g["first_frame"];
+    EXPECT_LT(std::abs(depth - b.at(first / fps).z()), 3 * depth_sigma + 2e-4)
+        << depth << " +- " << depth_sigma;
+    const double ay = g["acceleration_m_s2"][1], ay_sigma = g["acceleration_sigma_m_s2"][1];
+    EXPECT_LT(std::abs(ay + kG), 3 * ay_sigma) << "a_y " << ay << " +- " << ay_sigma;
+    const json& f60 = sp["frames"][60];
+    const Eigen::Vector3d c60 = b.at(f60["t_s"].get<double>());
+    EXPECT_NEAR(f60["position_m"][0].get<double>(), c60.x(), 5e-5);
+    EXPECT_NEAR(f60["position_m"][1].get<double>(), c60.y(), 5e-5);
+  }
+}
+
+// Two thrown spheres of 20 and 15 mm in a folder of frames, no profile:
+// `--diameter-mm 20,15` gives each its own (the larger image the larger
+// sphere), and the scale is both tracks' (each diameter over its own image);
+// one diameter for both says that the radii differ; a count that is neither
+// one nor one per sphere is refused.
+TEST_F(CliTrack, OneDiameterPerSphereScalesUnequalSpheres) {
+  const double r_big = 40, r_small = 30;  // px at 0.25 mm: 20 and 15 mm
+  collide::vision::RenderSettings rs;
+  rs.width = kWidth;
+  rs.height = kHeight;
+  rs.format = collide::vision::PixelFormat::Mono12;
+  rs.noise_grey = 30;
+  const collide::vision::Renderer renderer(rs);
+  const std::string dir = scratch_.file("two");
+  fs::create_directories(dir);
+  const auto centre = [](double u0, double v0, double vx, double vy, double t) {
+    return Eigen::Vector2d(u0 + vx * t / kPixelM, v0 - (vy * t - 0.5 * kG * t * t) / kPixelM);
+  };
+  for (int k = 0; k < 100; ++k) {
+    const double t = k / kFps;
+    collide::vision::SphereView big, small;
+    big.centre_px = centre(120, 150, 0.5, 0.2, t);
+    big.radius_px = r_big;
+    small.centre_px = centre(520, 330, -0.5, 0.3, t);
+    small.radius_px = r_small;
+    char name[64];
+    std::snprintf(name, sizeof name, "/frame%04d.png", k);
+    ASSERT_TRUE(cv::imwrite(dir + name, renderer.render({big, small}, k)));
+  }
+  const std::string js = scratch_.file("two.json");
+  auto run =
+      runCollide("track " + q(dir) + " --fps 1000 --diameter-mm 15,20 --json " + q(js), scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  json j = readJson(js);
+  const double s = j["pixel_size_m"], s_sigma = j["pixel_size_sigma_m"];
+  EXPECT_NEAR(s, kPixelM, 2 * s_sigma) << s << " +- " << s_sigma;
+  EXPECT_LT(s_sigma, 0.005 * kPixelM);
+  ASSERT_EQ(j["spheres"].size(), 2u);
+  for (const json& sp : j["spheres"]) {
+    const bool big = sp["radius_px"].get<double>() > 35;
+    EXPECT_DOUBLE_EQ(sp["diameter_m"].get<double>(), big ? 0.020 : 0.015);
+    const json& g = sp["segments"][0];
+    const double ay = g["acceleration_m_s2"][1], sigma = g["acceleration_sigma_m_s2"][1];
+    EXPECT_LT(std::abs(ay + kG), 2 * std::hypot(sigma, kG * s_sigma / s)) << g.dump();
+  }
+  // One diameter for both: the scale takes it for both, and says so.
+  run = runCollide("track " + q(dir) + " --fps 1000 --diameter-mm 20 --json " + q(js), scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  j = readJson(js);
+  EXPECT_THAT(j["notes"].dump(), HasSubstr("give one per sphere if they differ"));
+  // Three diameters for two spheres.
+  run = runCollide("track " + q(dir) + " --fps 1000 --spheres 2 --diameter-mm 20,15,10", scratch_);
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_THAT(run.err, HasSubstr("3 diameters for 2 spheres tracked"));
 }
 
 // The same kind of drop as a Photron MRAW whose .cihx carries a pixel size:
