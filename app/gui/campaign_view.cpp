@@ -381,12 +381,17 @@ CampaignView::Loaded loadFolder(const std::string& dir) {
                      .arg(analysed)
                      .arg(usable.size());
   if (report) {
-    const FrictionFit& f = report->fit.friction;
     const RestitutionMean& r = report->fit.restitution;
-    text += QObject::tr("e = %1, mu = %2, beta0 = %3, gamma0 = %4 deg")
-                .arg(withSigma(r.e.value, r.e.sigma), withSigma(f.mu.value, f.mu.sigma),
-                     withSigma(f.beta0.value, f.beta0.sigma),
-                     withSigma(f.switch_angle_deg.value, f.switch_angle_deg.sigma));
+    text += QObject::tr("e = %1").arg(withSigma(r.e.value, r.e.sigma));
+    if (const auto& f = report->fit.friction) {
+      text +=
+          QObject::tr(", mu = %1, beta0 = %2, gamma0 = %3 deg")
+              .arg(withSigma(f->mu.value, f->mu.sigma), withSigma(f->beta0.value, f->beta0.sigma),
+                   withSigma(f->switch_angle_deg.value, f->switch_angle_deg.sigma));
+    } else {
+      text += QObject::tr("; mu and beta0 not fitted: %1")
+                  .arg(QString::fromStdString(f.error().message));
+    }
     if (report->fit.laws)
       text += QObject::tr("; e(|v_n|): %1 preferred")
                   .arg(QString::fromStdString(restitutionLawName(report->fit.laws->preferred)));

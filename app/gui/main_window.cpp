@@ -262,7 +262,8 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     // overlays (and is stored only if the shot had none).
     if (auto stored = storedAnalysis(*shot)) {
       replay_view_->resultCard()->setAnalysis(
-          qs(shot->id), std::make_shared<const vision::ShotAnalysis>(std::move(*stored)));
+          qs(shot->id), std::make_shared<const vision::ShotAnalysis>(std::move(*stored)),
+          timeOrigin(*shot));
       runner_->analyze(shot, "overlay", file);
     } else {
       replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
@@ -459,7 +460,7 @@ void MainWindow::onAnalysed(ShotPtr shot, AnalysisPtr analysis, QString tag, QSt
   for (MeasuredLaunch& m : measuredLaunches(*shot, analysis->sphere)) launches_.push_back(m);
   if (replay_view_->shot() && replay_view_->shot()->id == shot->id) {
     replay_view_->setAnalysis(analysis);
-    replay_view_->resultCard()->setAnalysis(qs(shot->id), analysis);
+    replay_view_->resultCard()->setAnalysis(qs(shot->id), analysis, timeOrigin(*shot));
   }
   emit shotAnalysed(qs(shot->id), true);
 }

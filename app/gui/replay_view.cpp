@@ -97,17 +97,34 @@ Overlay analysisOverlay(const hw::Shot& shot, const vision::ShotAnalysis& a, std
         o.markers.push_back({project(fit->positionAt_m(t).value), kSphere[i], {}});
     }
   }
-  if (std::isfinite(tc) && a.trajectory[0][0] && a.trajectory[1][0]) {
+  const bool contact_shown = std::isfinite(tc) && a.trajectory[0][0] && a.trajectory[1][0];
+  if (contact_shown) {
     const Vec3 contact = 0.5 * (a.trajectory[0][0]->positionAt_m(tc).value +
                                 a.trajectory[1][0]->positionAt_m(tc).value);
     // No text on the image: it would cover the spheres; the time is in the
     // caption and the legend says what the red cross is.
     o.markers.push_back({project(contact), kContact, {}});
   }
-  o.legend = {{kSphere[0], QObject::tr("sphere 1: detected, fitted path (dashed after impact)")},
-              {kSphere[1], QObject::tr("sphere 2: detected, fitted path (dashed after impact)")},
-              {kDot, QObject::tr("matched dots")},
-              {kContact, QObject::tr("contact point")}};
+  // The legend names only what this analysis draws: a wall shot has one
+  // sphere (its fitted paths; the wall analysis keeps no per-frame
+  // detections) and no contact between two.
+  bool dots = false;
+  for (int i = 0; i < 2; ++i) {
+    const bool fitted = a.trajectory[i][0] || a.trajectory[i][1];
+    bool detected = false;
+    for (const auto& fd : a.frames) {
+      detected = detected || fd.sphere[i].has_value();
+      dots = dots || !fd.dots[i].empty();
+    }
+    if (detected || fitted)
+      o.legend.push_back(
+          {kSphere[i], (detected ? QObject::tr("sphere %1: detected, fitted path (dashed after "
+                                               "impact)")
+                                 : QObject::tr("sphere %1: fitted path (dashed after impact)"))
+                           .arg(i + 1)});
+  }
+  if (dots) o.legend.push_back({kDot, QObject::tr("matched dots")});
+  if (contact_shown) o.legend.push_back({kContact, QObject::tr("contact point")});
   return o;
 }
 

@@ -83,7 +83,8 @@ ResultCard::ResultCard(QWidget* parent) : QGroupBox(tr("Result"), parent) {
   setMessage({}, tr("no shot yet"));
 }
 
-void ResultCard::setAnalysis(const QString& shot_id, AnalysisPtr analysis) {
+void ResultCard::setAnalysis(const QString& shot_id, AnalysisPtr analysis,
+                             const QString& time_origin) {
   shot_id_ = shot_id;
   analysis_ = std::move(analysis);
   values_.clear();
@@ -103,10 +104,12 @@ void ResultCard::setAnalysis(const QString& shot_id, AnalysisPtr analysis) {
       flags.isEmpty()
           ? tr("<span style='color:#1e8c3a'>quality: no flags</span>")
           : tr("<span style='color:#b03a2e'>quality flags: %1</span>").arg(flags.join(", ")));
-  // The analysis' clock starts at its first analysed frame (the replay's
-  // caption gives the contact on the trigger's clock): say which.
-  message_->setText(tr("t<sub>collision</sub> counts from the first analysed frame. Collision "
-                       "instants from the two sides: %1 ms and %2 ms")
+  // The two-sphere analysis' clock starts at its first analysed frame (the
+  // replay's caption gives the contact on the trigger's clock), the wall
+  // analysis' at frame 0: say which.
+  message_->setText(tr("t<sub>collision</sub> counts from %1. Collision instant from the track "
+                       "before the impact: %2 ms; from the track after it: %3 ms")
+                        .arg(time_origin)
                         .arg(c.t_collision_before_s * 1e3, 0, 'f', 3)
                         .arg(c.t_collision_after_s * 1e3, 0, 'f', 3));
 }

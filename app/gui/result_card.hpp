@@ -19,8 +19,9 @@ class ResultCard : public QGroupBox {
  public:
   explicit ResultCard(QWidget* parent = nullptr);
 
-  /// Shows the analysis of shot `shot_id`.
-  void setAnalysis(const QString& shot_id, AnalysisPtr analysis);
+  /// Shows the analysis of shot `shot_id`; `time_origin` says where its clock
+  /// starts (timeOrigin() of the shot).
+  void setAnalysis(const QString& shot_id, AnalysisPtr analysis, const QString& time_origin);
   /// No numbers: a message instead ("analysing...", an error, "analysis not available").
   void setMessage(const QString& shot_id, const QString& message);
 

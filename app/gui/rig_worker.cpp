@@ -170,31 +170,46 @@ void RigWorker::applyProfileEdits(const std::vector<ProfileEdit>& edits, const Q
     emit error(tr("%1 not applied: %2").arg(what, qs(edited.error().message)));
     return;
   }
-  useProfile(std::move(edited).value());
+  // A setting the profile allows but the device refuses (a camera's own
+  // exposure steps or limits) must not leave the rig down: the rig goes back
+  // to the settings it ran with, and the message says what was refused.
+  const hw::RigProfile previous = *profile_;
+  const Status started = startRig(std::move(edited).value());
+  if (started) return;
+  emit error(tr("%1 not applied: %2. Back to the settings the rig had.")
+                 .arg(what, qs(started.error().message)));
+  useProfile(previous);
 }
 
 void RigWorker::useProfile(hw::RigProfile profile) {
+  const Status started = startRig(std::move(profile));
+  if (started) return;
+  const QString why = qs(started.error().message);
+  emit error(rig_ ? tr("The rig did not start: %1. Check the device's connection and power, then "
+                       "reload the profile.")
+                        .arg(why)
+                  : tr("The rig could not be built: %1").arg(why));
+}
+
+Status RigWorker::startRig(hw::RigProfile profile) {
   if (poll_timer_) poll_timer_->stop();
   shutDownRig();
   rig_.reset();
   profile_ = std::make_shared<const hw::RigProfile>(std::move(profile));
   Result<hw::Rig> rig = app::buildRig(*profile_);
   if (!rig) {
-    emit error(tr("The rig could not be built: %1").arg(qs(rig.error().message)));
     emit profileLoaded(profile_, nullptr);
     emitStatus();
-    return;
+    return rig.error();
   }
   rig_ = std::make_shared<hw::Rig>(std::move(rig).value());
-  if (Status up = hw::bringUp(*rig_); !up)
-    emit error(tr("The rig did not start: %1. Check the device's connection and power, then "
-                  "reload the profile.")
-                   .arg(qs(up.error().message)));
+  const Status up = hw::bringUp(*rig_);
   rig_->camera->setLiveView(true);
   // The camera shares the rig's lifetime: the live view may hold it past a reload.
   emit profileLoaded(profile_, CameraPtr(rig_, rig_->camera.get()));
   poll_timer_->start();
   emitStatus();
+  return up;
 }
 
 void RigWorker::arm(std::array<double, 2> speed) {

@@ -135,7 +135,13 @@ class RigWorker : public QObject {
 
  private:
   void loadProfile(const QString& path);
+  /// startRig, its error (if any) emitted with what to do.
   void useProfile(hw::RigProfile profile);
+  /// Shuts the rig down and builds and brings up one from `profile`, which is
+  /// the profile from then on (profileLoaded is emitted either way, with the
+  /// camera when one was built); the device's error otherwise (rig_ is null
+  /// when the rig could not even be built).
+  Status startRig(hw::RigProfile profile);
   void burstSettings(int pre, int post, double fps, double exposure_us);
   void cameraSettings(double fps, double exposure_us, double gain_db);
   /// True (and an error naming `what` emitted) while armed or firing: the
@@ -147,7 +153,10 @@ class RigWorker : public QObject {
     QString value;
   };
   /// The profile's text with these values set, used as the profile from now
-  /// on; `what` names the settings in the error if the edit is refused.
+  /// on; `what` names the settings in the error if the edit is refused. When
+  /// the rig does not start with them (a device refuses a value its profile
+  /// allows, e.g. a camera's exposure steps), the error says so and the rig
+  /// is started again with the profile it had.
   void applyProfileEdits(const std::vector<ProfileEdit>& edits, const QString& what);
   void arm(std::array<double, 2> speed_m_s);
   void disarm();

@@ -19,12 +19,14 @@ Result<AnalysedShot> analyzeShot(const hw::Shot& shot) {
   if (shot.burst.frames.empty() || shot.burst.frames.front().image.empty())
     return fail("shot " + shot.id + " has no frame images: open the shot file with its frames");
   AnalysedShot out;
-  if (auto wall = app::analyzeWallShot(shot)) {  // a sphere-on-wall shot
+  if (auto wall = app::analyzeWallShotInFull(shot)) {  // a sphere-on-wall shot
     if (!*wall) return wall->error();
-    auto analysis = analysisFromResultsJson(wall->value());
+    auto analysis = analysisFromResultsJson((*wall)->results_json);
     if (!analysis) return fail("shot " + shot.id + ": the wall analysis' results do not parse");
     out.analysis = std::move(*analysis);
-    out.results_json = std::move(wall->value());
+    // The sphere's fitted paths, for the replay to draw (sphere 1).
+    out.analysis.trajectory[0] = {(*wall)->analysis.before, (*wall)->analysis.after};
+    out.results_json = std::move((*wall)->results_json);
     return out;
   }
   auto analysis = vision::analyzeBurst(shot.burst, app::analysisSettingsFor(shot));
@@ -43,6 +45,11 @@ std::optional<vision::ShotAnalysis> analysisFromResultsJson(const std::string& j
   a.collision = r->collision;
   a.quality_flags = r->quality_flags;
   return a;
+}
+
+QString timeOrigin(const hw::Shot& shot) {
+  return app::wallAnalysisSettingsFor(shot) ? QObject::tr("frame 0 (the trigger frame)")
+                                            : QObject::tr("the first analysed frame");
 }
 
 std::optional<CampaignShot> campaignPoint(const vision::ShotAnalysis& a) {

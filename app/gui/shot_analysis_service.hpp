@@ -40,6 +40,11 @@ Result<AnalysedShot> analyzeShot(const hw::Shot& shot);
 /// does not parse or records a failed analysis.
 std::optional<vision::ShotAnalysis> analysisFromResultsJson(const std::string& json);
 
+/// Where the shot's analysis clock starts, for the result card: "the first
+/// analysed frame" (two spheres) or frame 0, the trigger frame (a wall shot,
+/// whose times are frame id / frame rate).
+QString timeOrigin(const hw::Shot& shot);
+
 /// The campaign fits' view of one analysed shot; nothing when the shot has no
 /// usable collision (e.g. v_n >= 0).
 std::optional<CampaignShot> campaignPoint(const vision::ShotAnalysis& analysis);

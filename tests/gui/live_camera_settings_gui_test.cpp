@@ -11,10 +11,13 @@
 #include <QWheelEvent>
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 
+#include "../hw/aravis_profile.hpp"
 #include "app/gui/live_view.hpp"
 #include "gui_test_support.hpp"
 #include "gui_window_support.hpp"
+#include "hw/camera_aravis.hpp"
 #include "hw/camera_replay.hpp"
 
 using namespace collide;
@@ -122,6 +125,75 @@ TEST(LiveCameraSettingsGui, AppliedWhenDisarmedLockedWhenArmed) {
   QTest::mouseClick(child<QPushButton>(w.rigPanel(), "disarm_button"), Qt::LeftButton);
   ASSERT_TRUE(QTest::qWaitFor([&] { return !live->cameraControlsLocked(); }, 10000));
   EXPECT_TRUE(gain->isEnabled());
+}
+
+// Per setting, on a real camera driver (Aravis' in-process fake camera,
+// "Fake_1", the rest of the rig simulated): what is typed in Live is what the
+// device then holds, read back from the device's own features; a value the
+// profile allows but this camera refuses (the fake exposes at least 10 us) is
+// named in the message bar, and the rig runs again with the settings it had
+// instead of being left down.
+TEST(LiveCameraSettingsGui, AnAravisCameraTakesEachSettingOrKeepsTheOldOnes) {
+  application();
+  const std::string dir = freshDir("live-aravis");
+  const std::string profile = dir + "/aravis.toml";
+  {
+    std::ofstream out(profile);
+    out << hw::testing::aravisProfileText(hw::testing::aravisCameraLines("Fake_1"));
+  }
+  MainWindow w(windowOptions(profile, dir + "/shots"));
+  w.resize(1366, 768);
+  activate(&w);
+  ASSERT_TRUE(waitUntilRigRunning(w)) << w.messages().join("\n").toStdString();
+  LiveView* live = w.liveView();
+  auto* exposure = child<QDoubleSpinBox>(live, "live_exposure_us");
+  auto* fps = child<QDoubleSpinBox>(live, "live_fps");
+  // The device's own value of a feature, "" when the camera is not an open Aravis camera.
+  const auto feature = [&](const char* name) {
+    auto aravis = std::dynamic_pointer_cast<hw::CameraAravis>(live->camera());
+    if (!aravis) return std::string();
+    auto value = aravis->feature(name);
+    return value ? *value : std::string();
+  };
+  const auto holds = [&](const char* name, const std::string& value) {
+    return QTest::qWaitFor(
+        [&] { return feature(name) == value && live->camera()->latestFrame() != nullptr; }, 15000);
+  };
+  ASSERT_TRUE(holds("ExposureTimeAbs", "1000")) << feature("ExposureTimeAbs");
+  ASSERT_TRUE(exposure->isEnabled());
+
+  // Exposure, frame rate, gain: each typed value is the device's afterwards.
+  typeInto(exposure, "2500");
+  EXPECT_TRUE(holds("ExposureTimeAbs", "2500")) << feature("ExposureTimeAbs") << "\n"
+                                                << w.messages().join("\n").toStdString();
+  typeInto(fps, "50");
+  EXPECT_TRUE(holds("AcquisitionFrameRate", "50")) << feature("AcquisitionFrameRate") << "\n"
+                                                   << w.messages().join("\n").toStdString();
+  auto* gain = child<QDoubleSpinBox>(live, "live_gain_db");
+  ASSERT_TRUE(gain->isEnabled()) << gain->toolTip().toStdString();
+  typeInto(gain, "3");
+  // The fake's gain is an integer register (GainRaw), which Aravis sets in dB.
+  EXPECT_TRUE(holds("GainRaw", "3")) << feature("GainRaw") << "\n"
+                                     << w.messages().join("\n").toStdString();
+  EXPECT_TRUE(live->cameraSettingsText().contains("exposure 2500 us"))
+      << live->cameraSettingsText().toStdString();
+
+  // 5 us: the profile allows it, the fake does not. Named, and undone.
+  typeInto(exposure, "5");
+  ASSERT_TRUE(QTest::qWaitFor(
+      [&] { return w.messages().join("\n").contains("Camera settings not applied"); }, 15000))
+      << w.messages().join("\n").toStdString();
+  const QString said = w.messages().join("\n");
+  EXPECT_TRUE(said.contains("exposure 5 us is outside the camera's 10..")) << said.toStdString();
+  EXPECT_TRUE(said.contains("Back to the settings the rig had")) << said.toStdString();
+  EXPECT_TRUE(holds("ExposureTimeAbs", "2500")) << feature("ExposureTimeAbs");
+  EXPECT_EQ(feature("AcquisitionFrameRate"), "50");
+  EXPECT_EQ(feature("GainRaw"), "3");
+  EXPECT_TRUE(QTest::qWaitFor([&] { return exposure->value() == 2500.0; }, 5000))
+      << exposure->value();
+  EXPECT_DOUBLE_EQ(live->camera()->config().exposure_us, 2500.0);
+  EXPECT_EQ(live->camera()->state(), hw::DeviceState::Running);
+  EXPECT_TRUE(screenshot(&w, "live_setting_refused"));
 }
 
 // A replayed recording cannot change its exposure, gain or frame rate: the

@@ -199,6 +199,27 @@ TEST(MainWindowGui, FireAWallShotAndReadTheResultCard) {
   ResultCard* card = w.replayView()->resultCard();
   ASSERT_TRUE(card->hasResult()) << card->message().toStdString();
   EXPECT_TRUE(screenshot(w.replayView(), "replay_wall"));
+  // One sphere and a plate: the overlay draws the sphere's fitted paths
+  // before and after the impact, its legend names nothing else (no second
+  // sphere, no contact between two), and the card speaks of the tracks
+  // before and after the impact.
+  const Overlay& overlay = child<ImageView>(w.replayView(), "replay_image")->overlay();
+  ASSERT_EQ(overlay.paths.size(), 2u);
+  EXPECT_FALSE(overlay.paths[0].dashed);
+  EXPECT_TRUE(overlay.paths[1].dashed);
+  QStringList legend;
+  for (const auto& e : overlay.legend) legend << e.text;
+  EXPECT_TRUE(legend.join("|").contains("sphere 1")) << legend.join("|").toStdString();
+  EXPECT_FALSE(legend.join("|").contains("sphere 2")) << legend.join("|").toStdString();
+  EXPECT_FALSE(legend.join("|").contains("contact point")) << legend.join("|").toStdString();
+  EXPECT_TRUE(card->message().contains("from the track before the impact"))
+      << card->message().toStdString();
+  // The wall analysis' times are frame id / frame rate: the card says so, and
+  // the contact lies within a frame of the truth's on that clock.
+  EXPECT_TRUE(card->message().contains("counts from frame 0")) << card->message().toStdString();
+  const auto t_card = card->value("t_collision_ms");
+  ASSERT_TRUE(t_card.has_value());
+  EXPECT_NEAR(t_card->value, shot.truth->t_collision_s * 1e3, 0.05);
 
   // The truth: sphere 1 flown from the last simulated state before the
   // impact to the contact instant, then Walton's wall operator with the
@@ -215,6 +236,13 @@ TEST(MainWindowGui, FireAWallShotAndReadTheResultCard) {
   s.position_m = st.position_m + st.velocity_m_s * dt + 0.5 * kGravity_m_s2 * dt * dt;
   s.velocity_m_s = st.velocity_m_s + kGravity_m_s2 * dt;
   s.spin_rad_s = st.spin_rad_s;
+  // The drawn path reaches the plate where the truth's sphere touched it
+  // (world metres to pixels: the scene's pixel size and origin, v down).
+  const QPointF at_contact = overlay.paths[0].points.back();
+  EXPECT_NEAR(at_contact.x(), shot.scene.origin_u_px + s.position_m.x() / shot.scene.pixel_size_m,
+              1.0);
+  EXPECT_NEAR(at_contact.y(), shot.scene.origin_v_px - s.position_m.y() / shot.scene.pixel_size_m,
+              1.0);
   auto recorded = hw::parseRigProfile(shot.rig_profile_toml, "shot");
   ASSERT_TRUE(recorded && recorded->wall);
   auto truth = collideWithWall(s, *recorded->wall, t.material);
