@@ -397,9 +397,11 @@ void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
   if (Status up = hw::bringUp(*rig_); !up)
     emit error(tr("After the shot the rig did not restart: %1").arg(qs(up.error().message)));
   status_.busy = false;
+  // The state first (not busy: Disarm and Arm enabled again), then the shot:
+  // when the window shows the shot its buttons already answer.
+  poll();
   auto shared = std::make_shared<const hw::Shot>(std::move(shot));
   emit shotFired(shared, file, save_error);
-  poll();
 }
 
 bool RigWorker::beginCampaign() {
