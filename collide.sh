@@ -107,9 +107,9 @@ sanitize_pass() {
   # Four accuracy tests draw other random scenes under clang than under gcc
   # (their fixtures' random draws depend on the compiler) and then miss their
   # targets: accuracy findings for the vision core (issue 12), not memory or
-  # UB errors. They run, and must pass, in the gcc build above. The fifth case
-  # and the three test files below are left out for time (next comment).
-  GTEST_FILTER="-SphereDetector.SphereCutByTheBorderIsMeasuredFromItsVisibleArc:SphereDetector.ThesisImagingSmallSpheres:FitSpin.TwoDotsPerFrameStillGiveTheSpin:AnalyzeBurstBadInput.SaturatedFramesAreSkippedAndFlagged:SequencerSim.ACameraSlowerThanRealTimeStillDeliversItsBurst" \
+  # UB errors. They run, and must pass, in the gcc build above. The last two
+  # cases and the three test files below are left out for time (next comment).
+  GTEST_FILTER="-SphereDetector.SphereCutByTheBorderIsMeasuredFromItsVisibleArc:SphereDetector.ThesisImagingSmallSpheres:FitSpin.TwoDotsPerFrameStillGiveTheSpin:AnalyzeBurstBadInput.SaturatedFramesAreSkippedAndFlagged:SequencerSim.ACameraSlowerThanRealTimeStillDeliversItsBurst:WallCampaignSim.ShotsThroughALensAreMeasuredThroughIt" \
     ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L 'unit|sim|peer' \
     -E 'camera_sim_imaging|cli_imaging_profiles|cli_calibrate_camera'
   # Left out for time, not for a failure: these fire shots through the ray-
@@ -118,7 +118,8 @@ sanitize_pass() {
   # (2026-11-25, fresh ASan build: camera_sim_imaging 103 s,
   # cli_imaging_profiles 194 s, cli_calibrate_camera 405 s, and the slow-camera
   # sequencer case 72 s), which CI's 45 minutes cannot spare. They run in the
-  # gcc build above.
+  # gcc build above. So does the wall rig seen through a lens (2026-11-28:
+  # 155 s under ASan; with it the wall campaign test took 519 s of its 600).
   say "Fuzz targets, a short run each (./collide.sh fuzz for the long one)"
   ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -L fuzz
 }
