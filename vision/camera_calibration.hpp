@@ -6,6 +6,7 @@
 // that plane. With it the analysis turns pixels into metres through the real
 // lens instead of one pixel size.
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,7 +26,8 @@ inline constexpr int kMinCalibrationViews = 3;
 /// Standard uncertainties (one sigma) of the fitted values, from OpenCV's
 /// calibrateCameraExtended (stdDeviationsIntrinsics: the fit's covariance
 /// scaled by its residuals) and, for the plane, from the plane picture's
-/// corners.
+/// corners. With k2 held at 0 each is at least the fit with k2 free gives
+/// (k1 takes up an unmeasured k2).
 struct CalibrationSigma {
   double focal_px = 0;
   double principal_u_px = 0, principal_v_px = 0;
@@ -56,6 +58,12 @@ struct CameraCalibration {
   int images_used = 0;             ///< pictures in which the board was found
   std::vector<std::string> notes;  ///< pictures left out and why; k2 held
 };
+
+/// The board's inner corners in `image` (8- or 16-bit grey), sub-pixel, in
+/// OpenCV's order (row by row from one end of the board); nullopt when the
+/// board is not found whole.
+std::optional<std::vector<cv::Point2f>> findChessboard(const cv::Mat& image,
+                                                       const ChessboardSpec& board);
 
 /// Calibrates from `images` (8- or 16-bit grey; at least kMinCalibrationViews
 /// with the board found, in varied poses); `plane_image` (an index into

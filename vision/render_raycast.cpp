@@ -633,11 +633,18 @@ cv::Mat Renderer::renderChessboard(const ChessboardTarget& board, std::uint64_t 
   splitmix64(rng);
   for (int v = 0; v < st.height; ++v) {
     for (int u = 0; u < st.width; ++u) {
+      // Each ray in its own column and row of an ss^2 x ss^2 grid (a
+      // multi-jittered pattern without the jitter): a square's edge along
+      // the pixel grid then covers a pixel to 1/ss^2, not 1/ss as on a
+      // regular ss x ss grid, whose steps moved the corners by up to 1/(2 ss)
+      // px with where they fell on the grid (and biased the calibration's k1;
+      // docs/benchmarks.md, "Camera calibration").
       double sum = 0;
       for (int j = 0; j < ss; ++j)
         for (int i = 0; i < ss; ++i)
-          sum += boardLevel(im, board, normal, lit,
-                            rayAt(st, tab.ray_xy, u, v, (i + 0.5) / ss, (j + 0.5) / ss));
+          sum += boardLevel(
+              im, board, normal, lit,
+              rayAt(st, tab.ray_xy, u, v, (i + (j + 0.5) / ss) / ss, (j + (i + 0.5) / ss) / ss));
       light[u] = static_cast<float>(sum / (ss * ss));
     }
     exposeRow(st, tab.noise, tab.gain, tab.offset, flicker, light.data(), v, rng, image);
