@@ -164,7 +164,8 @@ Eigen::Vector2d cornerPixel(const PinholeCamera& lens, const Pose& pose, const C
 // ones, drawn as a sensor integrates them (8 x 8 rays a pixel). Errors that
 // depend on how a corner falls on the pixel grid repeat in every view drawn
 // alike and do not average out in the fit: unsmoothed cv::cornerSubPix left
-// 0.07 px RMS here and biased k1 by 1-2 sigma (docs/benchmarks.md).
+// 0.080 px RMS here (0.019 px now) and biased k1 by 1-2 sigma
+// (docs/benchmarks.md).
 TEST(CameraCalibration, CornersLandWhereTheLensPutsThem) {
   PinholeCamera lens;  // sim-lab's lens (50 mm, 20 um pixels) without its distortion
   lens.focal_px = 2500;
