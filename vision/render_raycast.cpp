@@ -25,22 +25,35 @@ constexpr int kNoiseTableSize = 1 << 18;
 // surface point (ray-casting costs more per sample than the analytic path).
 constexpr double kBlurStepPx = 0.5;
 constexpr int kMaxBlurSamples = 128;
-// Pixels this far from every silhouette edge may be sampled once (see smooth()).
-constexpr double kSmoothMarginPx = 2.0;
+// Pixels this far from every silhouette edge may be sampled once (see
+// groupLevel()): a pixel reaches 0.71 px from its centre, the silhouette's
+// curvature (radius >= ~10 px) adds < 0.03 px over a pixel, and the angular
+// bound used under perspective (clearOfEdge) errs on the safe side.
+constexpr double kSmoothMarginPx = 1.0;
+
+// The dots of one sphere at one time sample that the camera may see: their
+// centres in the world frame as three arrays of floats, so that the dot tests
+// below run as vector code (a float places a dot's rim to ~1e-6 rad).
+struct DotSet {
+  std::vector<float> x, y, z;
+};
 
 // One sphere at one time sample of the exposure.
 struct Instance {
   Vec3 centre;
   double radius = 0;
-  Eigen::Matrix3d world_to_body = Eigen::Matrix3d::Identity();
-  const DotPattern* dots = nullptr;
+  double inv_radius = 0;
+  const DotSet* dots = nullptr;  // world frame
   double cos_dot = 1;
   double sin_dot = 0;
-  double dot_radius_rad = 0;
-  // Silhouette thresholds for clearOfEdge(): orthographic, squared distances
-  // from the centre (m^2) inside / outside the margin; perspective, cosines of
-  // the angle to the centre's direction, with 1 / distance to the centre.
+  // Silhouette thresholds for the edge test in castCentre(): orthographic,
+  // squared distances from the centre (m^2) inside / outside the margin;
+  // perspective, cosines of the angle to the centre's direction, with
+  // 1 / distance to the centre.
   double edge_inner = 0, edge_outer = 0, inv_distance = 0;
+  // Perspective: the centre from the optical centre, and |that|^2 - radius^2.
+  Vec3 rel = Vec3::Zero();
+  double rel_term = 0;
   int sample = 0;
   int u0 = 0, u1 = -1, v0 = 0, v1 = -1;  // pixels it may touch, clipped to the frame
 };
@@ -65,6 +78,44 @@ int clampIndex(double x, int lo, int hi) {
 // sin(pi x) / (pi x): the mean of cos over a window of x periods.
 double sinc(double x) {
   return std::abs(x) < 1e-9 ? 1.0 : std::sin(kPi * x) / (kPi * x);
+}
+
+// The ray through one sample position.
+struct Ray {
+  Vec3 origin;  // perspective: the optical centre; orthographic: (x, y, 0)
+  Vec3 dir;     // unit
+};
+
+// The ray through image position (u + fu - 0.5, v + fv - 0.5), fu, fv in [0, 1].
+Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int v, double fu,
+          double fv) {
+  const Optics& o = st.imaging->optics;
+  const double pu = u + fu - 0.5, pv = v + fv - 0.5;
+  Ray ray;
+  if (!o.perspective) {
+    ray.origin =
+        Vec3((pu - o.origin_u_px) * o.pixel_size_m, (o.origin_v_px - pv) * o.pixel_size_m, 0);
+    ray.dir = -Vec3::UnitZ();
+    return ray;
+  }
+  double x, y;
+  if (ray_xy.empty()) {
+    x = (pu - o.principal_u_px) / o.focal_px;
+    y = (pv - o.principal_v_px) / o.focal_px;
+  } else {
+    // Bilinear between the pixel's corners.
+    const std::size_t stride = static_cast<std::size_t>(st.width + 1) * 2;
+    const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
+    const auto lerp = [&](int k) {
+      return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
+             fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
+    };
+    x = lerp(0);
+    y = lerp(1);
+  }
+  ray.origin = o.centre_m;
+  ray.dir = Vec3(x, -y, -1.0) * (1.0 / std::sqrt(x * x + y * y + 1.0));
+  return ray;
 }
 
 }  // namespace
@@ -258,9 +309,38 @@ void edgeThresholds(const Optics& o, Instance& in) {
   in.edge_outer = alpha + margin < kPi ? std::cos(alpha + margin) : -2.0;
 }
 
+// The dots of `pattern` turned by `body_to_world` that may show: a dot is left
+// out when its whole cap, widened by the largest rim margin a smooth pixel
+// uses (delta in groupLevel, at the limb's nv = 0.05), faces away from
+// `towards_camera` (unit, from the sphere's centre).
+void visibleDots(const DotPattern& pattern, const Eigen::Matrix3d& body_to_world,
+                 const Vec3& towards_camera, double max_delta, DotSet& out) {
+  const double reach = pattern.angular_radius_rad + max_delta;
+  const double hidden_below = reach < 0.5 * kPi ? -std::sin(reach) : -2.0;
+  for (const Vec3& c : pattern.centres) {
+    const Vec3 w = body_to_world * c;
+    if (w.dot(towards_camera) <= hidden_below) continue;
+    out.x.push_back(static_cast<float>(w.x()));
+    out.y.push_back(static_cast<float>(w.y()));
+    out.z.push_back(static_cast<float>(w.z()));
+  }
+}
+
+// The largest rim margin groupLevel() gives a smooth pixel on this sphere
+// (its delta at nv = 0.05, the visible surface being nearer than the centre).
+double maxRimDelta(const Optics& o, const Instance& in) {
+  const double lateral_m =
+      o.perspective ? (in.centre - o.centre_m).norm() / o.focal_px : o.pixel_size_m;
+  return lateral_m / (in.radius * 0.05);
+}
+
+// The instances of every sphere at every time sample, grouped by sample; the
+// dots each may show in `dot_sets`.
 std::vector<Instance> instances(const RenderSettings& st, const std::vector<SphereView>& spheres,
-                                int samples) {
+                                int samples, std::vector<DotSet>& dot_sets) {
   const Optics& o = st.imaging->optics;
+  dot_sets.clear();
+  dot_sets.reserve(spheres.size() * samples);  // no reallocation: instances point into it
   std::vector<Instance> out;
   for (int j = 0; j < samples; ++j) {
     const double t = samples == 1 ? 0.0 : st.exposure_s * ((j + 0.5) / samples - 0.5);
@@ -272,16 +352,20 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
       if (!(in.radius > 0) || !in.centre.allFinite()) continue;
       if (!pixelBox(o, in.centre, in.radius, st.width, st.height, in)) continue;
       edgeThresholds(o, in);
+      in.inv_radius = 1.0 / in.radius;
+      in.rel = in.centre - o.centre_m;
+      in.rel_term = in.rel.squaredNorm() - in.radius * in.radius;
       Eigen::Matrix3d rot = sv.orientation.normalized().toRotationMatrix();
       const double spin = sv.spin_rad_s.norm();
       if (spin > 0 && t != 0)
         rot = Eigen::AngleAxisd(spin * t, sv.spin_rad_s / spin).toRotationMatrix() * rot;
-      in.world_to_body = rot.transpose();
       if (sv.dots != nullptr && !sv.dots->centres.empty()) {
-        in.dots = sv.dots;
+        const Vec3 towards = o.perspective ? Vec3(-in.rel.normalized()) : Vec3::UnitZ();
+        DotSet& d = dot_sets.emplace_back();
+        visibleDots(*sv.dots, rot, towards, maxRimDelta(o, in), d);
+        in.dots = &d;
         in.cos_dot = std::cos(sv.dots->angular_radius_rad);
         in.sin_dot = std::sin(sv.dots->angular_radius_rad);
-        in.dot_radius_rad = sv.dots->angular_radius_rad;
       }
       out.push_back(in);
     }
@@ -295,180 +379,232 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
 // grey level) are not computed: n.h below the matching cosine skips pow().
 constexpr double kFaintestHighlight = 1e-6;
 
-double highlightCutoff(const Lighting& l) {
-  return l.specular_strength > 0
-             ? std::pow(kFaintestHighlight / l.specular_strength, 1.0 / l.specular_exponent)
-             : 2.0;
+// What shade() needs besides the hit, fixed for a frame.
+struct Shading {
+  const Lighting* lighting = nullptr;
+  double nh_min = 2;        // the highlight's cut-off (above)
+  int int_exponent = -1;    // the highlight's exponent when a whole number up to 1024, else -1
+  double spot_cos = 1;      // backlit: the spot's rim, as n.view
+  double inv_focal_px = 0;  // perspective: 1 / focal length in pixels
+};
+
+Shading shadingFor(const Lighting& l, const Optics& o) {
+  Shading s;
+  s.inv_focal_px = 1.0 / o.focal_px;
+  s.lighting = &l;
+  s.nh_min = l.specular_strength > 0
+                 ? std::pow(kFaintestHighlight / l.specular_strength, 1.0 / l.specular_exponent)
+                 : 2.0;
+  if (l.specular_exponent >= 1 && l.specular_exponent <= 1024 &&
+      l.specular_exponent == std::floor(l.specular_exponent))
+    s.int_exponent = static_cast<int>(l.specular_exponent);
+  s.spot_cos = std::sqrt(std::max(0.0, 1.0 - l.spot_fraction * l.spot_fraction));
+  return s;
 }
 
-double shade(const Lighting& l, double nh_min, const Instance& in, const Hit& h) {
+// x^n by repeated squaring (n >= 1): ~log2(n) products instead of pow().
+double powInt(double x, int n) {
+  double result = 1.0;
+  for (; n > 0; n >>= 1, x *= x)
+    if (n & 1) result *= x;
+  return result;
+}
+
+// Where a surface point lies among a sphere's dots: on a dot, and (when
+// `delta` >= 0) whether some dot's rim is within `delta` rad of it. The rim
+// band uses bounds on cos(radius -+ delta) (cos d >= 1 - d^2/2, sin d <= d),
+// so it is never narrower than the exact one.
+struct DotCover {
   bool on_dot = false;
-  if (in.dots != nullptr) {
-    const Vec3 nb = in.world_to_body * h.normal;
-    for (const Vec3& c : in.dots->centres)
-      if (c.dot(nb) >= in.cos_dot) {
-        on_dot = true;
-        break;
-      }
+  bool near_rim = false;
+};
+
+DotCover dotCover(const Instance& in, const Vec3& normal, double delta) {
+  DotCover out;
+  if (in.dots == nullptr) return out;
+  const float nx = static_cast<float>(normal.x()), ny = static_cast<float>(normal.y()),
+              nz = static_cast<float>(normal.z());
+  const DotSet& d = *in.dots;
+  const int n = static_cast<int>(d.x.size());
+  const float* xs = d.x.data();
+  const float* ys = d.y.data();
+  const float* zs = d.z.data();
+  const double reach = std::max(delta, 0.0);
+  const float far =
+      static_cast<float>(in.cos_dot * (1.0 - 0.5 * reach * reach) - in.sin_dot * reach);
+  // Most surface points are far from every dot: one pass that counts (vector code).
+  int close = 0;
+  for (int k = 0; k < n; ++k) close += xs[k] * nx + ys[k] * ny + zs[k] * nz >= far;
+  if (close == 0) return out;
+  const float on = static_cast<float>(in.cos_dot);
+  const float near = static_cast<float>(in.cos_dot + in.sin_dot * reach);
+  for (int k = 0; k < n; ++k) {
+    const float cd = xs[k] * nx + ys[k] * ny + zs[k] * nz;
+    out.on_dot = out.on_dot || cd >= on;
+    out.near_rim = out.near_rim || (delta >= 0 && cd > far && cd < near);
   }
+  return out;
+}
+
+double shade(const Shading& sh, bool on_dot, const Hit& h) {
+  const Lighting& l = *sh.lighting;
   const double albedo = on_dot ? l.dot_albedo : l.sphere_albedo;
   if (l.mode == Lighting::Mode::Back) {
     double level = albedo * l.ambient;
-    if (l.spot_level > 0 &&
-        h.normal.dot(h.view) >= std::sqrt(std::max(0.0, 1.0 - l.spot_fraction * l.spot_fraction)))
-      level += l.spot_level;
+    if (l.spot_level > 0 && h.normal.dot(h.view) >= sh.spot_cos) level += l.spot_level;
     return level;
   }
   const double ndl = h.normal.dot(l.lamp_direction);
   double level = albedo * (l.ambient + (1.0 - l.ambient) * std::max(0.0, ndl));
   if (l.specular_strength > 0 && ndl > 0) {
     const double nh = h.normal.dot((l.lamp_direction + h.view).normalized());
-    if (nh > nh_min) level += l.specular_strength * std::pow(nh, l.specular_exponent);
+    if (nh > sh.nh_min)
+      level += l.specular_strength * (sh.int_exponent > 0 ? powInt(nh, sh.int_exponent)
+                                                          : std::pow(nh, l.specular_exponent));
   }
   return level;
 }
 
-// The ray through one sample position, intersected with one sphere: the
-// distance along the ray (smaller is nearer) and the hit, or false.
-struct Ray {
-  Vec3 origin;  // perspective: the optical centre; orthographic: (x, y, 0)
-  Vec3 dir;     // unit
-};
-
-bool intersect(const Ray& ray, bool perspective, const Instance& in, double& t_hit, Hit& hit) {
+// How a ray passes one sphere, in the terms both the hit and the edge test
+// use: orthographic, the squared distance from the centre's line of sight
+// (m^2); perspective, dir . (centre - optical centre) (m).
+double passing(const Ray& ray, bool perspective, const Instance& in) {
   if (!perspective) {
     const double dx = ray.origin.x() - in.centre.x(), dy = ray.origin.y() - in.centre.y();
-    const double d2 = dx * dx + dy * dy, r2 = in.radius * in.radius;
-    if (d2 >= r2) return false;
-    const double dz = std::sqrt(r2 - d2);
+    return dx * dx + dy * dy;
+  }
+  return ray.dir.dot(in.rel);
+}
+
+// The hit of a ray that `passing` says may hit: the distance along the ray
+// (smaller is nearer) and the surface there, or false.
+bool intersect(const Ray& ray, bool perspective, const Instance& in, double pass, double& t_hit,
+               Hit& hit) {
+  if (!perspective) {
+    const double r2 = in.radius * in.radius;
+    if (pass >= r2) return false;
+    const double dz = std::sqrt(r2 - pass);
     t_hit = -(in.centre.z() + dz);
-    hit.normal = Vec3(dx, dy, dz) / in.radius;
+    hit.normal =
+        Vec3(ray.origin.x() - in.centre.x(), ray.origin.y() - in.centre.y(), dz) * in.inv_radius;
     hit.view = Vec3::UnitZ();
     return true;
   }
-  const Vec3 L = in.centre - ray.origin;
-  const double b = ray.dir.dot(L);
-  const double disc = b * b - (L.squaredNorm() - in.radius * in.radius);
-  if (disc < 0 || b <= 0) return false;
-  t_hit = b - std::sqrt(disc);
-  hit.normal = (ray.origin + t_hit * ray.dir - in.centre) / in.radius;
+  const double disc = pass * pass - in.rel_term;
+  if (disc < 0 || pass <= 0) return false;
+  t_hit = pass - std::sqrt(disc);
+  hit.normal = (t_hit * ray.dir - in.rel) * in.inv_radius;
   hit.view = -ray.dir;
   return true;
 }
 
-// The ray through image position (u + fu - 0.5, v + fv - 0.5), fu, fv in [0, 1].
-Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int v, double fu,
-          double fv) {
-  const Optics& o = st.imaging->optics;
-  const double pu = u + fu - 0.5, pv = v + fv - 0.5;
-  Ray ray;
-  if (!o.perspective) {
-    ray.origin =
-        Vec3((pu - o.origin_u_px) * o.pixel_size_m, (o.origin_v_px - pv) * o.pixel_size_m, 0);
-    ray.dir = -Vec3::UnitZ();
-    return ray;
-  }
-  double x, y;
-  if (ray_xy.empty()) {
-    x = (pu - o.principal_u_px) / o.focal_px;
-    y = (pv - o.principal_v_px) / o.focal_px;
-  } else {
-    // Bilinear between the pixel's corners.
-    const std::size_t stride = static_cast<std::size_t>(st.width + 1) * 2;
-    const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
-    const auto lerp = [&](int k) {
-      return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
-             fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
-    };
-    x = lerp(0);
-    y = lerp(1);
-  }
-  ray.origin = o.centre_m;
-  ray.dir = Vec3(x, -y, -1.0).normalized();
-  return ray;
+// Whether a ray passing a sphere as `pass` says is at least kSmoothMarginPx
+// inside (or outside) its silhouette. Under perspective: the angle to the
+// tangent cone's axis against alpha -+ margin / f, which off-axis (pixels
+// subtend less there) and with mild distortion still bounds the distance in
+// pixels.
+bool clearOfEdge(bool perspective, const Instance& in, double pass, bool inside) {
+  if (!perspective) return inside ? pass < in.edge_inner : pass > in.edge_outer;
+  const double c = pass * in.inv_distance;
+  return inside ? c > in.edge_inner : c < in.edge_outer;
 }
 
-// Instances [a, b) of `active` (one time sample) that may cover column u:
-// the nearest hit along `ray`, or null.
-const Instance* nearestHit(const Ray& ray, bool perspective, const std::vector<Instance>& inst,
-                           const std::vector<int>& active, std::size_t a, std::size_t b, int u,
-                           double& t_hit, Hit& hit) {
+// The instances of one time sample that may cover a pixel's column: the
+// entries [a, b) of `active`, indices into `inst`.
+struct Group {
+  const std::vector<Instance>& inst;
+  const std::vector<int>& active;
+  std::size_t a, b;
+  int u;
+};
+
+// The nearest sphere along `ray`, or null; with `edge_clear`, also whether
+// the ray is at least kSmoothMarginPx from every silhouette edge (inside the
+// nearest sphere, outside the others).
+const Instance* cast(const Ray& ray, bool perspective, const Group& g, double& t_hit, Hit& hit,
+                     bool* edge_clear = nullptr) {
   const Instance* best = nullptr;
   t_hit = std::numeric_limits<double>::infinity();
-  for (std::size_t k = a; k < b; ++k) {
-    const Instance& in = inst[active[k]];
-    if (u < in.u0 || u > in.u1) continue;
+  double best_pass = 0;
+  for (std::size_t k = g.a; k < g.b; ++k) {
+    const Instance& in = g.inst[g.active[k]];
+    if (g.u < in.u0 || g.u > in.u1) continue;
+    const double pass = passing(ray, perspective, in);
     double t;
     Hit h;
-    if (intersect(ray, perspective, in, t, h) && t < t_hit) t_hit = t, best = &in, hit = h;
+    if (intersect(ray, perspective, in, pass, t, h) && t < t_hit)
+      t_hit = t, best = &in, hit = h, best_pass = pass;
+  }
+  if (edge_clear != nullptr) {
+    *edge_clear = true;
+    for (std::size_t k = g.a; k < g.b && *edge_clear; ++k) {
+      const Instance& in = g.inst[g.active[k]];
+      if (g.u < in.u0 || g.u > in.u1) continue;
+      const double pass = &in == best ? best_pass : passing(ray, perspective, in);
+      *edge_clear = clearOfEdge(perspective, in, pass, &in == best);
+    }
   }
   return best;
 }
 
-// Whether the ray passes at least kSmoothMarginPx inside (or outside) the
-// sphere's silhouette. Under perspective: the angle to the tangent cone's axis
-// against alpha -+ margin / f, which off-axis (pixels subtend less there) and
-// with mild distortion still bounds the distance in pixels.
-bool clearOfEdge(const Optics& o, const Ray& ray, const Instance& in, bool inside) {
-  if (!o.perspective) {
-    const double dx = ray.origin.x() - in.centre.x(), dy = ray.origin.y() - in.centre.y();
-    const double d2 = dx * dx + dy * dy;
-    return inside ? d2 < in.edge_inner : d2 > in.edge_outer;
-  }
-  const double c = ray.dir.dot(in.centre - ray.origin) * in.inv_distance;
-  return inside ? c > in.edge_inner : c < in.edge_outer;
-}
-
-// Whether pixel (u, v) is smooth for one time sample, judged from its centre
-// ray: at least kSmoothMarginPx from every silhouette edge, and (on a sphere)
-// clear of every dot's rim, the terminator and a backlit spot's rim by the
-// surface angle a pixel spans there. Its centre sample then stands for the
-// pixel's mean (the shading's curvature over a pixel is ~1e-4 of full scale);
-// otherwise the pixel is sampled n x n.
-bool smooth(const Imaging& im, const Ray& ray, const std::vector<Instance>& inst,
-            const std::vector<int>& active, std::size_t a, std::size_t b, int u,
-            const Instance* best, double t_hit, const Hit& hit) {
+// One time sample's mean level over pixel (u, v). The pixel is smooth when
+// its centre ray is at least kSmoothMarginPx from every silhouette edge and
+// (on a sphere) clear of every dot's rim, the terminator and a backlit spot's
+// rim by the surface angle a pixel spans there: its centre sample then stands
+// for the pixel's mean (the shading's curvature over a pixel is ~1e-4 of full
+// scale). Otherwise the pixel is sampled n x n.
+double groupLevel(const RenderSettings& st, const std::vector<float>& ray_xy, const Shading& sh,
+                  const Group& g, int v) {
+  const Imaging& im = *st.imaging;
   const Optics& o = im.optics;
-  for (std::size_t k = a; k < b; ++k) {
-    const Instance& in = inst[active[k]];
-    if (u < in.u0 || u > in.u1) continue;
-    if (!clearOfEdge(o, ray, in, &in == best)) return false;
-  }
-  if (best == nullptr) return true;
-  const double nv = hit.normal.dot(hit.view);
-  if (nv < 0.05) return false;  // near the limb a pixel spans much of the surface
-  // Surface angle across ~1.5 pixels: lateral size / (R cos(view angle)).
-  const double lateral_m = o.perspective ? t_hit / o.focal_px : o.pixel_size_m;
-  const double delta = 1.5 * lateral_m / (best->radius * nv);
-  // The terminator (n.l = 0): |cos a - cos b| <= |a - b| there.
+  const bool persp = o.perspective;
+  const int ss = im.samples_per_pixel;
+  const double backdrop = im.lighting.backdrop_level;
   const Lighting& l = im.lighting;
-  if (l.mode == Lighting::Mode::Front && std::abs(hit.normal.dot(l.lamp_direction)) < delta)
-    return false;
-  if (l.mode == Lighting::Mode::Back && l.spot_level > 0 &&
-      std::abs(std::acos(std::min(1.0, nv)) - std::asin(l.spot_fraction)) < delta)
-    return false;
-  if (best->dots != nullptr) {
-    // Angles to the dots' centres; most are far, which a bound on
-    // cos(radius + delta) settles without acos.
-    const Vec3 nb = best->world_to_body * hit.normal;
-    const double far = best->cos_dot * (1.0 - 0.5 * delta * delta) - best->sin_dot * delta;
-    for (const Vec3& c : best->dots->centres) {
-      const double cd = c.dot(nb);
-      if (cd < far) continue;
-      if (std::abs(std::acos(std::min(1.0, cd)) - best->dot_radius_rad) < delta) return false;
+  double t;
+  Hit hit;
+  bool clear = true;
+  const Ray centre = rayAt(st, ray_xy, g.u, v, 0.5, 0.5);
+  const Instance* best = cast(centre, persp, g, t, hit, ss > 1 ? &clear : nullptr);
+  if (best == nullptr && clear) return backdrop;
+  if (best != nullptr && clear) {
+    const double nv = hit.normal.dot(hit.view);
+    // Near the limb (nv small) a pixel spans much of the surface.
+    clear = nv >= 0.05 || ss == 1;
+    // A pixel's corners are 0.71 px from its centre: on the surface, at most
+    // 0.71 lateral / (R cos(view angle)) rad, lateral the size a pixel spans
+    // across the line of sight there. Features (terminator, rims) further
+    // than delta = that / 0.71 leave the pixel smooth. Written as products:
+    // |x| < delta <=> |x| R nv < lateral.
+    const double lateral_m = persp ? t * sh.inv_focal_px : o.pixel_size_m;
+    const double r_nv = best->radius * nv;
+    // The terminator (n.l = 0): |cos a - cos b| <= |a - b| there.
+    if (clear && ss > 1 && l.mode == Lighting::Mode::Front &&
+        std::abs(hit.normal.dot(l.lamp_direction)) * r_nv < lateral_m)
+      clear = false;
+    if (clear && ss > 1 && l.mode == Lighting::Mode::Back && l.spot_level > 0 &&
+        std::abs(std::acos(std::min(1.0, nv)) - std::asin(l.spot_fraction)) * r_nv < lateral_m)
+      clear = false;
+    const double delta = ss == 1 || best->dots == nullptr ? -1.0 : lateral_m / r_nv;
+    if (clear) {
+      const DotCover cover = dotCover(*best, hit.normal, delta);
+      if (!cover.near_rim) return shade(sh, cover.on_dot, hit);
     }
   }
-  return true;
+  double sum = 0;
+  for (int j = 0; j < ss; ++j)
+    for (int i = 0; i < ss; ++i) {
+      const Ray ray = rayAt(st, ray_xy, g.u, v, (i + 0.5) / ss, (j + 0.5) / ss);
+      const Instance* in = cast(ray, persp, g, t, hit);
+      sum += in ? shade(sh, dotCover(*in, hit.normal, -1.0).on_dot, hit) : backdrop;
+    }
+  return sum / (ss * ss);
 }
 
 // Mean brightness of pixel (u, v) over its samples and the time samples.
 double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
                   const std::vector<Instance>& inst, const std::vector<int>& active, int samples,
-                  double nh_min, int u, int v) {
-  const Imaging& im = *st.imaging;
-  const bool persp = im.optics.perspective;
-  const int ss = im.samples_per_pixel;
-  const double backdrop = im.lighting.backdrop_level;
+                  const Shading& sh, int u, int v) {
   double total = 0;  // sum over time samples of each one's pixel mean
   int groups = 0;
   std::size_t a = 0;
@@ -477,72 +613,65 @@ double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
     std::size_t b = a;
     while (b < active.size() && inst[active[b]].sample == inst[active[a]].sample) ++b;
     ++groups;
-    double t;
-    Hit hit;
-    const Ray centre = rayAt(st, ray_xy, u, v, 0.5, 0.5);
-    const Instance* best = nearestHit(centre, persp, inst, active, a, b, u, t, hit);
-    if (ss == 1 || smooth(im, centre, inst, active, a, b, u, best, t, hit)) {
-      total += best ? shade(im.lighting, nh_min, *best, hit) : backdrop;
-    } else {
-      double sum = 0;
-      for (int j = 0; j < ss; ++j)
-        for (int i = 0; i < ss; ++i) {
-          const Ray ray = rayAt(st, ray_xy, u, v, (i + 0.5) / ss, (j + 0.5) / ss);
-          const Instance* in = nearestHit(ray, persp, inst, active, a, b, u, t, hit);
-          sum += in ? shade(im.lighting, nh_min, *in, hit) : backdrop;
-        }
-      total += sum / (ss * ss);
-    }
+    total += groupLevel(st, ray_xy, sh, Group{inst, active, a, b, u}, v);
     a = b;
   }
-  total += (samples - groups) * backdrop;  // time samples with nothing near this pixel
+  if (samples == 1) return groups == 1 ? total : st.imaging->lighting.backdrop_level;
+  // Time samples with nothing near this pixel.
+  total += (samples - groups) * st.imaging->lighting.backdrop_level;
   return total / samples;
 }
 
 // Light -> grey levels for one row: gain map, flicker, shot and read noise (or
-// plain additive noise), fixed offsets, ADC bits, the format's words.
+// plain additive noise), fixed offsets, ADC bits, the format's words. Shot and
+// read noise are independent Gaussians (Poisson at these counts), so their sum
+// is one Gaussian of variance e + read^2: one unit Gaussian `g` per pixel.
+// Written to vectorise (render_raycast.cpp is built with -fno-math-errno so
+// that the square root does too).
 template <class T>
-void sensorRow(const RenderSettings& st, const std::vector<float>& gain,
-               const std::vector<float>& offset, const float* g1, const float* g2, double flicker,
-               const float* light, int v, T* out) {
+void sensorRow(const RenderSettings& st, const float* gain, const float* offset, const float* g,
+               double flicker, const float* light, T* out) {
   const Sensor& se = st.imaging->sensor;
   const int w = st.width;
   const int fmt_bits = bitDepth(st.format);
   const int bits = se.adc_bits > 0 ? se.adc_bits : fmt_bits;
   const float adc_max = static_cast<float>((1 << bits) - 1);
   const int shift = fmt_bits - bits;
-  const float full_well = static_cast<float>(se.full_well_e);
-  const float g = static_cast<float>(se.gain);
-  const float read = static_cast<float>(se.read_noise_e);
-  const float grey_sigma = static_cast<float>(st.noise_grey / maxValue(st.format));
   const float fl = static_cast<float>(flicker);
-  const std::size_t row = static_cast<std::size_t>(v) * w;
-  for (int u = 0; u < w; ++u) {
-    const float signal = light[u] * fl * gain[row + u];
-    float frac;
-    if (full_well > 0) {
-      const float e = std::max(0.0f, signal * full_well);
-      frac = g * (e + std::sqrt(e) * g1[u] + read * g2[u]) / full_well;
-    } else {
-      frac = g * signal + grey_sigma * g1[u];
+  if (se.full_well_e > 0) {
+    const float full_well = static_cast<float>(se.full_well_e);
+    const float read2 = static_cast<float>(se.read_noise_e * se.read_noise_e);
+    const float scale = static_cast<float>(se.gain / se.full_well_e) * adc_max;
+    for (int u = 0; u < w; ++u) {
+      const float e = std::max(0.0f, light[u] * fl * gain[u] * full_well);
+      const float x = (e + std::sqrt(e + read2) * g[u]) * scale + offset[u] * adc_max;
+      out[u] =
+          static_cast<T>(static_cast<int>(std::min(std::max(x, 0.0f), adc_max) + 0.5f) << shift);
     }
-    frac += offset[row + u];
-    const float x = std::min(std::max(frac * adc_max, 0.0f), adc_max);
-    out[u] = static_cast<T>(static_cast<int>(x + 0.5f) << shift);
+  } else {
+    const float gn = static_cast<float>(se.gain);
+    const float grey_sigma = static_cast<float>(st.noise_grey / maxValue(st.format));
+    for (int u = 0; u < w; ++u) {
+      const float x = (gn * light[u] * fl * gain[u] + grey_sigma * g[u] + offset[u]) * adc_max;
+      out[u] =
+          static_cast<T>(static_cast<int>(std::min(std::max(x, 0.0f), adc_max) + 0.5f) << shift);
+    }
   }
 }
 
-// One row of light through the sensor into `image`'s row `v`: two runs of the
-// noise table at offsets drawn from `rng`, then sensorRow in the format's words.
+// One row of light through the sensor into `image`'s row `v`: a run of the
+// noise table at an offset drawn from `rng`, then sensorRow in the format's words.
 void exposeRow(const RenderSettings& st, const std::vector<float>& noise,
                const std::vector<float>& gain, const std::vector<float>& offset, double flicker,
                const float* light, int v, std::uint64_t& rng, cv::Mat& image) {
-  const float* g1 = noise.data() + splitmix64(rng) % kNoiseTableSize;
-  const float* g2 = noise.data() + splitmix64(rng) % kNoiseTableSize;
+  const float* g = noise.data() + splitmix64(rng) % kNoiseTableSize;
+  const std::size_t row = static_cast<std::size_t>(v) * st.width;
   if (st.format == PixelFormat::Mono8)
-    sensorRow(st, gain, offset, g1, g2, flicker, light, v, image.ptr<std::uint8_t>(v));
+    sensorRow(st, gain.data() + row, offset.data() + row, g, flicker, light,
+              image.ptr<std::uint8_t>(v));
   else
-    sensorRow(st, gain, offset, g1, g2, flicker, light, v, image.ptr<std::uint16_t>(v));
+    sensorRow(st, gain.data() + row, offset.data() + row, g, flicker, light,
+              image.ptr<std::uint16_t>(v));
 }
 
 }  // namespace
@@ -554,8 +683,9 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
   const ImagingTables& tab = *imaging_;
   const int width = st.width, height = st.height;
   const int samples = timeSamples(st, spheres);
-  const std::vector<Instance> inst = instances(st, spheres, samples);
-  const double nh_min = highlightCutoff(im.lighting);
+  std::vector<DotSet> dot_sets;
+  const std::vector<Instance> inst = instances(st, spheres, samples, dot_sets);
+  const Shading sh = shadingFor(im.lighting, im.optics);
 
   // Lamp intensity averaged over the exposure.
   const Sensor& se = im.sensor;
@@ -580,8 +710,7 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
       span1 = std::max(span1, inst[i].u1);
     }
     for (int u = span0; u <= span1; ++u)
-      light[u] =
-          static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, nh_min, u, v));
+      light[u] = static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, sh, u, v));
 
     exposeRow(st, tab.noise, tab.gain, tab.offset, flicker, light.data(), v, rng, image);
   }
