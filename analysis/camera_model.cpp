@@ -14,6 +14,9 @@ Eigen::Vector2d PinholeCamera::distort(const Eigen::Vector2d& xy) const {
 
 Eigen::Vector2d PinholeCamera::undistort(const Eigen::Vector2d& xy_distorted) const {
   // As cv::undistortPoints: x = (x' - tangential(x)) / radial(x), iterated.
+  // Up to 20 steps; it stops early once a step moves the point by less than
+  // 1e-15 (the iteration contracts by ~2 |k1| r^2 a step: a few steps in the
+  // field of an ordinary lens).
   Eigen::Vector2d xy = xy_distorted;
   for (int i = 0; i < 20; ++i) {
     const double x = xy.x(), y = xy.y();
@@ -21,7 +24,10 @@ Eigen::Vector2d PinholeCamera::undistort(const Eigen::Vector2d& xy_distorted) co
     const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
     const double dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
     const double dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
-    xy = {(xy_distorted.x() - dx) / radial, (xy_distorted.y() - dy) / radial};
+    const Eigen::Vector2d next((xy_distorted.x() - dx) / radial, (xy_distorted.y() - dy) / radial);
+    const bool settled = (next - xy).cwiseAbs().maxCoeff() <= 1e-15;
+    xy = next;
+    if (settled) break;
   }
   return xy;
 }

@@ -165,6 +165,17 @@ void BM_RenderMono8BackgroundOnly(benchmark::State& state) {
 }
 BENCHMARK(BM_RenderMono8BackgroundOnly)->Unit(benchmark::kMicrosecond);
 
+// The set-up cost of realistic imaging: the simulated camera builds a
+// Renderer whenever it is configured (at the rig's bring-up), which tabulates
+// the lens, the vignetting, the fixed patterns and the noise for the sensor.
+void BM_RenderLabImagingSetUp(benchmark::State& state) {
+  for (auto _ : state) {
+    const Renderer renderer(lab(0.0));
+    benchmark::DoNotOptimize(&renderer);
+  }
+}
+BENCHMARK(BM_RenderLabImagingSetUp)->Unit(benchmark::kMillisecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();

@@ -200,9 +200,16 @@ std::shared_ptr<const Renderer::ImagingTables> Renderer::makeImagingTables(
     for (int u = 0; u < w; ++u) {
       double g = 1.0;
       if (se.vignetting_cos4 && o.perspective) {
+        // The pixel centre's ideal (x, y): from the lens table when distorted
+        // (the mean of its corners, ~1e-4 px off: nothing at cos^4's scale).
         Eigen::Vector2d xy((u - o.principal_u_px) / o.focal_px,
                            (v - o.principal_v_px) / o.focal_px);
-        if (o.distorted()) xy = o.undistort(xy);
+        if (o.distorted()) {
+          const float* c = t->ray_xy.data() + (static_cast<std::size_t>(v) * (w + 1) + u) * 2;
+          const std::size_t down = static_cast<std::size_t>(w + 1) * 2;
+          xy = {0.25 * (c[0] + c[2] + c[down] + c[down + 2]),
+                0.25 * (c[1] + c[3] + c[down + 1] + c[down + 3])};
+        }
         const double q = 1.0 + xy.squaredNorm();  // 1 / cos^2 of the field angle
         g /= q * q;
       }
