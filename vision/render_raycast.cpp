@@ -46,7 +46,7 @@ struct Instance {
   const DotSet* dots = nullptr;  // world frame
   double cos_dot = 1;
   double sin_dot = 0;
-  // Silhouette thresholds for the edge test in castCentre(): orthographic,
+  // Silhouette thresholds for clearOfEdge() (called by cast()): orthographic,
   // squared distances from the centre (m^2) inside / outside the margin;
   // perspective, cosines of the angle to the centre's direction, with
   // 1 / distance to the centre.
@@ -633,7 +633,7 @@ double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
 // plain additive noise), fixed offsets, ADC bits, the format's words. Shot and
 // read noise are independent Gaussians (Poisson at these counts), so their sum
 // is one Gaussian of variance e + read^2: one unit Gaussian `g` per pixel.
-// Written to vectorise (render_raycast.cpp is built with -fno-math-errno so
+// Written to vectorise (the vision library is built with -fno-math-errno so
 // that the square root does too).
 template <class T>
 void sensorRow(const RenderSettings& st, const float* gain, const float* offset, const float* g,
