@@ -86,6 +86,20 @@ struct Ray {
   Vec3 dir;     // unit
 };
 
+// The ideal normalised (x, y) at image position (u + fu - 0.5, v + fv - 0.5),
+// fu, fv in [0, 1], from a distorted lens' table (ImagingTables::ray_xy):
+// bilinear between the pixel's corners.
+Eigen::Vector2d lensTableXy(const std::vector<float>& ray_xy, int width, int u, int v, double fu,
+                            double fv) {
+  const std::size_t stride = static_cast<std::size_t>(width + 1) * 2;
+  const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
+  const auto lerp = [&](int k) {
+    return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
+           fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
+  };
+  return {lerp(0), lerp(1)};
+}
+
 // The ray through image position (u + fu - 0.5, v + fv - 0.5), fu, fv in [0, 1].
 Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int v, double fu,
           double fv) {
@@ -103,15 +117,9 @@ Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int
     x = (pu - o.principal_u_px) / o.focal_px;
     y = (pv - o.principal_v_px) / o.focal_px;
   } else {
-    // Bilinear between the pixel's corners.
-    const std::size_t stride = static_cast<std::size_t>(st.width + 1) * 2;
-    const float* c = ray_xy.data() + static_cast<std::size_t>(v) * stride + u * 2;
-    const auto lerp = [&](int k) {
-      return (1 - fv) * ((1 - fu) * c[k] + fu * c[k + 2]) +
-             fv * ((1 - fu) * c[stride + k] + fu * c[stride + k + 2]);
-    };
-    x = lerp(0);
-    y = lerp(1);
+    const Eigen::Vector2d xy = lensTableXy(ray_xy, st.width, u, v, fu, fv);
+    x = xy.x();
+    y = xy.y();
   }
   ray.origin = o.centre_m;
   ray.dir = Vec3(x, -y, -1.0) * (1.0 / std::sqrt(x * x + y * y + 1.0));
@@ -201,15 +209,11 @@ std::shared_ptr<const Renderer::ImagingTables> Renderer::makeImagingTables(
       double g = 1.0;
       if (se.vignetting_cos4 && o.perspective) {
         // The pixel centre's ideal (x, y): from the lens table when distorted
-        // (the mean of its corners, ~1e-4 px off: nothing at cos^4's scale).
-        Eigen::Vector2d xy((u - o.principal_u_px) / o.focal_px,
-                           (v - o.principal_v_px) / o.focal_px);
-        if (o.distorted()) {
-          const float* c = t->ray_xy.data() + (static_cast<std::size_t>(v) * (w + 1) + u) * 2;
-          const std::size_t down = static_cast<std::size_t>(w + 1) * 2;
-          xy = {0.25 * (c[0] + c[2] + c[down] + c[down + 2]),
-                0.25 * (c[1] + c[3] + c[down + 1] + c[down + 3])};
-        }
+        // (interpolated, ~1e-4 px off: nothing at cos^4's scale).
+        const Eigen::Vector2d xy = o.distorted()
+                                       ? lensTableXy(t->ray_xy, w, u, v, 0.5, 0.5)
+                                       : Eigen::Vector2d((u - o.principal_u_px) / o.focal_px,
+                                                         (v - o.principal_v_px) / o.focal_px);
         const double q = 1.0 + xy.squaredNorm();  // 1 / cos^2 of the field angle
         g /= q * q;
       }
@@ -386,7 +390,8 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
 // grey level) are not computed: n.h below the matching cosine skips pow().
 constexpr double kFaintestHighlight = 1e-6;
 
-// What shade() needs besides the hit, fixed for a frame.
+// Constants for a frame: what shade() needs besides the hit, and the focal
+// length groupLevel()'s smoothness test converts distances with.
 struct Shading {
   const Lighting* lighting = nullptr;
   double nh_min = 2;        // the highlight's cut-off (above)
