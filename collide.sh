@@ -128,12 +128,13 @@ sanitize_pass() {
 # its fake camera, live view), burst recorder and its ring, sequencer and lost
 # devices, valve banks (sim, gpiod watchdog), regulators (sim, Modbus peer),
 # the rig, saving and `collide analyze` (one thread per core), footage read
-# from several threads, and a shot's frames analysed in parallel
-# (vision/frame_parallel).
-TSAN_TESTS='camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage|vision/frame_parallel'
+# from several threads, a shot's frames analysed in parallel
+# (vision/frame_parallel), and the GUI's rig control thread (gui/rig_worker:
+# RigWorker and its Mailbox, without the window).
+TSAN_TESTS='^(analysis|vision|hw|app)/.*camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage|vision/frame_parallel|gui/rig_worker'
 tsan_pass() {
   local dir="${TSAN_BUILD_DIR:-$here/build-tsan}" targets=() t
-  configure_sanitized "$dir" thread
+  configure_sanitized "$dir" thread -DCOLLIDE_BUILD_GUI=ON
   # Only the test programs the pass runs (target folder_name for test
   # folder/name, tests/CMakeLists.txt); the app tests' build also makes `collide`.
   for t in $(ctest --test-dir "$dir" -N -R "$TSAN_TESTS" 2>/dev/null | sed -n 's/^ *Test *#[0-9]*: //p'); do

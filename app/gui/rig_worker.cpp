@@ -1,9 +1,9 @@
 #include "app/gui/rig_worker.hpp"
 
 #include <QDir>
-#include <QMetaObject>
 #include <QStringList>
 #include <cmath>
+#include <future>
 
 #include "app/profile_edit.hpp"
 #include "app/rig_setup.hpp"
@@ -27,72 +27,60 @@ RigWorker::RigWorker() {
   qRegisterMetaType<RigStatus>();
   qRegisterMetaType<ShotPtr>();
   qRegisterMetaType<AdaptiveStepPtr>();
+  outbox_ = std::make_unique<Mailbox>();
+  // Children move to the control thread with the worker; everything here is
+  // set before that thread starts.
+  inbox_ = new Mailbox(this);
+  poll_timer_ = new QTimer(this);
+  poll_timer_->setInterval(50);
+  connect(poll_timer_, &QTimer::timeout, this, &RigWorker::poll);
   thread_.setObjectName("rig control");
   moveToThread(&thread_);
   thread_.start();
-  QMetaObject::invokeMethod(
-      this,
-      [this] {
-        poll_timer_ = new QTimer(this);
-        poll_timer_->setInterval(50);
-        connect(poll_timer_, &QTimer::timeout, this, &RigWorker::poll);
-      },
-      Qt::BlockingQueuedConnection);
 }
 
 RigWorker::~RigWorker() {
   requestCancel();
-  QMetaObject::invokeMethod(
-      this,
-      [this] {
-        delete poll_timer_;
-        poll_timer_ = nullptr;
-        shutDownRig();
-      },
-      Qt::BlockingQueuedConnection);
+  std::promise<void> shut_down;
+  inbox_->post([this, &shut_down] {
+    delete poll_timer_;
+    poll_timer_ = nullptr;
+    shutDownRig();
+    shut_down.set_value();
+  });
+  shut_down.get_future().wait();
   thread_.quit();
   thread_.wait();
 }
 
 void RigWorker::requestLoadProfile(QString path) {
-  QMetaObject::invokeMethod(
-      this, [this, path] { loadProfile(path); }, Qt::QueuedConnection);
+  inbox_->post([this, path] { loadProfile(path); });
 }
 void RigWorker::requestArm(std::array<double, 2> v) {
-  QMetaObject::invokeMethod(
-      this, [this, v] { arm(v); }, Qt::QueuedConnection);
+  inbox_->post([this, v] { arm(v); });
 }
 void RigWorker::requestDisarm() {
-  QMetaObject::invokeMethod(
-      this, [this] { disarm(); }, Qt::QueuedConnection);
+  inbox_->post([this] { disarm(); });
 }
 void RigWorker::requestFire(std::array<double, 2> v, QString out_dir) {
-  QMetaObject::invokeMethod(
-      this, [this, v, out_dir] { fire(v, out_dir); }, Qt::QueuedConnection);
+  inbox_->post([this, v, out_dir] { fire(v, out_dir); });
 }
 void RigWorker::requestCampaign(app::CampaignOptions options) {
-  QMetaObject::invokeMethod(
-      this, [this, options] { campaign(options); }, Qt::QueuedConnection);
+  inbox_->post([this, options] { campaign(options); });
 }
 void RigWorker::requestAdaptiveCampaign(app::CampaignOptions options, AdaptiveOptions design) {
-  QMetaObject::invokeMethod(
-      this, [this, options, design] { adaptiveCampaign(options, design); }, Qt::QueuedConnection);
+  inbox_->post([this, options, design] { adaptiveCampaign(options, design); });
 }
 void RigWorker::requestBurstSettings(int pre, int post, double fps, double exposure_us) {
-  QMetaObject::invokeMethod(
-      this, [this, pre, post, fps, exposure_us] { burstSettings(pre, post, fps, exposure_us); },
-      Qt::QueuedConnection);
+  inbox_->post([this, pre, post, fps, exposure_us] { burstSettings(pre, post, fps, exposure_us); });
 }
 
 void RigWorker::requestCameraSettings(double fps, double exposure_us, double gain_db) {
-  QMetaObject::invokeMethod(
-      this, [this, fps, exposure_us, gain_db] { cameraSettings(fps, exposure_us, gain_db); },
-      Qt::QueuedConnection);
+  inbox_->post([this, fps, exposure_us, gain_db] { cameraSettings(fps, exposure_us, gain_db); });
 }
 
 void RigWorker::requestReconnect() {
-  QMetaObject::invokeMethod(
-      this, [this] { reconnect(); }, Qt::QueuedConnection);
+  inbox_->post([this] { reconnect(); });
 }
 
 void RigWorker::requestCancel() {
@@ -119,9 +107,10 @@ void RigWorker::loadProfile(const QString& path) {
   Result<hw::RigProfile> profile =
       path.isEmpty() ? hw::defaultRigProfile() : hw::loadRigProfile(path.toStdString());
   if (!profile) {
-    emit error(tr("Rig profile not loaded: %1. Fix the file and open it again (File > Open rig "
-                  "profile).")
-                   .arg(qs(profile.error().message)));
+    send(&RigWorker::error,
+         tr("Rig profile not loaded: %1. Fix the file and open it again (File > Open rig "
+            "profile).")
+             .arg(qs(profile.error().message)));
     return;
   }
   useProfile(std::move(profile).value());
@@ -138,8 +127,8 @@ void RigWorker::burstSettings(int pre, int post, double fps, double exposure_us)
 
 bool RigWorker::refusedWhileArmed(const QString& what) {
   if (!status_.armed && !status_.busy) return false;
-  emit error(tr("%1 not applied: the rig is %2; disarm first.")
-                 .arg(what, status_.busy ? tr("firing") : tr("armed")));
+  send(&RigWorker::error, tr("%1 not applied: the rig is %2; disarm first.")
+                              .arg(what, status_.busy ? tr("firing") : tr("armed")));
   return true;
 }
 
@@ -153,7 +142,7 @@ void RigWorker::cameraSettings(double fps, double exposure_us, double gain_db) {
 
 void RigWorker::applyProfileEdits(const std::vector<ProfileEdit>& edits, const QString& what) {
   if (!profile_) {
-    emit error(tr("No rig: open a rig profile first."));
+    send(&RigWorker::error, tr("No rig: open a rig profile first."));
     return;
   }
   Result<std::string> text = profile_->text;
@@ -162,12 +151,12 @@ void RigWorker::applyProfileEdits(const std::vector<ProfileEdit>& edits, const Q
     text = app::setProfileValue(*text, e.section, e.key, e.value.toStdString());
   }
   if (!text) {
-    emit error(tr("%1 not applied: %2").arg(what, qs(text.error().message)));
+    send(&RigWorker::error, tr("%1 not applied: %2").arg(what, qs(text.error().message)));
     return;
   }
   Result<hw::RigProfile> edited = hw::parseRigProfile(*text, profile_->source);
   if (!edited) {
-    emit error(tr("%1 not applied: %2").arg(what, qs(edited.error().message)));
+    send(&RigWorker::error, tr("%1 not applied: %2").arg(what, qs(edited.error().message)));
     return;
   }
   // A setting the profile allows but the device refuses (a camera's own
@@ -176,8 +165,8 @@ void RigWorker::applyProfileEdits(const std::vector<ProfileEdit>& edits, const Q
   const hw::RigProfile previous = *profile_;
   const Status started = startRig(std::move(edited).value());
   if (started) return;
-  emit error(tr("%1 not applied: %2. Back to the settings the rig had.")
-                 .arg(what, qs(started.error().message)));
+  send(&RigWorker::error, tr("%1 not applied: %2. Back to the settings the rig had.")
+                              .arg(what, qs(started.error().message)));
   useProfile(previous);
 }
 
@@ -185,10 +174,11 @@ void RigWorker::useProfile(hw::RigProfile profile) {
   const Status started = startRig(std::move(profile));
   if (started) return;
   const QString why = qs(started.error().message);
-  emit error(rig_ ? tr("The rig did not start: %1. Check the device's connection and power, then "
-                       "reload the profile.")
-                        .arg(why)
-                  : tr("The rig could not be built: %1").arg(why));
+  send(&RigWorker::error,
+       rig_ ? tr("The rig did not start: %1. Check the device's connection and power, then "
+                 "reload the profile.")
+                  .arg(why)
+            : tr("The rig could not be built: %1").arg(why));
 }
 
 Status RigWorker::startRig(hw::RigProfile profile) {
@@ -198,7 +188,7 @@ Status RigWorker::startRig(hw::RigProfile profile) {
   profile_ = std::make_shared<const hw::RigProfile>(std::move(profile));
   Result<hw::Rig> rig = app::buildRig(*profile_);
   if (!rig) {
-    emit profileLoaded(profile_, nullptr);
+    send(&RigWorker::profileLoaded, profile_, nullptr);
     emitStatus();
     return rig.error();
   }
@@ -206,7 +196,7 @@ Status RigWorker::startRig(hw::RigProfile profile) {
   const Status up = hw::bringUp(*rig_);
   rig_->camera->setLiveView(true);
   // The camera shares the rig's lifetime: the live view may hold it past a reload.
-  emit profileLoaded(profile_, CameraPtr(rig_, rig_->camera.get()));
+  send(&RigWorker::profileLoaded, profile_, CameraPtr(rig_, rig_->camera.get()));
   poll_timer_->start();
   emitStatus();
   return up;
@@ -214,33 +204,34 @@ Status RigWorker::startRig(hw::RigProfile profile) {
 
 void RigWorker::arm(std::array<double, 2> speed) {
   if (!rig_ || !profile_) {
-    emit error(tr("No rig: open a rig profile first."));
+    send(&RigWorker::error, tr("No rig: open a rig profile first."));
     return;
   }
   auto curve = profile_->calibration.curve();
   if (!curve) {
-    emit error(qs(curve.error().message));
+    send(&RigWorker::error, qs(curve.error().message));
     return;
   }
   // A lost device is refused every call: say so before touching any line.
   if (Status ready = rig_->health->ready(); !ready) {
-    emit error(tr("Cannot arm: %1").arg(qs(ready.error().message)));
+    send(&RigWorker::error, tr("Cannot arm: %1").arg(qs(ready.error().message)));
     emitStatus();
     return;
   }
   if (Status up = hw::bringUp(*rig_); !up) {
-    emit error(tr("Cannot arm: %1").arg(qs(up.error().message)));
+    send(&RigWorker::error, tr("Cannot arm: %1").arg(qs(up.error().message)));
     return;
   }
   for (int i = 0; i < 2; ++i) {
     Result<double> p = curve->pressure_kPa(speed[i]);
     if (!p) {
-      emit error(tr("Launcher %1: %2").arg(qs(profile_->launchers[i].name), qs(p.error().message)));
+      send(&RigWorker::error,
+           tr("Launcher %1: %2").arg(qs(profile_->launchers[i].name), qs(p.error().message)));
       return;
     }
     if (Status s = rig_->regulator->setPressureKPa(profile_->launchers[i].regulator_channel, *p);
         !s) {
-      emit error(tr("Cannot arm: %1").arg(qs(s.error().message)));
+      send(&RigWorker::error, tr("Cannot arm: %1").arg(qs(s.error().message)));
       (void)rig_->regulator->vent();
       status_.armed = false;
       emitStatus();
@@ -258,21 +249,21 @@ void RigWorker::disarm() {
   armed_since_.invalidate();
   if (rig_) {
     if (rig_->regulator->state() != hw::DeviceState::Closed)
-      if (Status s = rig_->regulator->vent(); !s) emit error(qs(s.error().message));
+      if (Status s = rig_->regulator->vent(); !s) send(&RigWorker::error, qs(s.error().message));
     if (rig_->valves->state() != hw::DeviceState::Closed)
-      if (Status s = rig_->valves->closeAll(); !s) emit error(qs(s.error().message));
+      if (Status s = rig_->valves->closeAll(); !s) send(&RigWorker::error, qs(s.error().message));
   }
   poll();
 }
 
 void RigWorker::reconnect() {
   if (!rig_) {
-    emit reconnectFinished(false, tr("No rig: open a rig profile first."));
+    send(&RigWorker::reconnectFinished, false, tr("No rig: open a rig profile first."));
     return;
   }
   const std::vector<hw::DeviceLoss> lost = rig_->health->lost();
   if (lost.empty()) {
-    emit reconnectFinished(true, tr("Nothing to reconnect: every device answers."));
+    send(&RigWorker::reconnectFinished, true, tr("Nothing to reconnect: every device answers."));
     emitStatus();
     return;
   }
@@ -284,14 +275,15 @@ void RigWorker::reconnect() {
   if (found) {
     // Reopened devices run again; the camera feeds the live view again.
     if (Status up = hw::bringUp(*rig_); !up)
-      emit error(tr("The rig did not start after the reconnect: %1").arg(qs(up.error().message)));
+      send(&RigWorker::error,
+           tr("The rig did not start after the reconnect: %1").arg(qs(up.error().message)));
     rig_->camera->setLiveView(true);
-    emit reconnectFinished(
-        true, tr("Reconnected: %1 answer%2 again. Arm when ready.")
-                  .arg(names.join(", "), names.size() == 1 ? QStringLiteral("s") : QString()));
+    send(&RigWorker::reconnectFinished, true,
+         tr("Reconnected: %1 answer%2 again. Arm when ready.")
+             .arg(names.join(", "), names.size() == 1 ? QStringLiteral("s") : QString()));
   } else {
-    emit reconnectFinished(false,
-                           tr("Still lost after Reconnect: %1").arg(qs(found.error().message)));
+    send(&RigWorker::reconnectFinished, false,
+         tr("Still lost after Reconnect: %1").arg(qs(found.error().message)));
   }
   poll();
 }
@@ -337,12 +329,13 @@ void RigWorker::poll() {
     if (lines.isEmpty()) lines << tr("the regulator stopped answering");
     armed_since_.invalidate();
     disarm();  // vents and closes the valves, then polls and reports the state
-    emit error(tr("Pressure did not settle within %1 s (tolerance %2 kPa): %3. The lines were "
-                  "vented and the rig disarmed. Check the line for a leak and the supply "
-                  "pressure, then arm again.")
-                   .arg(profile_->sequencer.settle_timeout_s)
-                   .arg(profile_->sequencer.settle_tolerance_kPa)
-                   .arg(lines.join("; ")));
+    send(&RigWorker::error,
+         tr("Pressure did not settle within %1 s (tolerance %2 kPa): %3. The lines were "
+            "vented and the rig disarmed. Check the line for a leak and the supply "
+            "pressure, then arm again.")
+             .arg(profile_->sequencer.settle_timeout_s)
+             .arg(profile_->sequencer.settle_tolerance_kPa)
+             .arg(lines.join("; ")));
     return;
   }
   emitStatus();
@@ -361,16 +354,17 @@ void RigWorker::emitStatus() {
     status_.state = {"none", "none", "none"};
     status_.lost = {};
   }
-  emit status(status_);
+  send(&RigWorker::status, status_);
 }
 
 void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
   if (!rig_) {
-    emit error(tr("No rig: open a rig profile first."));
+    send(&RigWorker::error, tr("No rig: open a rig profile first."));
     return;
   }
   if (!status_.armed || !status_.settled) {
-    emit error(tr("Not ready to fire: arm first and wait until both pressures have settled."));
+    send(&RigWorker::error,
+         tr("Not ready to fire: arm first and wait until both pressures have settled."));
     return;
   }
   status_.busy = true;
@@ -380,7 +374,8 @@ void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
   hw::Shot shot = sequencer.fire(
       hw::ShotRequest::atSpeeds(speed[0], speed[1]),
       [this](const hw::StepStamp& step) {
-        emit shotStep(qs(step.detail.empty() ? step.name : step.name + ": " + step.detail));
+        send(&RigWorker::shotStep,
+             qs(step.detail.empty() ? step.name : step.name + ": " + step.detail));
       },
       cancel);
   shot.id = app::makeShotId(app::wallTimeUnixNs(), shot_counter_++);
@@ -395,21 +390,23 @@ void RigWorker::fire(std::array<double, 2> speed, const QString& out_dir) {
     status_.armed = false;  // the sequencer vented the lines
   // The sequencer stops the camera after the burst: restart it for the live view.
   if (Status up = hw::bringUp(*rig_); !up)
-    emit error(tr("After the shot the rig did not restart: %1").arg(qs(up.error().message)));
+    send(&RigWorker::error,
+         tr("After the shot the rig did not restart: %1").arg(qs(up.error().message)));
   status_.busy = false;
   // The state first (not busy: Disarm and Arm enabled again), then the shot:
   // when the window shows the shot its buttons already answer.
   poll();
   auto shared = std::make_shared<const hw::Shot>(std::move(shot));
-  emit shotFired(shared, file, save_error);
+  send(&RigWorker::shotFired, shared, file, save_error);
 }
 
 bool RigWorker::beginCampaign() {
   if (!profile_) {
     // Said once, by campaignFinished (the window shows it and unlocks the view).
-    emit campaignFinished(tr("Campaign not started: no rig profile is loaded. Open one (File > "
-                             "Open rig profile), then run the campaign again."),
-                          false, false);
+    send(&RigWorker::campaignFinished,
+         tr("Campaign not started: no rig profile is loaded. Open one (File > "
+            "Open rig profile), then run the campaign again."),
+         false, false);
     return false;
   }
   // The campaign builds a rig per shot (each aimed for its angle): free the
@@ -425,7 +422,8 @@ void RigWorker::endCampaign() {
   status_.busy = false;
   if (rig_) {
     if (Status up = hw::bringUp(*rig_); !up)
-      emit error(tr("After the campaign the rig did not restart: %1").arg(qs(up.error().message)));
+      send(&RigWorker::error,
+           tr("After the campaign the rig did not restart: %1").arg(qs(up.error().message)));
     rig_->camera->setLiveView(true);
   }
   poll_timer_->start();
@@ -438,17 +436,18 @@ void RigWorker::campaign(const app::CampaignOptions& options) {
   Result<app::CampaignReport> report = app::runCampaign(
       *profile_, options,
       [this](int done, int total, const hw::Shot& shot) {
-        emit campaignProgress(done, total, std::make_shared<const hw::Shot>(shot));
+        send(&RigWorker::campaignProgress, done, total, std::make_shared<const hw::Shot>(shot));
       },
       cancel);
   endCampaign();
   if (!report) {
-    emit campaignFinished(tr("Campaign stopped: %1").arg(qs(report.error().message)), false, false);
+    send(&RigWorker::campaignFinished, tr("Campaign stopped: %1").arg(qs(report.error().message)),
+         false, false);
     return;
   }
-  emit campaignFinished(campaignSummary(options, *report), report->cancelled,
-                        report->fired == options.shots && report->failed == 0 &&
-                            static_cast<int>(report->files.size()) == options.shots);
+  send(&RigWorker::campaignFinished, campaignSummary(options, *report), report->cancelled,
+       report->fired == options.shots && report->failed == 0 &&
+           static_cast<int>(report->files.size()) == options.shots);
 }
 
 void RigWorker::adaptiveCampaign(const app::CampaignOptions& options,
@@ -466,20 +465,19 @@ void RigWorker::adaptiveCampaign(const app::CampaignOptions& options,
         step->shot = shot;
         step->status = st;
         step->sigmas = qs(app::adaptiveSigmasText(st, design));
-        emit adaptiveProgress(step);
+        send(&RigWorker::adaptiveProgress, step);
       },
       cancel);
   endCampaign();
   if (!report) {
-    emit campaignFinished(tr("Adaptive campaign stopped: %1").arg(qs(report.error().message)),
-                          false, false);
+    send(&RigWorker::campaignFinished,
+         tr("Adaptive campaign stopped: %1").arg(qs(report.error().message)), false, false);
     return;
   }
   // Complete: stopped at the targets with every shot fired saved and ok.
   const app::CampaignReport& c = report->campaign;
-  emit campaignFinished(
-      adaptiveCampaignSummary(options, design, *report), c.cancelled,
-      report->targets_met && c.failed == 0 && static_cast<int>(c.files.size()) == c.fired);
+  send(&RigWorker::campaignFinished, adaptiveCampaignSummary(options, design, *report), c.cancelled,
+       report->targets_met && c.failed == 0 && static_cast<int>(c.files.size()) == c.fired);
 }
 
 namespace {

@@ -7,6 +7,9 @@
 // it only through queued calls (the public request* methods may be called from
 // any thread) and hears back through signals, so no device call ever blocks
 // the GUI. Long work (a shot, a campaign) can be cancelled from any thread.
+// Requests and signals cross between the threads through two Mailboxes (a
+// std::mutex, which ThreadSanitizer sees): the signals are emitted on the
+// thread that created the worker, from what the control thread posted.
 #include <QElapsedTimer>
 #include <QObject>
 #include <QString>
@@ -21,6 +24,7 @@
 
 #include "app/adaptive_campaign.hpp"
 #include "app/campaign.hpp"
+#include "app/gui/mailbox.hpp"
 #include "app/gui/shot_analysis_service.hpp"
 #include "hw/rig.hpp"
 #include "hw/rig_profile.hpp"
@@ -173,9 +177,19 @@ class RigWorker : public QObject {
   void shutDownRig();
   void emitStatus();
   std::stop_token newCancelToken();
+  /// Any thread: emits `signal` with these arguments (copied now) on the
+  /// thread that created the worker.
+  template <class... Params, class... Args>
+  void send(void (RigWorker::*signal)(Params...), Args&&... args) {
+    outbox_->post([this, signal, ... values = std::decay_t<Params>(std::forward<Args>(args))] {
+      (this->*signal)(values...);
+    });
+  }
 
   QThread thread_;
-  QTimer* poll_timer_ = nullptr;  // lives on the control thread
+  Mailbox* inbox_ = nullptr;         ///< requests; lives on the control thread
+  std::unique_ptr<Mailbox> outbox_;  ///< signals; lives on the creating thread
+  QTimer* poll_timer_ = nullptr;     // lives on the control thread
   std::shared_ptr<hw::Rig> rig_;
   ProfilePtr profile_;
   RigStatus status_;

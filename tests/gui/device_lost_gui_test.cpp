@@ -164,7 +164,10 @@ TEST(DeviceLostGui, ALostRegulatorIsShownAndOnlyReconnectClearsItOnceItAnswers) 
   EXPECT_EQ(reconnected.count(), 0) << "the re-check ran inside the click (on the GUI thread)";
   EXPECT_FALSE(reconnect->isEnabled()) << "enabled while reconnecting";
   ASSERT_TRUE(QTest::qWaitFor([&] { return reconnected.count() == 1; }, 20000));
-  EXPECT_EQ(reported_on, w.rigWorker()->controlThread());
+  // Reported on the window's thread (RigWorker's signals come through its
+  // Mailbox), from work done on the control thread.
+  EXPECT_EQ(reported_on, QThread::currentThread());
+  EXPECT_EQ(w.rigWorker()->thread(), w.rigWorker()->controlThread());
   EXPECT_FALSE(reconnected.at(0).at(0).toBool());
   EXPECT_GT(hardware->unanswered(), unanswered) << "Reconnect did not ask the regulator";
   QTest::qWait(300);
