@@ -86,10 +86,12 @@ TEST(Mailbox, WorkFromManyThreadsRunsOnTheMailboxThreadInTheOrderEachPostedIt) {
 
 TEST(Mailbox, WorkRunsOnTheThreadTheMailboxLivesIn) {
   application();
+  // Made and moved before the thread starts, as RigWorker does with its
+  // inbox: what the thread then sees was set before it existed.
   QThread other;
-  other.start();
   Mailbox box;
   box.moveToThread(&other);
+  other.start();
   std::atomic<QThread*> ran_on{nullptr};
   box.post([&] { ran_on = QThread::currentThread(); });
   ASSERT_TRUE(QTest::qWaitFor([&] { return ran_on.load() != nullptr; }, 5000));
