@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
 #include <ctime>
+#include <deque>
 #include <limits>
 #include <mutex>
 #include <thread>
@@ -105,6 +107,65 @@ class ClockMap {
   static constexpr int kWindow = 256;
   std::int64_t current_ = kNone, previous_ = kNone;
   int n_ = 0;
+};
+
+/// Lets go of a lost camera's Aravis objects on a thread of its own. Aravis
+/// still talks to the device while it tears them down (its stream channel's
+/// port, then the release of control: each request 5 x 500 ms to a device
+/// that is gone, hard-coded in Aravis 0.8), which made stop() wait 5 s and
+/// close() 2.5 s on a camera that was already lost, holding up the shot's
+/// safe stop and the GUI's control thread. Objects are let go in the order
+/// given; open() waits until none is pending (a camera that answers again is
+/// then free to be taken control of), and so does the process at exit.
+class LostObjectReaper {
+ public:
+  static LostObjectReaper& instance() {
+    static LostObjectReaper reaper;
+    return reaper;
+  }
+  /// Unreferences `object` (a GObject) later, on the reaper's thread.
+  void release(gpointer object) {
+    std::lock_guard lock(mutex_);
+    queue_.push_back(object);
+    if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
+    changed_.notify_all();
+  }
+  /// Returns once every object given so far has been let go.
+  void waitIdle() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [this] { return queue_.empty() && !busy_; });
+  }
+  ~LostObjectReaper() {
+    {
+      std::lock_guard lock(mutex_);
+      done_ = true;
+      changed_.notify_all();
+    }
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  void run() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      changed_.wait(lock, [this] { return done_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // done, nothing left
+      gpointer object = queue_.front();
+      queue_.pop_front();
+      busy_ = true;
+      lock.unlock();
+      g_object_unref(object);
+      lock.lock();
+      busy_ = false;
+      changed_.notify_all();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<gpointer> queue_;
+  bool busy_ = false, done_ = false;
+  std::thread thread_;
 };
 
 const char* toString(AravisTrigger t) {
@@ -272,6 +333,8 @@ struct CameraAravis::Impl {
 };
 
 Status CameraAravis::Impl::open() {
+  // A lost camera of earlier may still be letting go of the device.
+  LostObjectReaper::instance().waitIdle();
   if (device.rfind("Fake_", 0) == 0) arv_enable_interface("Fake");
   GError* e = nullptr;
   std::lock_guard lock(arv_mutex);
@@ -357,8 +420,13 @@ void CameraAravis::Impl::close() {
   if (camera) {
     if (lost_handler) g_signal_handler_disconnect(arv_camera_get_device(camera), lost_handler);
     lost_handler = 0;
-    // Unreferencing the camera joins its heartbeat thread: no callback after this.
-    g_object_unref(camera);
+    // Unreferencing the camera joins its heartbeat thread: no callback after
+    // this (the handler is disconnected above either way). A lost camera's
+    // is let go in the background: Aravis asks the dead device to release it.
+    if (lost)
+      LostObjectReaper::instance().release(camera);
+    else
+      g_object_unref(camera);
     camera = nullptr;
   }
 }
@@ -630,7 +698,12 @@ Status CameraAravis::Impl::stopStream() {
   }
   if (stream) {
     refreshStreamCounters();
-    g_object_unref(stream);  // frees the buffer pool
+    // Frees the buffer pool; a lost camera's in the background (its stream
+    // channel is closed with requests the dead device never answers).
+    if (lost)
+      LostObjectReaper::instance().release(stream);
+    else
+      g_object_unref(stream);
     stream = nullptr;
   }
   return result;
