@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "app/store/atomic_file.hpp"
+#include "hw/memory.hpp"
 
 // Shot files are read and written from several threads (GUI browser, saver,
 // analysis) with no lock of our own: that relies on HDF5's global lock.
@@ -432,9 +433,48 @@ std::int32_t Reader::intAttribute(const std::string& object, const char* name) {
   if (!attributeExists(object, name)) return 0;
   std::int32_t value = 0;
   Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  if (!attr.valid() || H5Aread(attr.get(), H5T_NATIVE_INT32, &value) < 0)
+  Handle type(attr.valid() ? H5Aget_type(attr.get()) : H5I_INVALID_HID, H5Tclose);
+  Handle space(attr.valid() ? H5Aget_space(attr.get()) : H5I_INVALID_HID, H5Sclose);
+  if (!type.valid() || !space.valid()) {
+    failHdf5("reading attribute " + std::string(name) + " of " + object);
+    return 0;
+  }
+  // One whole number: H5Aread writes every element the attribute holds.
+  if (H5Tget_class(type.get()) != H5T_INTEGER || H5Sget_simple_extent_npoints(space.get()) != 1) {
+    fail(collide::fail("shot file " + display_path_ + ": attribute '" + name + "' of " + object +
+                       " should be one whole number; the file is corrupt or from another program"));
+    return 0;
+  }
+  if (H5Aread(attr.get(), H5T_NATIVE_INT32, &value) < 0)
     failHdf5("reading attribute " + std::string(name) + " of " + object);
   return value;
+}
+
+bool Reader::heldInFile(hid_t d, const std::string& path, hsize_t count,
+                        std::size_t element_bytes) {
+  const double declared = static_cast<double>(count) * static_cast<double>(element_bytes);
+  Handle dcpl(H5Dget_create_plist(d), H5Pclose);
+  const bool filtered = dcpl.valid() && H5Pget_nfilters(dcpl.get()) > 0;
+  if (!filtered) {
+    // Unfiltered data takes its size in the file: a dataset declaring more
+    // than it stores was damaged, or never written (collide writes every
+    // dataset whole).
+    const double stored = static_cast<double>(H5Dget_storage_size(d));
+    if (declared <= stored) return true;
+    fail(collide::fail("shot file " + display_path_ + ": dataset " + path + " declares " +
+                       std::to_string(count) + " values (" + hw::formatBytes(declared) +
+                       ") but the file holds " + hw::formatBytes(stored) +
+                       " of data for it; the file is corrupt or incomplete"));
+    return false;
+  }
+  // Compressed data can expand, but never past the memory there is.
+  const auto avail = hw::availableMemoryBytes();
+  if (!avail || declared <= 0.5 * static_cast<double>(*avail)) return true;
+  fail(collide::fail("shot file " + display_path_ + ": dataset " + path + " declares " +
+                     std::to_string(count) + " values (" + hw::formatBytes(declared) +
+                     "), more than half the " + hw::formatBytes(static_cast<double>(*avail)) +
+                     " of memory free here; the file is corrupt"));
+  return false;
 }
 
 template <class T>
@@ -463,6 +503,7 @@ std::vector<T> Reader::dataset(const std::string& path, const std::vector<hsize_
         " of shape " + shapeText(dims) + "; the file is corrupt or was not written by collide"));
     return {};
   }
+  if (!heldInFile(d.get(), path, elementCount(dims), H5Tget_size(type.get()))) return {};
   std::vector<T> values(elementCount(dims));
   if (!values.empty() &&
       H5Dread(d.get(), nativeType<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
@@ -491,6 +532,11 @@ std::vector<std::string> Reader::readStrings(const std::string& path, int expect
   }
   std::vector<std::string> out;
   const auto count = static_cast<std::size_t>(H5Sget_simple_extent_npoints(space.get()));
+  // A fixed-length string takes its size in the file; a variable-length one
+  // at least a byte (its reference there).
+  const std::size_t string_bytes =
+      H5Tis_variable_str(type.get()) > 0 ? 1 : std::max<std::size_t>(1, H5Tget_size(type.get()));
+  if (!heldInFile(d.get(), path, count, string_bytes)) return {};
   if (auto cause = readStringsOfType(
           type.get(), space.get(), count,
           [&](hid_t mem, void* buf) {

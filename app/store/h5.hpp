@@ -197,6 +197,10 @@ class Reader {
  private:
   /// Reads strings from a dataset of `expected_rank` (0 or 1).
   std::vector<std::string> readStrings(const std::string& path, int expected_rank);
+  /// Whether the `count` elements of `element_bytes` dataset `d` declares
+  /// are data the file holds (fails naming `path` if not), so that no
+  /// dimension in a damaged or hostile header sizes an allocation.
+  bool heldInFile(hid_t d, const std::string& path, hsize_t count, std::size_t element_bytes);
 
   hid_t file_;
   std::string display_path_;
