@@ -10,6 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "app/store/shot_file.hpp"
+#include "tests/app/shot_fixtures.hpp"
+
 namespace collide::fuzz {
 
 /// The first argument that is not a libFuzzer flag: the writable corpus
@@ -33,6 +36,23 @@ inline void addSeed(const std::string& folder, const std::string& name, const st
   std::error_code ec;
   std::filesystem::copy_file(source, std::filesystem::path(folder) / name,
                              std::filesystem::copy_options::overwrite_existing, ec);
+}
+
+/// Small valid shot files (8 and 16-bit, 8 x 6 pixels, 3 frames, with truth
+/// and results) written by the current code into `dir` as seed-<format>.h5:
+/// their paths (none for a format the writer refused).
+inline std::vector<std::string> writeSmallShots(const std::string& dir) {
+  std::vector<std::string> paths;
+  for (auto format : {vision::PixelFormat::Mono8, vision::PixelFormat::Mono16}) {
+    testing::ShotSpec spec;
+    spec.format = format;
+    spec.width = 8;
+    spec.height = 6;
+    spec.frames = 3;
+    const std::string path = dir + "/seed-" + vision::toString(format) + ".h5";
+    if (app::writeShot(path, testing::makeShot(spec))) paths.push_back(path);
+  }
+  return paths;
 }
 
 }  // namespace collide::fuzz

@@ -208,17 +208,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // the edits fail often; say nothing
   const std::string dir = "/tmp/collide-shot-content-seeds-" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
-  for (auto format : {collide::vision::PixelFormat::Mono8, collide::vision::PixelFormat::Mono16}) {
-    collide::testing::ShotSpec spec;
-    spec.format = format;
-    spec.width = 8;
-    spec.height = 6;
-    spec.frames = 3;
-    const std::string path = dir + "/seed.h5";
-    std::filesystem::remove(path);
-    if (collide::app::writeShot(path, collide::testing::makeShot(spec)))
-      seeds().push_back(describe(path));
-  }
+  for (const std::string& path : collide::fuzz::writeSmallShots(dir))
+    seeds().push_back(describe(path));
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
   if (seeds().empty()) __builtin_trap();  // the writer itself is broken

@@ -20,17 +20,8 @@ extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv) {
   const std::string corpus = collide::fuzz::corpusFolder(*argc, *argv);
   const std::string dir = "/tmp/collide-shot-fuzz-seeds-" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
-  for (auto format : {collide::vision::PixelFormat::Mono8, collide::vision::PixelFormat::Mono16}) {
-    collide::testing::ShotSpec spec;
-    spec.format = format;
-    spec.width = 8;
-    spec.height = 6;
-    spec.frames = 3;
-    auto shot = collide::testing::makeShot(spec);
-    const std::string name = std::string("seed-") + collide::vision::toString(format) + ".h5";
-    if (collide::app::writeShot(dir + "/" + name, shot))
-      collide::fuzz::addSeed(corpus, name, dir + "/" + name);
-  }
+  for (const std::string& path : collide::fuzz::writeSmallShots(dir))
+    collide::fuzz::addSeed(corpus, std::filesystem::path(path).filename(), path);
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
   return 0;
