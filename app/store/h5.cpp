@@ -402,50 +402,45 @@ Handle Reader::openDataset(const std::string& path, hid_t dapl) {
   return d;
 }
 
-std::string Reader::stringAttribute(const std::string& object, const char* name) {
-  if (!ok_) return {};
-  if (!attributeExists(object, name)) return {};
-  Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  Handle type(attr.valid() ? H5Aget_type(attr.get()) : H5I_INVALID_HID, H5Tclose);
-  Handle space(attr.valid() ? H5Aget_space(attr.get()) : H5I_INVALID_HID, H5Sclose);
-  std::vector<std::string> out;
-  const std::string what = "reading attribute " + std::string(name) + " of " + object;
-  if (!type.valid() || !space.valid()) {
-    failHdf5(what);
-    return {};
+std::optional<Reader::OneValue> Reader::oneValueAttribute(const std::string& object,
+                                                          const char* name, H5T_class_t cls,
+                                                          const char* one_what) {
+  if (!ok_) return std::nullopt;
+  if (!attributeExists(object, name)) return std::nullopt;
+  OneValue a;
+  a.attr = Handle(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  a.type = Handle(a.attr.valid() ? H5Aget_type(a.attr.get()) : H5I_INVALID_HID, H5Tclose);
+  a.space = Handle(a.attr.valid() ? H5Aget_space(a.attr.get()) : H5I_INVALID_HID, H5Sclose);
+  if (!a.type.valid() || !a.space.valid()) {
+    failHdf5("reading attribute " + std::string(name) + " of " + object);
+    return std::nullopt;
   }
-  if (H5Tget_class(type.get()) != H5T_STRING || H5Sget_simple_extent_npoints(space.get()) != 1) {
+  // One value: H5Aread writes every element the attribute holds.
+  if (H5Tget_class(a.type.get()) != cls || H5Sget_simple_extent_npoints(a.space.get()) != 1) {
     fail(collide::fail("shot file " + display_path_ + ": attribute '" + name + "' of " + object +
-                       " should be one string; the file is corrupt or from another program"));
-    return {};
+                       " should be " + one_what + "; the file is corrupt or from another program"));
+    return std::nullopt;
   }
+  return a;
+}
+
+std::string Reader::stringAttribute(const std::string& object, const char* name) {
+  auto a = oneValueAttribute(object, name, H5T_STRING, "one string");
+  if (!a) return {};
+  std::vector<std::string> out;
   if (auto cause = readStringsOfType(
-          type.get(), space.get(), 1,
-          [&](hid_t mem, void* buf) { return H5Aread(attr.get(), mem, buf); }, out)) {
-    failHdf5(what, *cause);
+          a->type.get(), a->space.get(), 1,
+          [&](hid_t mem, void* buf) { return H5Aread(a->attr.get(), mem, buf); }, out)) {
+    failHdf5("reading attribute " + std::string(name) + " of " + object, *cause);
     return {};
   }
   return out.front();
 }
 
 std::int32_t Reader::intAttribute(const std::string& object, const char* name) {
-  if (!ok_) return 0;
-  if (!attributeExists(object, name)) return 0;
+  auto a = oneValueAttribute(object, name, H5T_INTEGER, "one whole number");
   std::int32_t value = 0;
-  Handle attr(H5Aopen_by_name(file_, object.c_str(), name, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  Handle type(attr.valid() ? H5Aget_type(attr.get()) : H5I_INVALID_HID, H5Tclose);
-  Handle space(attr.valid() ? H5Aget_space(attr.get()) : H5I_INVALID_HID, H5Sclose);
-  if (!type.valid() || !space.valid()) {
-    failHdf5("reading attribute " + std::string(name) + " of " + object);
-    return 0;
-  }
-  // One whole number: H5Aread writes every element the attribute holds.
-  if (H5Tget_class(type.get()) != H5T_INTEGER || H5Sget_simple_extent_npoints(space.get()) != 1) {
-    fail(collide::fail("shot file " + display_path_ + ": attribute '" + name + "' of " + object +
-                       " should be one whole number; the file is corrupt or from another program"));
-    return 0;
-  }
-  if (H5Aread(attr.get(), H5T_NATIVE_INT32, &value) < 0)
+  if (a && H5Aread(a->attr.get(), H5T_NATIVE_INT32, &value) < 0)
     failHdf5("reading attribute " + std::string(name) + " of " + object);
   return value;
 }

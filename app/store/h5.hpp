@@ -197,6 +197,13 @@ class Reader {
  private:
   /// Reads strings from a dataset of `expected_rank` (0 or 1).
   std::vector<std::string> readStrings(const std::string& path, int expected_rank);
+  /// Attribute `name` of `object`, open, if it holds one value of class
+  /// `cls` (fails, saying it should be `one_what`, if not).
+  struct OneValue {
+    Handle attr, type, space;
+  };
+  std::optional<OneValue> oneValueAttribute(const std::string& object, const char* name,
+                                            H5T_class_t cls, const char* one_what);
   /// Whether the `count` elements of `element_bytes` dataset `d` declares
   /// are data the file holds (fails naming `path` if not), so that no
   /// dimension in a damaged or hostile header sizes an allocation.
