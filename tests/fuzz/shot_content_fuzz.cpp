@@ -212,6 +212,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
     seeds().push_back(describe(path));
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
+  for (const Seed& seed : seeds())
+    if (seed.objects.empty() || seed.attributes.empty()) __builtin_trap();  // unreadable seed
   if (seeds().empty()) __builtin_trap();  // the writer itself is broken
   return 0;
 }
