@@ -260,6 +260,18 @@ int writeAllToFd(int fd, const std::string& text) {
   return 0;
 }
 
+bool readAllFromFd(int fd, void* data, std::size_t size) {
+  char* p = static_cast<char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::read(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
 namespace {
 
 Status writeThrough(const std::string& path, const std::string& text) {

@@ -120,6 +120,10 @@ Status writeTextFile(const std::string& path, const std::string& text);
 /// retried); 0, or the errno of the write that failed.
 int writeAllToFd(int fd, const std::string& text);
 
+/// Reads exactly `size` bytes from the open descriptor `fd` (short reads and
+/// EINTR retried); false at the end of the input or on an error.
+bool readAllFromFd(int fd, void* data, std::size_t size);
+
 /// Ok if `folder` has at least `bytes` free for this user; otherwise "not
 /// enough space to <what>: it needs X, Y are free: free space or choose
 /// another folder (--out)". Ok too when the free space cannot be read (the

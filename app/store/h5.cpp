@@ -583,18 +583,6 @@ void append(std::string& out, const T& value) {
   out.append(reinterpret_cast<const char*>(&value), sizeof value);
 }
 
-bool readAll(int fd, void* data, std::size_t size) {
-  char* p = static_cast<char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::read(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    size -= static_cast<std::size_t>(n);
-  }
-  return true;
-}
-
 void appendText(std::string& out, const std::string& text) {
   append(out, static_cast<std::uint64_t>(text.size()));
   out += text;
@@ -602,9 +590,9 @@ void appendText(std::string& out, const std::string& text) {
 
 bool readText(int fd, std::uint64_t left, std::string& text) {
   std::uint64_t size = 0;
-  if (!readAll(fd, &size, sizeof size) || size > left) return false;
+  if (!readAllFromFd(fd, &size, sizeof size) || size > left) return false;
   text.resize(size);
-  return readAll(fd, text.data(), size);
+  return readAllFromFd(fd, text.data(), size);
 }
 
 }  // namespace
@@ -628,8 +616,9 @@ std::optional<VlenJournal> VlenJournal::load(int fd) {
   const auto left = static_cast<std::uint64_t>(st.st_size);
   char magic[sizeof kJournalMagic] = {};
   std::uint64_t n = 0;
-  if (!readAll(fd, magic, sizeof magic) || std::memcmp(magic, kJournalMagic, sizeof magic) != 0 ||
-      !readAll(fd, &n, sizeof n) || n > left)
+  if (!readAllFromFd(fd, magic, sizeof magic) ||
+      std::memcmp(magic, kJournalMagic, sizeof magic) != 0 || !readAllFromFd(fd, &n, sizeof n) ||
+      n > left)
     return std::nullopt;
   VlenJournal journal;
   journal.mode = Mode::Replay;
@@ -637,8 +626,8 @@ std::optional<VlenJournal> VlenJournal::load(int fd) {
   for (Read& r : journal.reads) {
     std::uint8_t failed = 0;
     std::uint64_t count = 0;
-    if (!readAll(fd, &failed, 1) || !readText(fd, left, r.cause) ||
-        !readAll(fd, &count, sizeof count) || count > left)
+    if (!readAllFromFd(fd, &failed, 1) || !readText(fd, left, r.cause) ||
+        !readAllFromFd(fd, &count, sizeof count) || count > left)
       return std::nullopt;
     r.failed = failed != 0;
     r.strings.resize(count);

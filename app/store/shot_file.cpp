@@ -1,36 +1,22 @@
 #include "app/store/shot_file.hpp"
 
-#include <sys/mman.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <optional>
-#include <sstream>
-#include <thread>
 
 #include "app/report/results_summary.hpp"
 #include "app/store/atomic_file.hpp"
 #include "app/store/h5.hpp"
+#include "app/store/reader_process.hpp"
 #include "hw/memory.hpp"
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define COLLIDE_ASAN 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
-#include <sanitizer/common_interface_defs.h>
-#endif
 
 namespace collide::app {
 
@@ -685,120 +671,42 @@ Result<hw::Shot> readShotLocked(const std::string& path, const ReadOptions& opti
   return shot;
 }
 
-// CPU seconds (user + system) process `pid` has used, from /proc; NaN if unknown.
-double cpuSeconds(pid_t pid) {
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(stat)), {});
-  const auto close = text.rfind(')');  // the command name may hold spaces
-  if (close == std::string::npos) return NAN;
-  std::istringstream fields(text.substr(close + 2));
-  std::string f;
-  double ticks = 0;
-  for (int i = 3; i <= 15 && fields >> f; ++i)
-    if (i == 14 || i == 15) ticks += std::atof(f.c_str());  // utime, stime
-  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+/// The reader process's work (see reader_process.hpp): the whole read, whose
+/// result is dropped; the caller gives the error, if any, from its own read.
+void probeRead(const std::string& path, bool frames) {
+  (void)readShotLocked(path, {.frames = frames, .contained = false});
 }
 
-/// A probing child's exit status when its read finished but handing the
-/// strings over did not (the parent then reads them itself).
-constexpr int kJournalNotSaved = 86;
-
-/// How a child's read went: Fine with the variable-length strings it read
-/// (for the parent to replay), or Stalled (see probeInChild).
-struct Probe {
-  bool stalled = false;
-  std::optional<h5::VlenJournal> strings;
-};
-
-/// Reads `path` in a forked child and reports whether the child finished its
-/// read: a child that ends any other way (killed by a signal, or exiting
-/// non-zero as AddressSanitizer makes a process that reads out of bounds)
-/// means the library cannot read the file. The child exits 0 whether its read
-/// gave a shot or an error: the error is the caller's to give, from its own
-/// read, in which the strings come from the child's journal (a damaged global
-/// heap can make libhdf5 copy out of bounds without crashing the child; the
-/// parent then never asks the library for them). The caller holds
-/// hdf5Mutex(), so no other thread of ours is inside HDF5 at the fork and the
-/// child cannot inherit a held library lock.
-/// A child that outlives its time limit while working is reading a file the
-/// library loops on (an error); one that outlives it idle inherited another
-/// thread's lock at the fork (seen under AddressSanitizer with analysis
-/// threads busy): Stalled, not the file's fault.
-Result<Probe> probeInChild(const std::string& path, const ReadOptions& options) {
-  const int journal_fd = ::memfd_create("collide-shot-strings", MFD_CLOEXEC);
-  if (journal_fd < 0) return Probe{};  // read unprotected rather than not at all
-  struct CloseFd {
-    int fd;
-    ~CloseFd() { ::close(fd); }
-  } close_journal{journal_fd};
-  const pid_t pid = ::fork();
-  if (pid < 0) return Probe{};  // cannot fork: read unprotected rather than not at all
-  if (pid == 0) {
-#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
-    // A sanitizer report here is the library's, about this file: the child
-    // just ends (the parent reports it), without the death hook a host such
-    // as libFuzzer installed for its own process.
-    __sanitizer_set_death_callback(nullptr);
-#endif
-    ReadOptions inner = options;
-    inner.contained = false;
-    h5::VlenJournal journal;
-    {
-      h5::JournalScope scope(journal);
-      (void)readShotLocked(path, inner);
-    }
-    ::_exit(journal.save(journal_fd) ? 0 : kJournalNotSaved);
-  }
-  // libhdf5 can also loop for ever on a damaged global heap: a read that
-  // takes far longer than the disk needs for the whole file is stopped.
+/// libhdf5 can also loop for ever on a damaged global heap: a read that takes
+/// far longer than the disk needs for the whole file is stopped.
+double readTimeLimit(const std::string& path, const ReadOptions& options) {
+  if (options.time_limit_s > 0) return options.time_limit_s;
   std::error_code ec;
   const double size = static_cast<double>(std::filesystem::file_size(path, ec));
-  const double limit_s = options.time_limit_s > 0 ? options.time_limit_s
-                                                  : 30.0 + (ec ? 0.0 : size / 20e6);  // slow disk
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::milliseconds(static_cast<long long>(limit_s * 1000));
-  int status = 0;
-  for (auto pause = std::chrono::microseconds(200);;) {
-    const pid_t done = ::waitpid(pid, &status, WNOHANG);
-    if (done == pid || (done < 0 && errno != EINTR)) break;
-    if (std::chrono::steady_clock::now() > deadline) {
-      const double cpu = cpuSeconds(pid);
-      ::kill(pid, SIGKILL);
-      while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-      }
-      if (std::isfinite(cpu) && cpu < 0.1 * limit_s) return Probe{.stalled = true};
-      return fail("shot file " + path + " is corrupt: reading it did not finish within " +
-                  std::to_string(static_cast<int>(limit_s)) +
-                  " s (the HDF5 library loops on it); restore it from a backup, or move it out "
-                  "of the folder");
-    }
-    std::this_thread::sleep_for(pause);
-    pause = std::min(pause * 2, std::chrono::microseconds(20000));
-  }
-  if (WIFEXITED(status) && WEXITSTATUS(status) == kJournalNotSaved)
-    return Probe{};  // the read went through; only handing its strings over failed
-  if (WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0)) {
-    const std::string how = WIFSIGNALED(status)
-                                ? std::string("SIG") + sigabbrev_np(WTERMSIG(status))
-                                : "exit status " + std::to_string(WEXITSTATUS(status));
-    return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" + how +
-                "); restore it from a backup, or move it out of the folder");
-  }
-  return Probe{.strings = h5::VlenJournal::load(journal_fd)};
+  return 30.0 + (ec ? 0.0 : size / 20e6);  // a slow disk
 }
 
 }  // namespace
 
 Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
   std::lock_guard lock(hdf5Mutex());
-  // A stalled child is tried once more; twice stalled, the file is read here
-  // (it did not make the library loop: the child sat idle).
+  // A stalled reader is tried once more; twice stalled, the file is read here
+  // (it did not make the library loop: the reader sat idle).
   for (int attempt = 0; options.contained && attempt < 2; ++attempt) {
-    auto probe = probeInChild(path, options);
-    if (!probe) return probe.error();
-    if (probe->stalled) continue;
-    if (!probe->strings) break;
-    h5::JournalScope scope(*probe->strings);
+    const double limit_s = readTimeLimit(path, options);
+    ProbeResult probe = probeInReaderProcess(path, options.frames, limit_s, probeRead);
+    using End = ProbeResult::End;
+    if (probe.end == End::Stalled) continue;
+    if (probe.end == End::Crashed)
+      return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" +
+                  probe.how + "); restore it from a backup, or move it out of the folder");
+    if (probe.end == End::Looped)
+      return fail("shot file " + path + " is corrupt: reading it did not finish within " +
+                  std::to_string(static_cast<int>(limit_s)) +
+                  " s (the HDF5 library loops on it); restore it from a backup, or move it out "
+                  "of the folder");
+    if (!probe.strings) break;  // no reader process, or its strings did not arrive
+    h5::JournalScope scope(*probe.strings);
     return readShotLocked(path, options);
   }
   return readShotLocked(path, options);

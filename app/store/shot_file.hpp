@@ -54,11 +54,13 @@ struct ReadOptions {
   /// still read and Frame::image stays empty: enough for listing and
   /// cataloguing, and fast (only metadata is touched).
   bool frames = true;
-  /// Read the file once in a child process first, so that a file corrupt in a
-  /// way that crashes the HDF5 library (a damaged global heap makes
-  /// libhdf5 1.10 read out of bounds) gives an error naming the file instead
-  /// of ending this process (a folder scan goes on with the other files).
-  /// Costs a fork and a second read (from the page cache); on by default.
+  /// Read the file once in a helper process first (reader_process.hpp), so
+  /// that a file corrupt in a way that crashes the HDF5 library (a damaged
+  /// global heap makes libhdf5 1.10 read out of bounds) gives an error naming
+  /// the file instead of ending this process (a folder scan goes on with the
+  /// other files). Costs a second read (from the page cache); the helper is
+  /// forked once and serves the reads that follow (a new one after a crash,
+  /// and every 200 reads). On by default.
   bool contained = true;
   /// How long the contained read may take before the file is called corrupt
   /// (libhdf5 loops for ever on some damaged heaps), in seconds; 0: 30 s plus

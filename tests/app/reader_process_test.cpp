@@ -1,0 +1,182 @@
+// The reader process behind contained reads (app/store/reader_process.hpp):
+// one process serves many reads; a crash or a loop is blamed on a file only
+// when a fresh process gives it; the process holds none of the program's
+// descriptors and does not outlive the program. The reads here are stand-ins
+// (functions that crash, spin or sleep on a given name), so each outcome is
+// certain; corrupt_shot_test.cpp reads real damaged files.
+#include "app/store/reader_process.hpp"
+
+#include <fcntl.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <fstream>
+#include <thread>
+
+#include "app/store/save.hpp"
+#include "app/store/shot_file.hpp"
+#include "tests/app/shot_fixtures.hpp"
+
+namespace collide::testing {
+namespace {
+
+using app::ProbeResult;
+using End = ProbeResult::End;
+
+// State a stand-in read leaves in the reader process, as a damaged file could
+// leave the library's.
+bool g_poisoned = false;
+
+// "crash": the process ends (exit status 3); "poison": later reads in the same
+// process crash; "spin": works for ever; "sleep": sits idle for ever; any
+// other name reads fine.
+void standIn(const std::string& path, bool /*frames*/) {
+  if (path == "crash" || g_poisoned) ::_exit(3);
+  if (path == "poison") g_poisoned = true;
+  if (path == "spin")
+    for (volatile unsigned long i = 0;; i = i + 1) {
+    }
+  if (path == "sleep")
+    for (;;) ::pause();
+}
+
+ProbeResult probe(const std::string& name, double limit_s = 5.0) {
+  return app::probeInReaderProcess(name, false, limit_s, standIn);
+}
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Whether process `pid` is gone (or a zombie no one reaped yet).
+bool ended(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), {});
+  const auto close = text.rfind(')');
+  return close == std::string::npos || text.substr(close + 2, 1) == "Z";
+}
+
+bool endsWithin(pid_t pid, double seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  while (!ended(pid)) {
+    if (secondsSince(start) > seconds) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+TEST(ReaderProcess, OneProcessServesManyReads) {
+  ASSERT_EQ(probe("crash").end, End::Crashed);  // whatever ran before, none runs now
+  const long started = app::readerProcessStats().started;
+  for (int i = 0; i < 50; ++i) {
+    const ProbeResult r = probe("fine-" + std::to_string(i));
+    ASSERT_EQ(r.end, End::Finished) << "read " << i;
+    EXPECT_TRUE(r.strings.has_value()) << "read " << i;
+  }
+  EXPECT_EQ(app::readerProcessStats().started, started + 1);
+}
+
+TEST(ReaderProcess, ACrashInAFreshProcessIsTheFiles) {
+  probe("warm-up");  // the crash below comes in a process that read before
+  const ProbeResult r = probe("crash");
+  EXPECT_EQ(r.end, End::Crashed);
+  EXPECT_EQ(r.how, "exit status 3");
+  EXPECT_EQ(app::readerProcessStats().pid, -1) << "the crashed process is reaped";
+  EXPECT_EQ(probe("after").end, End::Finished) << "the next read gets a new process";
+}
+
+TEST(ReaderProcess, ACrashLeftByAnEarlierFileIsNotBlamedOnTheNextOne) {
+  probe("warm-up");
+  ASSERT_EQ(probe("poison").end, End::Finished);
+  const long started = app::readerProcessStats().started;
+  const ProbeResult r = probe("innocent");
+  EXPECT_EQ(r.end, End::Finished) << r.how;
+  EXPECT_EQ(app::readerProcessStats().started, started + 1) << "retried in a fresh process";
+}
+
+TEST(ReaderProcess, AReadThatWorksPastItsLimitIsStoppedAndCalledALoop) {
+  probe("crash");  // a fresh process: one try, not two
+  const auto start = std::chrono::steady_clock::now();
+  const ProbeResult r = probe("spin", 0.5);
+  EXPECT_EQ(r.end, End::Looped);
+  EXPECT_GE(secondsSince(start), 0.5);
+  EXPECT_LT(secondsSince(start), 5.0);
+  EXPECT_EQ(probe("after").end, End::Finished);
+}
+
+TEST(ReaderProcess, AProcessThatSitsIdleIsStalledNotALoop) {
+  probe("crash");
+  EXPECT_EQ(probe("sleep", 0.5).end, End::Stalled);
+  EXPECT_EQ(probe("after").end, End::Finished);
+}
+
+TEST(ReaderProcess, TheProcessHoldsNoneOfTheProgramsDescriptors) {
+  int ends[2];
+  ASSERT_EQ(::pipe(ends), 0);  // no O_CLOEXEC: a plain fork would keep both
+  probe("crash");              // the next read forks a new process, after the pipe
+  ASSERT_EQ(probe("fine").end, End::Finished);
+  ASSERT_GT(app::readerProcessStats().pid, 0);
+  ::close(ends[1]);
+  // The program closed the only write end: the read end sees its end at once.
+  pollfd p{.fd = ends[0], .events = POLLIN, .revents = 0};
+  ASSERT_EQ(::poll(&p, 1, 2000), 1) << "the reader process still holds the pipe's write end";
+  char c = 0;
+  EXPECT_EQ(::read(ends[0], &c, 1), 0);
+  ::close(ends[0]);
+}
+
+// The program is killed while its reader works on a read that never ends:
+// the reader must not go on spinning.
+TEST(ReaderProcess, ItDoesNotOutliveAKilledProgram) {
+  int report[2];
+  ASSERT_EQ(::pipe(report), 0);
+  const pid_t program = ::fork();
+  if (program == 0) {
+    ::close(report[0]);
+    probe("fine");
+    const pid_t reader = app::readerProcessStats().pid;
+    (void)!::write(report[1], &reader, sizeof reader);
+    probe("spin", 60.0);
+    ::_exit(0);
+  }
+  ::close(report[1]);
+  pid_t reader = -1;
+  ASSERT_EQ(::read(report[0], &reader, sizeof reader), static_cast<ssize_t>(sizeof reader));
+  ::close(report[0]);
+  ASSERT_GT(reader, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // it is spinning now
+  EXPECT_FALSE(ended(reader));
+  ::kill(program, SIGKILL);
+  ::waitpid(program, nullptr, 0);
+  EXPECT_TRUE(endsWithin(reader, 5.0)) << "reader process " << reader << " outlived the program";
+}
+
+// Contained reads of real shot files: a folder of them costs one process.
+TEST(ReaderProcess, ContainedReadsOfAFolderShareOneProcess) {
+  ScratchDir dir;
+  std::vector<std::string> paths;
+  for (int i = 0; i < 12; ++i) {
+    ShotSpec spec;
+    spec.id = "20260314-101500-" + std::string(i < 10 ? "000" : "00") + std::to_string(i);
+    ASSERT_TRUE(app::saveShot(dir.path(), makeShot(spec)).ok());
+    paths.push_back(dir.file(spec.id + ".h5"));
+  }
+  probe("crash");
+  const auto before = app::readerProcessStats();
+  for (const auto& path : paths) {
+    auto shot = app::readShot(path, {.frames = true, .contained = true});
+    ASSERT_TRUE(shot.ok()) << shot.error().message;
+    EXPECT_FALSE(shot->burst.frames.empty());
+  }
+  const auto after = app::readerProcessStats();
+  EXPECT_EQ(after.started, before.started + 1);
+  EXPECT_EQ(after.reads, before.reads + 12);
+}
+
+}  // namespace
+}  // namespace collide::testing
