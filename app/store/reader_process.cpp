@@ -40,7 +40,9 @@ namespace {
 /// files.
 constexpr int kReadsPerProcess = 200;
 
-/// The reader's answer to one request (one byte on the socket).
+/// The reader's answer to one request: one byte on the socket (whether the
+/// strings are in the memory file), then the read's error as a length (0: it
+/// gave a shot) and that many bytes.
 constexpr char kJournalSaved = 'J';
 constexpr char kJournalNotSaved = 'N';
 
@@ -119,13 +121,19 @@ void closeAllBut(std::vector<int> keep) {
     std::string path(length, '\0');
     if (!readAllFromFd(socket, path.data(), length)) ::_exit(0);
     h5::VlenJournal journal;
+    std::optional<std::string> error;
     {
       h5::JournalScope scope(journal);
-      work(path, frames != 0);
+      error = work(path, frames != 0);
     }
     const bool saved = ::ftruncate(journal_fd, 0) == 0 && journal.save(journal_fd);
     const char answer = saved ? kJournalSaved : kJournalNotSaved;
-    if (!sendAll(socket, &answer, 1)) ::_exit(0);
+    // An empty message still marks an error: it is sent as one space.
+    const std::string message = error ? (error->empty() ? " " : *error) : "";
+    const auto size = static_cast<std::uint32_t>(message.size());
+    if (!sendAll(socket, &answer, 1) || !sendAll(socket, &size, sizeof size) ||
+        !sendAll(socket, message.data(), message.size()))
+      ::_exit(0);
   }
 }
 
@@ -205,9 +213,13 @@ ProbeResult awaitAnswer(Reader& r, double limit_s, double cpu_before) {
     if (ready < 0 && errno == EINTR) continue;
     if (ready > 0) {
       char answer = 0;
-      if (readAllFromFd(r.socket, &answer, 1)) {
+      std::uint32_t size = 0;
+      std::string message;
+      if (readAllFromFd(r.socket, &answer, 1) && readAllFromFd(r.socket, &size, sizeof size) &&
+          (message.resize(size), readAllFromFd(r.socket, message.data(), size))) {
         ProbeResult finished;
         if (answer == kJournalSaved) finished.strings = h5::VlenJournal::load(r.journal);
+        if (size > 0) finished.error = std::move(message);
         return finished;
       }
       // The reader ended without answering: the library crashed (a signal,

@@ -27,12 +27,16 @@ struct ProbeResult {
   /// the caller's own read. Empty when they could not be handed over, or when
   /// no process could be started (the caller then reads unprotected).
   std::optional<h5::VlenJournal> strings;
+  /// Finished: the error the read gave, if it gave one (the caller need not
+  /// read the file again to know it).
+  std::optional<std::string> error;
 };
 
 /// What the reader process runs for one request: reads the shot file `path`
-/// (its frames too when `frames`). Called with a recording JournalScope open.
-/// Any function of the program: it is sent to the process by its address.
-using ReadWork = void (*)(const std::string& path, bool frames);
+/// (its frames too when `frames`) and returns the read's error, or nothing if
+/// it gave a shot. Called with a recording JournalScope open. Any function of
+/// the program: it is sent to the process by its address.
+using ReadWork = std::optional<std::string> (*)(const std::string& path, bool frames);
 
 /// Has the reader process read `path` with `work`, starting the process if
 /// none runs. A crash or a read past `limit_s` seconds in a process that had

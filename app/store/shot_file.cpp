@@ -671,10 +671,12 @@ Result<hw::Shot> readShotLocked(const std::string& path, const ReadOptions& opti
   return shot;
 }
 
-/// The reader process's work (see reader_process.hpp): the whole read, whose
-/// result is dropped; the caller gives the error, if any, from its own read.
-void probeRead(const std::string& path, bool frames) {
-  (void)readShotLocked(path, {.frames = frames, .contained = false});
+/// The reader process's work (see reader_process.hpp): the whole read; its
+/// error, if any, is the caller's answer (a shot is read again by the caller).
+std::optional<std::string> probeRead(const std::string& path, bool frames) {
+  auto shot = readShotLocked(path, {.frames = frames, .contained = false});
+  if (shot) return std::nullopt;
+  return shot.error().message;
 }
 
 /// libhdf5 can also loop for ever on a damaged global heap: a read that takes
@@ -705,7 +707,8 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
                   std::to_string(static_cast<int>(limit_s)) +
                   " s (the HDF5 library loops on it); restore it from a backup, or move it out "
                   "of the folder");
-    if (!probe.strings) break;  // no reader process, or its strings did not arrive
+    if (probe.error) return fail(*probe.error);  // the same read here would give the same
+    if (!probe.strings) break;                   // no reader process, or its strings did not arrive
     h5::JournalScope scope(*probe.strings);
     return readShotLocked(path, options);
   }

@@ -33,9 +33,9 @@ using End = ProbeResult::End;
 bool g_poisoned = false;
 
 // "crash": the process ends (exit status 3); "poison": later reads in the same
-// process crash; "spin": works for ever; "sleep": sits idle for ever; any
-// other name reads fine.
-void standIn(const std::string& path, bool /*frames*/) {
+// process crash; "spin": works for ever; "sleep": sits idle for ever;
+// "refuse...": an error naming the file; any other name reads fine.
+std::optional<std::string> standIn(const std::string& path, bool /*frames*/) {
   if (path == "crash" || g_poisoned) ::_exit(3);
   if (path == "poison") g_poisoned = true;
   if (path == "spin")
@@ -43,6 +43,8 @@ void standIn(const std::string& path, bool /*frames*/) {
     }
   if (path == "sleep")
     for (;;) ::pause();
+  if (path.rfind("refuse", 0) == 0) return path + " is not a shot file";
+  return std::nullopt;
 }
 
 ProbeResult probe(const std::string& name, double limit_s = 5.0) {
@@ -77,8 +79,18 @@ TEST(ReaderProcess, OneProcessServesManyReads) {
     const ProbeResult r = probe("fine-" + std::to_string(i));
     ASSERT_EQ(r.end, End::Finished) << "read " << i;
     EXPECT_TRUE(r.strings.has_value()) << "read " << i;
+    EXPECT_FALSE(r.error.has_value()) << "read " << i;
   }
   EXPECT_EQ(app::readerProcessStats().started, started + 1);
+}
+
+TEST(ReaderProcess, TheReadsErrorComesBackWhole) {
+  const std::string name = "refuse-" + std::string(100000, 'x');  // more than one socket write
+  const ProbeResult r = probe(name);
+  ASSERT_EQ(r.end, End::Finished);
+  ASSERT_TRUE(r.error.has_value());
+  EXPECT_EQ(*r.error, name + " is not a shot file");
+  EXPECT_FALSE(probe("fine").error.has_value()) << "the next answer starts where this one ended";
 }
 
 TEST(ReaderProcess, ACrashInAFreshProcessIsTheFiles) {
