@@ -66,18 +66,28 @@ ReaderProcessStats& stats() {
   return s;
 }
 
-// CPU seconds (user + system) process `pid` has used, from /proc; NaN if unknown.
-double cpuSeconds(pid_t pid) {
+/// What /proc says of a process: its state letter ('R' running or waiting
+/// for a CPU, 'S' asleep, ...) and the CPU seconds (user + system) it used.
+struct ProcStat {
+  char state = '?';
+  double cpu_s = NAN;
+};
+
+ProcStat procStat(pid_t pid) {
   std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
   std::string text((std::istreambuf_iterator<char>(stat)), {});
   const auto close = text.rfind(')');  // the command name may hold spaces
-  if (close == std::string::npos) return NAN;
+  if (close == std::string::npos) return {};
   std::istringstream fields(text.substr(close + 2));
   std::string f;
+  ProcStat out;
   double ticks = 0;
-  for (int i = 3; i <= 15 && fields >> f; ++i)
+  for (int i = 3; i <= 15 && fields >> f; ++i) {
+    if (i == 3) out.state = f.empty() ? '?' : f[0];
     if (i == 14 || i == 15) ticks += std::atof(f.c_str());  // utime, stime
-  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+  }
+  out.cpu_s = ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
+  return out;
 }
 
 bool sendAll(int fd, const void* data, std::size_t size) {
@@ -232,10 +242,13 @@ ProbeResult awaitAnswer(Reader& r, double limit_s, double cpu_before) {
     }
     if (ready == 0 && std::chrono::steady_clock::now() < deadline) continue;  // woke early
     // Past the limit: a reader that worked is reading a file the library
-    // loops on; one that sat idle inherited another thread's lock at the
-    // fork (seen under AddressSanitizer with analysis threads busy).
-    const double cpu = cpuSeconds(r.pid) - cpu_before;
-    const bool idle = std::isfinite(cpu) && cpu < 0.1 * limit_s;
+    // loops on; one asleep that hardly ran inherited another thread's lock
+    // at the fork (seen under AddressSanitizer with analysis threads busy).
+    // A reader that hardly ran because other processes had the CPUs is still
+    // runnable ('R'): not idle, or a looping file would be read here next.
+    const ProcStat now = procStat(r.pid);
+    const double cpu = now.cpu_s - cpu_before;
+    const bool idle = now.state == 'S' && std::isfinite(cpu) && cpu < 0.1 * limit_s;
     return ProbeResult{.end = idle ? ProbeResult::End::Stalled : ProbeResult::End::Looped};
   }
 }
@@ -255,7 +268,7 @@ ProbeResult probeInReaderProcess(const std::string& path, bool frames, double li
     const bool fresh = r.reads == 0;
     ++r.reads;
     ++stats().reads;
-    const double cpu_before = cpuSeconds(r.pid);
+    const double cpu_before = procStat(r.pid).cpu_s;
     if (!sendRequest(r, work, path, frames)) {
       stop(r);  // it ended while idle: a new one takes the request
       if (fresh) return ProbeResult{};
