@@ -28,6 +28,8 @@
 #endif
 #endif
 #if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+#include <dlfcn.h>
+#include <execinfo.h>
 #include <sanitizer/common_interface_defs.h>
 #endif
 
@@ -39,6 +41,29 @@ namespace {
 /// state can gather from damaged files stays bounded, at one fork per 200
 /// files.
 constexpr int kReadsPerProcess = 200;
+
+/// The reader's exit status when a sanitizer found an error in this
+/// program's own code rather than inside libhdf5 (see onSanitizerReport).
+constexpr int kOwnCodeFailed = 87;
+
+#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+/// A sanitizer report in the reader: the library's if any frame of the stack
+/// that led to it is inside libhdf5 (an interceptor such as memcpy called by
+/// the library, or the library's own code); otherwise the error is in this
+/// program's code, which must not pass for a damaged file (a fuzz run would
+/// never see it). Runs in the dying reader, after the report is printed.
+void onSanitizerReport() {
+  void* frames[128];
+  const int n = ::backtrace(frames, 128);
+  for (int i = 0; i < n; ++i) {
+    Dl_info info{};
+    if (::dladdr(frames[i], &info) != 0 && info.dli_fname &&
+        std::strstr(info.dli_fname, "libhdf5") != nullptr)
+      return;  // the library's: the reader ends as the sanitizer decides
+  }
+  ::_exit(kOwnCodeFailed);
+}
+#endif
 
 /// The reader's answer to one request: one byte on the socket (whether the
 /// strings are in the memory file), then the read's error as a length (0: it
@@ -178,10 +203,10 @@ bool start(Reader& r) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(0);
 #if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
-    // A sanitizer report here is the library's, about a file: the reader
-    // just ends (the program reports it), without the death hook a host such
-    // as libFuzzer installed for its own process.
-    __sanitizer_set_death_callback(nullptr);
+    // The reader just ends (the program reports it), without the death hook
+    // a host such as libFuzzer installed for its own process; a report about
+    // this program's own code ends it with kOwnCodeFailed.
+    __sanitizer_set_death_callback(onSanitizerReport);
 #endif
     closeAllBut({ends[1], journal});
     serve(ends[1], journal);
@@ -238,6 +263,8 @@ ProbeResult awaitAnswer(Reader& r, double limit_s, double cpu_before) {
       while (::waitpid(r.pid, &status, 0) < 0 && errno == EINTR) {
       }
       r.pid = -1;
+      if (WIFEXITED(status) && WEXITSTATUS(status) == kOwnCodeFailed)
+        return ProbeResult{.end = ProbeResult::End::OwnCodeFailed};
       return ProbeResult{.end = ProbeResult::End::Crashed, .how = describeEnd(status)};
     }
     if (ready == 0 && std::chrono::steady_clock::now() < deadline) continue;  // woke early
@@ -282,7 +309,9 @@ ProbeResult probeInReaderProcess(const std::string& path, bool frames, double li
     stop(r);
     // A crash or a loop after other files may be their doing: only a fresh
     // process's verdict is the file's.
-    if (fresh || result.end == ProbeResult::End::Stalled) return result;
+    if (fresh || result.end == ProbeResult::End::Stalled ||
+        result.end == ProbeResult::End::OwnCodeFailed)
+      return result;
   }
 }
 

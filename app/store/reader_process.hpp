@@ -20,6 +20,9 @@ struct ProbeResult {
     Crashed,   ///< the library crashed on the file, in a freshly started process
     Looped,    ///< the read worked past its time limit, in a freshly started process
     Stalled,   ///< the process sat idle past the time limit (not the file's fault)
+    /// Sanitizer builds only: AddressSanitizer or UBSan found an error in this
+    /// program's code (no libhdf5 frame on the stack): a bug, not the file's.
+    OwnCodeFailed,
   };
   End end = End::Finished;
   std::string how;  ///< Crashed: "SIGSEGV", "exit status 1", ...

@@ -699,6 +699,10 @@ Result<hw::Shot> readShot(const std::string& path, const ReadOptions& options) {
     ProbeResult probe = probeInReaderProcess(path, options.frames, limit_s, probeRead);
     using End = ProbeResult::End;
     if (probe.end == End::Stalled) continue;
+    if (probe.end == End::OwnCodeFailed)
+      return fail("reading shot file " + path +
+                  " found a memory error in Collide's own reader (a sanitizer build): a bug, not "
+                  "the file's; please report it with the file");
     if (probe.end == End::Crashed)
       return fail("shot file " + path + " is corrupt: reading it crashed the HDF5 library (" +
                   probe.how + "); restore it from a backup, or move it out of the folder");

@@ -32,6 +32,25 @@ using End = ProbeResult::End;
 // leave the library's.
 bool g_poisoned = false;
 
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define COLLIDE_TEST_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define COLLIDE_TEST_ASAN 1
+#endif
+
+// A heap read past the end, in this program's code (only asked for under
+// AddressSanitizer, which stops it).
+void readPastTheEnd() {
+  char* bytes = new char[8];
+  volatile int past = 8;
+  volatile char c = bytes[past];
+  (void)c;
+  delete[] bytes;
+}
+
 // "crash": the process ends (exit status 3); "poison": later reads in the same
 // process crash; "spin": works for ever; "sleep": sits idle for ever;
 // "refuse...": an error naming the file; any other name reads fine.
@@ -44,6 +63,7 @@ std::optional<std::string> standIn(const std::string& path, bool /*frames*/) {
   if (path == "sleep")
     for (;;) ::pause();
   if (path.rfind("refuse", 0) == 0) return path + " is not a shot file";
+  if (path == "overflow") readPastTheEnd();
   return std::nullopt;
 }
 
@@ -100,6 +120,19 @@ TEST(ReaderProcess, ACrashInAFreshProcessIsTheFiles) {
   EXPECT_EQ(r.how, "exit status 3");
   EXPECT_EQ(app::readerProcessStats().pid, -1) << "the crashed process is reaped";
   EXPECT_EQ(probe("after").end, End::Finished) << "the next read gets a new process";
+}
+
+// A memory error in our own reader must not pass for a damaged file (the
+// library's, by a libhdf5 frame on the stack: CorruptShotHeapOverflow).
+TEST(ReaderProcess, AMemoryErrorInOurOwnCodeIsNotCalledTheFiles) {
+#ifndef COLLIDE_TEST_ASAN
+  GTEST_SKIP() << "needs AddressSanitizer (./collide.sh sanitize runs it)";
+#else
+  probe("warm-up");
+  const ProbeResult r = probe("overflow");
+  EXPECT_EQ(r.end, End::OwnCodeFailed) << r.how;
+  EXPECT_EQ(probe("after").end, End::Finished);
+#endif
 }
 
 TEST(ReaderProcess, ACrashLeftByAnEarlierFileIsNotBlamedOnTheNextOne) {
