@@ -166,9 +166,18 @@ TEST(AdaptiveCampaignGui, StopsAtTheTargetsSayingWhyEachShotWasChosen) {
   ASSERT_TRUE(QTest::qWaitFor([&] { return !x.view->refreshing(); }, 60000));
   x.view->refresh();
   ASSERT_TRUE(QTest::qWaitFor([&] { return !x.view->refreshing(); }, 60000));
-  QTest::qWait(200);
   // Every chart's plot area is tall enough for its y-axis title at 1366 x 768.
-  for (QChartView* chart : x.view->findChildren<QChartView*>()) {
+  // Charts lay out after the refresh, later on a loaded machine (a fixed
+  // 200 ms wait once measured every plot area 0 px tall): wait until each has
+  // a plot area; a chart squeezed to nothing still fails below.
+  const auto charts = x.view->findChildren<QChartView*>();
+  QTest::qWaitFor(
+      [&] {
+        return std::all_of(charts.begin(), charts.end(),
+                           [](QChartView* c) { return c->chart()->plotArea().height() > 0; });
+      },
+      10000);
+  for (QChartView* chart : charts) {
     auto* y = qobject_cast<QValueAxis*>(chart->chart()->axes(Qt::Vertical).value(0));
     ASSERT_NE(y, nullptr);
     const int title_px = QFontMetrics(y->titleFont()).horizontalAdvance(y->titleText());
