@@ -15,6 +15,7 @@
 #include "app/report/results_summary.hpp"
 #include "app/store/atomic_file.hpp"
 #include "app/store/h5.hpp"
+#include "app/store/heap_check_driver.hpp"
 #include "app/store/reader_process.hpp"
 #include "hw/memory.hpp"
 
@@ -573,14 +574,19 @@ Result<Handle> openShotFile(const std::string& path, unsigned flags) {
     return fail(path + " is not an HDF5 file, so not a collide shot file: check the name");
   }
   Handle fapl = fileAccess();
+  // Reading: a damaged global heap is refused before libhdf5 parses it.
+  if (flags == H5F_ACC_RDONLY && h5::heapCheckDriver() >= 0)
+    H5Pset_driver(fapl.get(), h5::heapCheckDriver(), nullptr);
   Handle file(H5Fopen(path.c_str(), flags, fapl.get()), H5Fclose);
   if (!file.valid()) {
     Error e = fileError("open", path);
     return fail(e.message + " (the file is truncated or corrupt)");
   }
   h5::Reader r(file.get(), path);
-  if (H5Aexists_by_name(file.get(), "/", "format", H5P_DEFAULT) <= 0 ||
-      r.stringAttribute("/", "format") != kFormatName)
+  const bool has_format = H5Aexists_by_name(file.get(), "/", "format", H5P_DEFAULT) > 0;
+  const std::string format = has_format ? r.stringAttribute("/", "format") : "";
+  if (!r.ok()) return r.error();  // e.g. a corrupt global heap, named by the driver
+  if (format != kFormatName)
     return fail(path + " is an HDF5 file but not a collide shot file (no attribute format = \"" +
                 kFormatName + "\")");
   const int version = r.intAttribute("/", "format_version");
