@@ -21,6 +21,9 @@ namespace {
 // space, whose size covers its own header.
 constexpr char kCollectionStart[8] = {'G', 'C', 'O', 'L', 1, 0, 0, 0};
 constexpr char kSuperblockSignature[8] = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+/// The size libhdf5 gives every new collection at least (H5HG_MINSIZE), and
+/// reads first when it loads one.
+constexpr std::size_t kCollectionMinimum = 4096;
 /// Collections larger than this are left to the library unchecked (a
 /// variable-length string of more than 1 GiB; no shot file holds one).
 constexpr std::uint64_t kLargestChecked = std::uint64_t{1} << 30;
@@ -155,6 +158,11 @@ void noteSuperblock(File& file, const unsigned char* bytes, std::size_t size) {
 bool checkCollection(File& file, haddr_t addr, const unsigned char* bytes, std::size_t size) {
   const unsigned L = file.length_size;
   if (L == 0 || size < 8 + L || std::memcmp(bytes, kCollectionStart, 8) != 0) return true;
+  // The library loads a collection by first reading its minimum size (4096
+  // bytes, less if the file ends sooner), then the rest if it is larger: a
+  // raw-data read of another size that happens to start with the same 8
+  // bytes (a frame's first pixels) is not one.
+  if (size != kCollectionMinimum && addr + size != file.eoa) return true;
   // The rest of a collection the library reads in two parts.
   if (addr > file.checked_begin && addr < file.checked_end) return true;
   const std::uint64_t declared = decodeLength(bytes + 8, L);

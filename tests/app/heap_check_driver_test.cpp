@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "app/store/save.hpp"
@@ -123,6 +124,25 @@ TEST(HeapCheckDriver, ShotFilesWithLargeStringsReadBackUnchanged) {
     EXPECT_EQ(read->id, shot.id);
     ASSERT_EQ(read->burst.frames.size(), shot.burst.frames.size());
   }
+}
+
+// A frame whose first pixels spell a collection's header ("GCOL", version 1,
+// then a size past the end of the file) is raw data, not a collection: the
+// driver checks only reads of a collection's size, and the shot reads back.
+TEST(HeapCheckDriver, AFrameThatStartsLikeACollectionIsNotMistakenForOne) {
+  ScratchDir dir;
+  ShotSpec spec;
+  spec.width = 40;  // 1200-byte frames: not a collection's 4096
+  hw::Shot shot = makeShot(spec);
+  cv::Mat& first = shot.burst.frames.at(0).image;
+  const unsigned char header[16] = {'G',  'C',  'O',  'L',  1,    0,    0, 0,
+                                    0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0, 0};
+  std::memcpy(first.data, header, sizeof header);
+  ASSERT_TRUE(app::saveShot(dir.path(), shot).ok());
+  auto read = app::readShot(dir.file(spec.id + ".h5"), {.frames = true});
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  const cv::Mat& back = read->burst.frames.at(0).image;
+  EXPECT_EQ(std::memcmp(back.data, header, sizeof header), 0);
 }
 
 }  // namespace
