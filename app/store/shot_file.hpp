@@ -63,7 +63,8 @@ struct ReadOptions {
   /// and every 200 reads). On by default.
   bool contained = true;
   /// How long the contained read may take before the file is called corrupt
-  /// (libhdf5 loops for ever on some damaged heaps), in seconds; 0: 30 s plus
+  /// (libhdf5 looped for ever on some damaged heaps, which the read driver now
+  /// refuses first: heap_check_driver.hpp), in seconds; 0: 30 s plus
   /// the file's size at 20 MB/s (a slow disk). Fuzzing sets it short.
   double time_limit_s = 0;
 };
