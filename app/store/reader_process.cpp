@@ -208,6 +208,10 @@ bool start(Reader& r) {
     // this program's own code ends it with kOwnCodeFailed.
     __sanitizer_set_death_callback(onSanitizerReport);
 #endif
+    // A host's handler for the abort a sanitizer ends with (libFuzzer's
+    // writes the input as a crash-* file and exits) is the host's, not the
+    // reader's: the reader dies of SIGABRT.
+    std::signal(SIGABRT, SIG_DFL);
     closeAllBut({ends[1], journal});
     serve(ends[1], journal);
   }

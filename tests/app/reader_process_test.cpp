@@ -15,6 +15,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <fstream>
 #include <thread>
 
@@ -64,6 +65,7 @@ std::optional<std::string> standIn(const std::string& path, bool /*frames*/) {
     for (;;) ::pause();
   if (path.rfind("refuse", 0) == 0) return path + " is not a shot file";
   if (path == "overflow") readPastTheEnd();
+  if (path == "abort") std::abort();
   return std::nullopt;
 }
 
@@ -133,6 +135,31 @@ TEST(ReaderProcess, AMemoryErrorInOurOwnCodeIsNotCalledTheFiles) {
   EXPECT_EQ(r.end, End::OwnCodeFailed) << r.how;
   EXPECT_EQ(probe("after").end, End::Finished);
 #endif
+}
+
+// The program's own SIGABRT handler (libFuzzer installs one that writes the
+// current input as a crash file) must not run in the reader.
+int g_abort_marker = -1;
+TEST(ReaderProcess, AnAbortEndsTheReaderNotThroughTheProgramsHandler) {
+  int marker[2];
+  ASSERT_EQ(::pipe(marker), 0);
+  g_abort_marker = marker[1];
+  struct sigaction handler {
+  }, previous{};
+  handler.sa_handler = [](int) {
+    (void)!::write(g_abort_marker, "H", 1);
+    ::_exit(0);
+  };
+  ASSERT_EQ(::sigaction(SIGABRT, &handler, &previous), 0);
+  probe("crash");  // the next reader is forked with the handler installed
+  const ProbeResult r = probe("abort");
+  ::sigaction(SIGABRT, &previous, nullptr);
+  ::close(marker[1]);
+  EXPECT_EQ(r.end, End::Crashed);
+  EXPECT_EQ(r.how, "SIGABRT");
+  char c = 0;
+  EXPECT_EQ(::read(marker[0], &c, 1), 0) << "the program's handler ran in the reader";
+  ::close(marker[0]);
 }
 
 TEST(ReaderProcess, ACrashLeftByAnEarlierFileIsNotBlamedOnTheNextOne) {
