@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "app/store/atomic_file.hpp"
+#include "app/store/heap_check_driver.hpp"
 #include "hw/memory.hpp"
 
 // Shot files are read and written from several threads (GUI browser, saver,
@@ -472,6 +473,18 @@ bool Reader::heldInFile(hid_t d, const std::string& path, hsize_t count,
   return false;
 }
 
+bool Reader::referencesSound(hid_t d, hid_t type, const std::string& path, std::size_t count) {
+  if (H5Tis_variable_str(type) <= 0) return true;
+  // Stored in the object header (compact) or in chunks: left to the library.
+  const haddr_t offset = H5Dget_offset(d);
+  if (offset == HADDR_UNDEF) return true;
+  const auto damage = stringReferenceDamage(file_, offset, count);
+  if (!damage) return true;
+  fail(collide::fail("shot file " + display_path_ + ": dataset " + path +
+                     " is corrupt: " + *damage));
+  return false;
+}
+
 template <class T>
 std::vector<T> Reader::dataset(const std::string& path, const std::vector<hsize_t>& expected,
                                std::vector<hsize_t>* dims_out) {
@@ -532,6 +545,7 @@ std::vector<std::string> Reader::readStrings(const std::string& path, int expect
   const std::size_t string_bytes =
       H5Tis_variable_str(type.get()) > 0 ? 1 : std::max<std::size_t>(1, H5Tget_size(type.get()));
   if (!heldInFile(d.get(), path, count, string_bytes)) return {};
+  if (!referencesSound(d.get(), type.get(), path, count)) return {};
   if (auto cause = readStringsOfType(
           type.get(), space.get(), count,
           [&](hid_t mem, void* buf) {

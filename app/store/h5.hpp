@@ -208,6 +208,10 @@ class Reader {
   /// are data the file holds (fails naming `path` if not), so that no
   /// dimension in a damaged or hostile header sizes an allocation.
   bool heldInFile(hid_t d, const std::string& path, hsize_t count, std::size_t element_bytes);
+  /// False (failing with why) if a variable-length string dataset's
+  /// references point at heap objects that libhdf5 would read past its
+  /// tables for; see stringReferenceDamage.
+  bool referencesSound(hid_t d, hid_t type, const std::string& path, std::size_t count);
 
   hid_t file_;
   std::string display_path_;

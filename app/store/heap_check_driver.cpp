@@ -4,9 +4,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <new>
 #include <vector>
 
@@ -249,11 +252,17 @@ const H5FD_class_t kDriver = {
 
 }  // namespace
 
-std::optional<std::string> globalHeapDamage(const unsigned char* bytes, std::size_t size,
-                                            unsigned length_size) {
+namespace {
+
+/// Walks a collection as libhdf5 1.10 does (H5HG__cache_heap_deserialize):
+/// what would go wrong, or nothing, with the objects it would know filled into
+/// `objects` (index -> size; a later object of the same index replaces an
+/// earlier one, as in the library) when that is asked for.
+std::optional<std::string> walkCollection(const unsigned char* bytes, std::size_t size,
+                                          unsigned length_size,
+                                          std::map<unsigned, std::uint64_t>* objects) {
   const std::size_t header = 8 + length_size;  // the collection's, and each object's
   if (size < header) return "shorter than its own header";
-  // As libhdf5 1.10 walks it (H5HG__cache_heap_deserialize).
   for (std::size_t at = header; at < size;) {
     if (size - at < header) break;  // too small for an object: free space
     const unsigned index = bytes[at] | (bytes[at + 1] << 8);
@@ -262,6 +271,7 @@ std::optional<std::string> globalHeapDamage(const unsigned char* bytes, std::siz
     if (index > 0) {
       if (object > size - at - header)
         return which + " declares " + std::to_string(object) + " bytes, past the collection's end";
+      if (objects) (*objects)[index] = object;
       at += header + static_cast<std::size_t>((object + 7) / 8 * 8);
     } else {
       if (object == 0)
@@ -273,6 +283,86 @@ std::optional<std::string> globalHeapDamage(const unsigned char* bytes, std::siz
       if (object > size - at) break;  // the walk leaves the collection
       at += static_cast<std::size_t>(object);
     }
+  }
+  return std::nullopt;
+}
+
+/// The objects of the collection at `addr` in `file`, or what is wrong with it.
+std::optional<std::string> loadCollection(const File& file, haddr_t addr,
+                                          std::map<unsigned, std::uint64_t>& objects) {
+  const unsigned L = file.length_size;
+  std::vector<unsigned char> head(8 + L);
+  if (addr > file.eof || file.eof - addr < head.size() ||
+      !readAt(file, addr, head.size(), head.data()))
+    return "past the end of the file (" + std::to_string(file.eof) + " bytes)";
+  if (std::memcmp(head.data(), kCollectionStart, 8) != 0) return "not a global-heap collection";
+  const std::uint64_t declared = decodeLength(head.data() + 8, L);
+  if (declared > file.eof - addr)
+    return "a collection declaring " + std::to_string(declared) +
+           " bytes, past the end of the file";
+  if (declared > kLargestChecked)
+    return "a collection declaring " + std::to_string(declared) + " bytes";
+  std::vector<unsigned char> whole(declared);
+  if (!readAt(file, addr, whole.size(), whole.data())) return "unreadable";
+  if (auto damage = walkCollection(whole.data(), whole.size(), L, &objects))
+    return "a corrupt collection: " + *damage;
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<std::string> globalHeapDamage(const unsigned char* bytes, std::size_t size,
+                                            unsigned length_size) {
+  return walkCollection(bytes, size, length_size, nullptr);
+}
+
+std::optional<std::string> stringReferenceDamage(hid_t file_id, haddr_t offset, std::size_t count) {
+  hid_t fapl = H5Fget_access_plist(file_id);
+  if (fapl < 0) return std::nullopt;
+  const bool ours = H5Pget_driver(fapl) == heapCheckDriver();
+  void* handle = nullptr;
+  const bool have_handle = ours && H5Fget_vfd_handle(file_id, fapl, &handle) >= 0 && handle;
+  H5Pclose(fapl);
+  if (!have_handle) return std::nullopt;  // another driver: leave the file to the library
+  const File& file =
+      *reinterpret_cast<const File*>(reinterpret_cast<const char*>(handle) - offsetof(File, fd));
+  hid_t fcpl = H5Fget_create_plist(file_id);
+  std::size_t address_size = 0, length_size = 0;
+  const bool sized = fcpl >= 0 && H5Pget_sizes(fcpl, &address_size, &length_size) >= 0;
+  if (fcpl >= 0) H5Pclose(fcpl);
+  if (!sized || address_size < 2 || address_size > 8 || file.length_size == 0) return std::nullopt;
+  // Each reference (HDF5 file format spec, "Variable-length data"): the
+  // string's length (4 bytes), the collection's address, the object's index
+  // (4 bytes).
+  const std::size_t ref_size = 8 + address_size;
+  if (count > (file.eof - std::min<haddr_t>(offset, file.eof)) / ref_size)
+    return "its " + std::to_string(count) + " string references run past the end of the file";
+  std::vector<unsigned char> refs(count * ref_size);
+  if (!readAt(file, offset, refs.size(), refs.data()))
+    return "its string references are unreadable";
+  std::map<haddr_t, std::map<unsigned, std::uint64_t>> collections;
+  for (std::size_t i = 0; i < count; ++i) {
+    const unsigned char* r = refs.data() + i * ref_size;
+    const std::uint64_t length = decodeLength(r, 4);
+    const haddr_t addr = decodeLength(r + 4, static_cast<unsigned>(address_size));
+    const unsigned index = static_cast<unsigned>(decodeLength(r + 4 + address_size, 4));
+    if (addr == 0 || length == 0) continue;  // a null or empty string: nothing is read
+    const std::string which = "string " + std::to_string(i) + " refers to object " +
+                              std::to_string(index) + " of the global heap at byte " +
+                              std::to_string(addr);
+    auto found = collections.find(addr);
+    if (found == collections.end()) {
+      std::map<unsigned, std::uint64_t> objects;
+      if (auto damage = loadCollection(file, addr, objects)) return which + ", " + *damage;
+      found = collections.emplace(addr, std::move(objects)).first;
+    }
+    // libhdf5 1.10 reads the object without checking that it exists
+    // (H5HG_read), and copies its whole size into a buffer of the string's.
+    const auto object = found->second.find(index);
+    if (object == found->second.end()) return which + ", which has no such object";
+    if (object->second != length)
+      return which + ", which holds " + std::to_string(object->second) + " bytes, not the " +
+             std::to_string(length) + " the string declares";
   }
   return std::nullopt;
 }

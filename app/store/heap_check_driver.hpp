@@ -29,4 +29,13 @@ hid_t heapCheckDriver();
 std::optional<std::string> globalHeapDamage(const unsigned char* bytes, std::size_t size,
                                             unsigned length_size);
 
+/// What is wrong with the `count` variable-length string references a dataset
+/// stores contiguously at byte `offset` of `file` (opened with this driver),
+/// for libhdf5 1.10 to follow them; nothing if it can. Each names an object of
+/// a global-heap collection, which libhdf5 reads without checking that it
+/// exists or has the string's length (H5HG_read: a damaged index reads a
+/// pointer from past the collection's object table). Nothing is said of a
+/// file opened with another driver.
+std::optional<std::string> stringReferenceDamage(hid_t file, haddr_t offset, std::size_t count);
+
 }  // namespace collide::app::h5

@@ -1,14 +1,17 @@
 // The heap-checking read driver (app/store/heap_check_driver.*): collections
 // built here byte by byte from the HDF5 file format's layout (not by the code
 // under test), damaged the two ways libhdf5 1.10 cannot survive, and shot
-// files of every size read through the driver unchanged.
+// files of every size read through the driver unchanged; string references
+// into the heap damaged as libhdf5 1.10 cannot survive either.
 #include "app/store/heap_check_driver.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include "app/store/save.hpp"
@@ -143,6 +146,68 @@ TEST(HeapCheckDriver, AFrameThatStartsLikeACollectionIsNotMistakenForOne) {
   ASSERT_TRUE(read.ok()) << read.error().message;
   const cv::Mat& back = read->burst.frames.at(0).image;
   EXPECT_EQ(std::memcmp(back.data, header, sizeof header), 0);
+}
+
+/// Overwrites 4 little-endian bytes of `path` at `at` with `value`.
+void patch32(const std::string& path, std::uint64_t at, std::uint32_t value) {
+  std::FILE* f = std::fopen(path.c_str(), "r+b");
+  ASSERT_NE(f, nullptr);
+  unsigned char bytes[4];
+  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<unsigned char>(value >> (8 * i));
+  ASSERT_EQ(std::fseek(f, static_cast<long>(at), SEEK_SET), 0);
+  ASSERT_EQ(std::fwrite(bytes, 1, 4, f), 4u);
+  std::fclose(f);
+}
+
+/// Where a shot file stores the references of a string dataset: the byte of
+/// its first and the file's size of addresses (with libhdf5's own reader).
+std::pair<std::uint64_t, std::size_t> referencesOf(const std::string& path,
+                                                   const std::string& dataset) {
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t d = H5Dopen2(file, dataset.c_str(), H5P_DEFAULT);
+  const hid_t fcpl = H5Fget_create_plist(file);
+  std::size_t address_size = 0, length_size = 0;
+  H5Pget_sizes(fcpl, &address_size, &length_size);
+  const haddr_t offset = H5Dget_offset(d);
+  H5Pclose(fcpl);
+  H5Dclose(d);
+  H5Fclose(file);
+  return {offset, address_size};
+}
+
+// A string reference (length, collection address, object index) naming an
+// object its collection does not hold, or one of another length: libhdf5 1.10
+// reads a pointer from past the collection's object table, or copies the
+// object's size into a buffer of the string's (both found by shot_file_fuzz,
+// as SEGVs in H5HG_read). The file is refused, naming the string and object.
+TEST(HeapCheckDriver, AStringReferringToAMissingObjectIsRefused) {
+  ScratchDir dir;
+  ShotSpec spec;
+  ASSERT_TRUE(app::saveShot(dir.path(), makeShot(spec)).ok());
+  const std::string path = dir.file(spec.id + ".h5");
+  const auto [offset, address_size] = referencesOf(path, "/sequencer/name");
+  ASSERT_NE(offset, HADDR_UNDEF);
+  patch32(path, offset + 4 + address_size, 0x00ffff00);  // the first string's object index
+  auto read = app::readShot(path, {.contained = true});
+  ASSERT_FALSE(read.ok());
+  EXPECT_THAT(read.error().message, HasSubstr("/sequencer/name is corrupt: string 0 refers to "
+                                              "object 16776960"));
+  EXPECT_THAT(read.error().message, HasSubstr("which has no such object"));
+}
+
+TEST(HeapCheckDriver, AStringLongerThanItsObjectIsRefused) {
+  ScratchDir dir;
+  ShotSpec spec;
+  ASSERT_TRUE(app::saveShot(dir.path(), makeShot(spec)).ok());
+  const std::string path = dir.file(spec.id + ".h5");
+  const auto [offset, address_size] = referencesOf(path, "/sequencer/name");
+  ASSERT_NE(offset, HADDR_UNDEF);
+  patch32(path, offset, 5000);  // the first string's length
+  for (bool contained : {true, false}) {
+    auto read = app::readShot(path, {.contained = contained});
+    ASSERT_FALSE(read.ok());
+    EXPECT_THAT(read.error().message, HasSubstr("not the 5000 the string declares"));
+  }
 }
 
 }  // namespace
