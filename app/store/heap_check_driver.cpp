@@ -267,19 +267,23 @@ std::optional<std::string> walkCollection(const unsigned char* bytes, std::size_
     if (size - at < header) break;  // too small for an object: free space
     const unsigned index = bytes[at] | (bytes[at + 1] << 8);
     const std::uint64_t object = decodeLength(bytes + at + 8, length_size);
-    const std::string which = "object " + std::to_string(index) + " at byte " + std::to_string(at);
+    // Named only when something is wrong: the walk runs on every string read.
+    const auto which = [&] {
+      return "object " + std::to_string(index) + " at byte " + std::to_string(at);
+    };
     if (index > 0) {
       if (object > size - at - header)
-        return which + " declares " + std::to_string(object) + " bytes, past the collection's end";
+        return which() + " declares " + std::to_string(object) +
+               " bytes, past the collection's end";
       if (objects) (*objects)[index] = object;
       at += header + static_cast<std::size_t>((object + 7) / 8 * 8);
     } else {
       if (object == 0)
-        return "its free space (" + which + ") has size 0, on which the library loops for ever";
+        return "its free space (" + which() + ") has size 0, on which the library loops for ever";
       // Far past the end, the library's pointer would wrap round and walk
       // on from anywhere in memory.
       if (object >= (std::uint64_t{1} << 62))
-        return "its free space (" + which + ") declares " + std::to_string(object) + " bytes";
+        return "its free space (" + which() + ") declares " + std::to_string(object) + " bytes";
       if (object > size - at) break;  // the walk leaves the collection
       at += static_cast<std::size_t>(object);
     }
@@ -346,22 +350,23 @@ std::optional<std::string> stringReferenceDamage(hid_t file_id, haddr_t offset, 
     const std::uint64_t length = decodeLength(r, 4);
     const haddr_t addr = decodeLength(r + 4, static_cast<unsigned>(address_size));
     const unsigned index = static_cast<unsigned>(decodeLength(r + 4 + address_size, 4));
-    if (addr == 0 || length == 0) continue;  // a null or empty string: nothing is read
-    const std::string which = "string " + std::to_string(i) + " refers to object " +
-                              std::to_string(index) + " of the global heap at byte " +
-                              std::to_string(addr);
+    if (addr == 0) continue;  // a null string: nothing is read
+    const auto which = [&] {
+      return "string " + std::to_string(i) + " refers to object " + std::to_string(index) +
+             " of the global heap at byte " + std::to_string(addr);
+    };
     auto found = collections.find(addr);
     if (found == collections.end()) {
       std::map<unsigned, std::uint64_t> objects;
-      if (auto damage = loadCollection(file, addr, objects)) return which + ", " + *damage;
+      if (auto damage = loadCollection(file, addr, objects)) return which() + ", " + *damage;
       found = collections.emplace(addr, std::move(objects)).first;
     }
     // libhdf5 1.10 reads the object without checking that it exists
     // (H5HG_read), and copies its whole size into a buffer of the string's.
     const auto object = found->second.find(index);
-    if (object == found->second.end()) return which + ", which has no such object";
+    if (object == found->second.end()) return which() + ", which has no such object";
     if (object->second != length)
-      return which + ", which holds " + std::to_string(object->second) + " bytes, not the " +
+      return which() + ", which holds " + std::to_string(object->second) + " bytes, not the " +
              std::to_string(length) + " the string declares";
   }
   return std::nullopt;
