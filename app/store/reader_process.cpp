@@ -20,14 +20,9 @@
 #include <sstream>
 #include <vector>
 
+#include "app/store/address_sanitizer.hpp"
 #include "app/store/atomic_file.hpp"
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define COLLIDE_ASAN 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+#if defined(COLLIDE_ASAN)
 #include <dlfcn.h>
 #include <execinfo.h>
 #include <sanitizer/common_interface_defs.h>
@@ -46,7 +41,7 @@ constexpr int kReadsPerProcess = 200;
 /// program's own code rather than inside libhdf5 (see onSanitizerReport).
 constexpr int kOwnCodeFailed = 87;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+#if defined(COLLIDE_ASAN)
 /// A sanitizer report in the reader: the library's if any frame of the stack
 /// that led to it is inside libhdf5 (an interceptor such as memcpy called by
 /// the library, or the library's own code); otherwise the error is in this
@@ -202,7 +197,7 @@ bool start(Reader& r) {
     // a looping read does not outlive a killed program.
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(0);
-#if defined(__SANITIZE_ADDRESS__) || defined(COLLIDE_ASAN)
+#if defined(COLLIDE_ASAN)
     // The reader just ends (the program reports it), without the death hook
     // a host such as libFuzzer installed for its own process; a report about
     // this program's own code ends it with kOwnCodeFailed.

@@ -19,6 +19,7 @@
 #include <fstream>
 #include <thread>
 
+#include "app/store/address_sanitizer.hpp"
 #include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
 #include "tests/app/shot_fixtures.hpp"
@@ -32,15 +33,6 @@ using End = ProbeResult::End;
 // State a stand-in read leaves in the reader process, as a damaged file could
 // leave the library's.
 bool g_poisoned = false;
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define COLLIDE_TEST_ASAN 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-#define COLLIDE_TEST_ASAN 1
-#endif
 
 // A heap read past the end, in this program's code (only asked for under
 // AddressSanitizer, which stops it).
@@ -58,9 +50,10 @@ void readPastTheEnd() {
 std::optional<std::string> standIn(const std::string& path, bool /*frames*/) {
   if (path == "crash" || g_poisoned) ::_exit(3);
   if (path == "poison") g_poisoned = true;
-  if (path == "spin")
-    for (volatile unsigned long i = 0;; i = i + 1) {
-    }
+  if (path == "spin") {
+    volatile unsigned long i = 0;
+    for (;;) i = i + 1;
+  }
   if (path == "sleep")
     for (;;) ::pause();
   if (path.rfind("refuse", 0) == 0) return path + " is not a shot file";
@@ -127,7 +120,7 @@ TEST(ReaderProcess, ACrashInAFreshProcessIsTheFiles) {
 // A memory error in our own reader must not pass for a damaged file (the
 // library's, by a libhdf5 frame on the stack: CorruptShotHeapOverflow).
 TEST(ReaderProcess, AMemoryErrorInOurOwnCodeIsNotCalledTheFiles) {
-#ifndef COLLIDE_TEST_ASAN
+#ifndef COLLIDE_ASAN
   GTEST_SKIP() << "needs AddressSanitizer (./collide.sh sanitize runs it)";
 #else
   probe("warm-up");
