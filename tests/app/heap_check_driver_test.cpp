@@ -148,21 +148,9 @@ TEST(HeapCheckDriver, AFrameThatStartsLikeACollectionIsNotMistakenForOne) {
   EXPECT_EQ(std::memcmp(back.data, header, sizeof header), 0);
 }
 
-/// Overwrites 4 little-endian bytes of `path` at `at` with `value`.
-void patch32(const std::string& path, std::uint64_t at, std::uint32_t value) {
-  std::FILE* f = std::fopen(path.c_str(), "r+b");
-  ASSERT_NE(f, nullptr);
-  unsigned char bytes[4];
-  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<unsigned char>(value >> (8 * i));
-  ASSERT_EQ(std::fseek(f, static_cast<long>(at), SEEK_SET), 0);
-  ASSERT_EQ(std::fwrite(bytes, 1, 4, f), 4u);
-  std::fclose(f);
-}
-
 /// Where a shot file stores the references of a string dataset: the byte of
 /// its first and the file's size of addresses (with libhdf5's own reader).
-std::pair<std::uint64_t, std::size_t> referencesOf(const std::string& path,
-                                                   const std::string& dataset) {
+std::pair<haddr_t, std::size_t> referencesOf(const std::string& path, const std::string& dataset) {
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   const hid_t d = H5Dopen2(file, dataset.c_str(), H5P_DEFAULT);
   const hid_t fcpl = H5Fget_create_plist(file);
@@ -175,19 +163,38 @@ std::pair<std::uint64_t, std::size_t> referencesOf(const std::string& path,
   return {offset, address_size};
 }
 
-// A string reference (length, collection address, object index) naming an
-// object its collection does not hold, or one of another length: libhdf5 1.10
-// reads a pointer from past the collection's object table, or copies the
-// object's size into a buffer of the string's (both found by shot_file_fuzz,
-// as SEGVs in H5HG_read). The file is refused, naming the string and object.
-TEST(HeapCheckDriver, AStringReferringToAMissingObjectIsRefused) {
-  ScratchDir dir;
+/// A field of a variable-length string's reference: its length (4 bytes), the
+/// collection's address, the object's index (4 bytes).
+enum class Field { Length, Index };
+
+/// Saves a shot into `dir` and overwrites `field` of the first reference of
+/// /sequencer/name with `value` (little-endian); the file's path, or "" after
+/// a failure.
+std::string shotWithDamagedReference(const ScratchDir& dir, Field field, std::uint32_t value) {
   ShotSpec spec;
-  ASSERT_TRUE(app::saveShot(dir.path(), makeShot(spec)).ok());
+  if (!app::saveShot(dir.path(), makeShot(spec)).ok()) return {};
   const std::string path = dir.file(spec.id + ".h5");
   const auto [offset, address_size] = referencesOf(path, "/sequencer/name");
-  ASSERT_NE(offset, HADDR_UNDEF);
-  patch32(path, offset + 4 + address_size, 0x00ffff00);  // the first string's object index
+  if (offset == HADDR_UNDEF) return {};
+  const haddr_t at = offset + (field == Field::Length ? 0 : 4 + address_size);
+  unsigned char bytes[4];
+  for (int i = 0; i < 4; ++i) bytes[i] = static_cast<unsigned char>(value >> (8 * i));
+  std::FILE* f = std::fopen(path.c_str(), "r+b");
+  const bool written =
+      f && std::fseek(f, static_cast<long>(at), SEEK_SET) == 0 && std::fwrite(bytes, 1, 4, f) == 4;
+  if (f) std::fclose(f);
+  return written ? path : std::string();
+}
+
+// A string reference naming an object its collection does not hold, or one
+// of another length: libhdf5 1.10 reads a pointer from past the collection's
+// object table (found by shot_file_fuzz, as SEGVs in H5HG_read), or copies the
+// object's size into a buffer of the string's. The file is refused, naming
+// the string and the object.
+TEST(HeapCheckDriver, AStringReferringToAMissingObjectIsRefused) {
+  ScratchDir dir;
+  const std::string path = shotWithDamagedReference(dir, Field::Index, 0x00ffff00);
+  ASSERT_FALSE(path.empty());
   auto read = app::readShot(path, {.contained = true});
   ASSERT_FALSE(read.ok());
   EXPECT_THAT(read.error().message, HasSubstr("/sequencer/name is corrupt: string 0 refers to "
@@ -197,12 +204,8 @@ TEST(HeapCheckDriver, AStringReferringToAMissingObjectIsRefused) {
 
 TEST(HeapCheckDriver, AStringLongerThanItsObjectIsRefused) {
   ScratchDir dir;
-  ShotSpec spec;
-  ASSERT_TRUE(app::saveShot(dir.path(), makeShot(spec)).ok());
-  const std::string path = dir.file(spec.id + ".h5");
-  const auto [offset, address_size] = referencesOf(path, "/sequencer/name");
-  ASSERT_NE(offset, HADDR_UNDEF);
-  patch32(path, offset, 5000);  // the first string's length
+  const std::string path = shotWithDamagedReference(dir, Field::Length, 5000);
+  ASSERT_FALSE(path.empty());
   for (bool contained : {true, false}) {
     auto read = app::readShot(path, {.contained = contained});
     ASSERT_FALSE(read.ok());
