@@ -305,7 +305,8 @@ std::optional<std::string> loadCollection(const File& file, haddr_t addr,
     return "a collection declaring " + std::to_string(declared) +
            " bytes, past the end of the file";
   if (declared > kLargestChecked)
-    return "a collection declaring " + std::to_string(declared) + " bytes";
+    return "a collection declaring " + std::to_string(declared) +
+           " bytes, larger than any shot file holds";
   std::vector<unsigned char> whole(declared);
   if (!readAt(file, addr, whole.size(), whole.data())) return "unreadable";
   if (auto damage = walkCollection(whole.data(), whole.size(), L, &objects))
@@ -328,6 +329,7 @@ std::optional<std::string> stringReferenceDamage(hid_t file_id, haddr_t offset, 
   const bool have_handle = ours && H5Fget_vfd_handle(file_id, fapl, &handle) >= 0 && handle;
   H5Pclose(fapl);
   if (!have_handle) return std::nullopt;  // another driver: leave the file to the library
+  // The driver's handle is the address of its file's descriptor (getHandle).
   const File& file =
       *reinterpret_cast<const File*>(reinterpret_cast<const char*>(handle) - offsetof(File, fd));
   hid_t fcpl = H5Fget_create_plist(file_id);
