@@ -9,6 +9,7 @@
 #include "hw/clock.hpp"
 #include "hw/format.hpp"
 #include "hw/try.hpp"
+#include "vision/random.hpp"
 
 namespace collide::hw {
 
@@ -373,6 +374,11 @@ std::optional<vision::WallLine> wallInImage(const RigProfile& p) {
 }
 
 vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const {
+  return renderFrame(exposure_start_ns, sequence, 0);
+}
+
+vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64_t noise_index,
+                                     std::int64_t time_origin_ns) const {
   vision::Frame f;
   f.timestamp_ns = exposure_start_ns;
   const std::int64_t mid = exposure_start_ns + std::llround(config_.exposure_us * 500.0);
@@ -380,13 +386,13 @@ vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64
   // The launch owns the dot patterns the views point at: keep it alive while rendering.
   const std::vector<vision::SphereView> views =
       launch ? sceneAt(*launch, mid) : std::vector<vision::SphereView>{};
-  f.image = renderer_->render(views, sequence, static_cast<double>(mid) * 1e-9);
+  f.image = renderer_->render(views, noise_index, static_cast<double>(mid - time_origin_ns) * 1e-9);
   if (const auto wall = wallInImage(world_->profile())) {
     vision::WallLook look;
     look.thickness_px = wall_thickness_px_;
     look.level = world_->profile().wall_level;
     look.noise_grey = renderer_->settings().noise_grey;
-    look.noise_seed = world_->profile().simulation.seed * 7919ULL + sequence;
+    look.noise_seed = world_->profile().simulation.seed * 7919ULL + noise_index;
     vision::drawWall(f.image, vision::maxValue(config_.format), *wall, look);
   }
   return f;
@@ -395,7 +401,8 @@ vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64
 void CameraSim::run() {
   const std::int64_t period = config_.framePeriodNs();
   const std::int64_t exposure = std::llround(config_.exposure_us * 1000.0);
-  const std::int64_t t_start = monotonicNowNs();
+  // The frame grid: frame `seq` starts exposing at t_start + seq * period.
+  std::int64_t t_start = monotonicNowNs();
   auto startOf = [&](std::uint64_t seq) {
     return t_start + static_cast<std::int64_t>(seq) * period;
   };
@@ -405,6 +412,33 @@ void CameraSim::run() {
   };
 
   std::uint64_t seq = 0;  // the camera's running frame counter
+  // A frame starts at grid_origin + k period; k seeds its noise. The lamps'
+  // flicker counts time from time_origin (see alignToTrigger).
+  std::int64_t grid_origin = t_start, time_origin = 0;
+  std::optional<std::int64_t> aligned_to;  // the current burst's trigger, once aligned to
+  std::uint64_t triggers = 0;
+  auto noiseIndex = [&](std::int64_t start_ns) {
+    return static_cast<std::uint64_t>((start_ns - grid_origin) / period + (std::int64_t{1} << 40));
+  };
+  // The grid moved to `trigger` minus a phase drawn from the seed (draws per
+  // trigger): the frames then fall where the seed says on the shot,
+  // whose valves open at fixed delays from the trigger, however the host
+  // scheduled the sequencer. Only while no frame of the burst's window has
+  // been exposed (the sequencer triggers that far ahead): the next frame
+  // starts at the first grid time at or after the one it would have had.
+  auto alignToTrigger = [&](std::int64_t trigger, int pre_frames) {
+    const std::int64_t next = startOf(seq);
+    if (trigger - pre_frames * period < next) return;
+    std::uint64_t state = world_->profile().simulation.seed ^ 0x3c6ef372fe94f82bULL ^
+                          (++triggers * 0xd1b54a32d192ed03ULL);
+    const double phase = vision::detail::uniform01(state);
+    grid_origin = trigger - std::llround(phase * static_cast<double>(period));
+    // Mains flicker at a phase of its own, also from the seed.
+    time_origin = grid_origin - std::llround(vision::detail::uniform01(state) * 1e9);
+    const std::int64_t d = next - grid_origin;
+    const std::int64_t k = d >= 0 ? (d + period - 1) / period : -(-d / period);
+    t_start = grid_origin + k * period - static_cast<std::int64_t>(seq) * period;
+  };
   std::shared_ptr<BurstRecorder> current;
   std::int64_t post_delivered = 0;
   bool stalled = false;                                  // fault: the stream stopped for this burst
@@ -420,6 +454,7 @@ void CameraSim::run() {
     if (std::shared_ptr<BurstRecorder> armed = recorder(); armed != current) {
       current = armed;
       post_delivered = 0;
+      aligned_to.reset();
       // fault: a silent camera delivers nothing for this burst.
       stalled = current && silence_ && !silence_->answer(true);
       // Frames exposed while nothing was armed were never kept: resume now.
@@ -428,8 +463,12 @@ void CameraSim::run() {
 
     std::int64_t sleep_until = std::numeric_limits<std::int64_t>::max();
     if (current && !stalled) {
-      const std::int64_t ts = startOf(seq);
       const std::optional<std::int64_t> trigger = current->triggerNs();
+      if (trigger && trigger != aligned_to) {
+        aligned_to = trigger;
+        alignToTrigger(*trigger, current->layout().pre_trigger_frames);
+      }
+      const std::int64_t ts = startOf(seq);
       if (!current->wants(ts)) {
         if (trigger && ts < *trigger) {
           // Far before the window: those frames would be overwritten anyway.
@@ -453,7 +492,7 @@ void CameraSim::run() {
             stalled = true;
             continue;
           }
-          vision::Frame frame = renderFrame(ts, seq);
+          vision::Frame frame = renderFrame(ts, noiseIndex(ts), time_origin);
           publishFrame(frame);
           current->push(seq, std::move(frame));
           if (post) ++post_delivered;
@@ -469,7 +508,7 @@ void CameraSim::run() {
       const std::int64_t now = monotonicNowNs();
       if (now >= next_preview_ns) {
         seq = std::max(seq, firstFrom(now));
-        publishFrame(renderFrame(startOf(seq), seq));
+        publishFrame(renderFrame(startOf(seq), noiseIndex(startOf(seq)), time_origin));
         ++seq;
         next_preview_ns = now + kPreviewPeriodNs;
       }

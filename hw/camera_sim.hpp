@@ -113,6 +113,10 @@ class CameraSim final : public Camera {
   /// simulated world (e.g. Aravis' fake camera in the peer tests). Configured;
   /// any thread.
   vision::Frame renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const;
+  /// The same with the noise seeded by `noise_index` and the lamps' flicker
+  /// phase counted from `time_origin_ns` (CLOCK_MONOTONIC).
+  vision::Frame renderFrame(std::int64_t exposure_start_ns, std::uint64_t noise_index,
+                            std::int64_t time_origin_ns) const;
 
  protected:
   Status onOpen() override { return Ok{}; }

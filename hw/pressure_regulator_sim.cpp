@@ -88,7 +88,9 @@ Result<double> PressureRegulatorSim::onReadPressureKPa(int channel) {
   if (Status s = linkUp(); !s) return s.error();
   if (Status s = heard(false); !s) return s.error();
   return world_->linePressureKPa(channel, world_->clock().nowNs()) +
-         (settings_.noise_kPa > 0 ? world_->gaussian(settings_.noise_kPa) : 0.0);
+         (settings_.noise_kPa > 0
+              ? world_->gaussian(SimWorld::Noise::Regulator, settings_.noise_kPa)
+              : 0.0);
 }
 
 namespace {

@@ -40,7 +40,12 @@ Result<std::shared_ptr<SimWorld>> SimWorld::create(const RigProfile& profile,
 }
 
 SimWorld::SimWorld(const RigProfile& profile, std::shared_ptr<Clock> clock, LaunchCalibration curve)
-    : profile_(profile), clock_(std::move(clock)), curve_(curve), rng_(profile.simulation.seed) {}
+    : profile_(profile),
+      clock_(std::move(clock)),
+      curve_(curve),
+      rng_(profile.simulation.seed),
+      regulator_rng_(profile.simulation.seed ^ 0x9e3779b97f4a7c15ULL),
+      valves_rng_(profile.simulation.seed ^ 0xbf58476d1ce4e5b9ULL) {}
 
 void SimWorld::setLineModel(int channel, LineModel model) {
   std::lock_guard lock(mutex_);
@@ -63,9 +68,10 @@ void SimWorld::setPressureSource(std::function<Result<double>(int channel)> sour
   pressure_source_ = std::move(source);
 }
 
-double SimWorld::gaussian(double sigma) {
+double SimWorld::gaussian(Noise device, double sigma) {
   std::lock_guard lock(mutex_);
-  return std::normal_distribution<double>(0.0, sigma)(rng_);
+  return std::normal_distribution<double>(
+      0.0, sigma)(device == Noise::Regulator ? regulator_rng_ : valves_rng_);
 }
 
 std::function<double(double)> SimWorld::restitutionLaw() const {

@@ -71,8 +71,13 @@ class SimWorld : public TruthSource {
   /// per launcher that fires. Null (the default): the world's own lines.
   void setPressureSource(std::function<Result<double>(int channel)> source);
 
-  /// A draw from the world's seeded random stream: normal, std dev `sigma`.
-  double gaussian(double sigma);
+  /// The devices whose noise the world draws, each from its own stream.
+  enum class Noise { Regulator, Valves };
+  /// A draw from `device`'s random stream, seeded from the profile's seed:
+  /// normal, std dev `sigma`. Each device has its own stream, apart from the
+  /// launches': how often the sequencer reads the regulator follows the
+  /// host's timing, and must not change what the next shot draws.
+  double gaussian(Noise device, double sigma);
 
   // ---- valves (ValveBankSim) -----------------------------------------------
   /// Valves opened as `events` say: each launcher whose valve is among them
@@ -106,7 +111,8 @@ class SimWorld : public TruthSource {
   const std::shared_ptr<Clock> clock_;
   const LaunchCalibration curve_;
   mutable std::mutex mutex_;
-  std::mt19937_64 rng_;
+  std::mt19937_64 rng_;  // launches: orientations, dots, speed and aim scatter, spins
+  std::mt19937_64 regulator_rng_, valves_rng_;
   std::map<int, PressureLine> lines_;
   std::shared_ptr<const SimLaunch> launch_;
   bool launched_in_burst_ = false;

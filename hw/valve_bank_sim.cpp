@@ -39,8 +39,9 @@ Result<std::vector<ValveEvent>> ValveBankSim::onFire(const std::vector<ValvePuls
   const std::int64_t now = clock_->nowNs();
   std::vector<ValveEvent> events;
   for (const ValvePulse& p : pattern) {
-    const double jitter_ns =
-        settings_.jitter_us > 0 ? world_->gaussian(settings_.jitter_us * 1e3) : 0;
+    const double jitter_ns = settings_.jitter_us > 0 ? world_->gaussian(SimWorld::Noise::Valves,
+                                                                        settings_.jitter_us * 1e3)
+                                                     : 0;
     const std::int64_t opened = std::max(now, p.open_at_ns + static_cast<std::int64_t>(jitter_ns));
     events.push_back({p.valve, opened, opened + p.pulse_us * 1000});
   }

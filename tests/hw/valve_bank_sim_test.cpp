@@ -80,3 +80,38 @@ TEST(ValveBankSim, DriverFaultRefusesToFireAndClosesEverything) {
   EXPECT_TRUE(b.valves->log().empty());
   EXPECT_FALSE(b.world->currentLaunch());
 }
+
+// The sequencer reads the regulator until its line settles, as often as the
+// host's timing makes it: those reads (and their noise) must not change what
+// the launch draws, or the same seed fires different shots from run to run.
+TEST(ValveBankSim, ALaunchFollowsTheSeedNotHowOftenTheRegulatorWasRead) {
+  ValveSimSettings s;
+  s.jitter_us = 20.0;
+  std::array<std::shared_ptr<const SimLaunch>, 2> launches;
+  std::array<std::vector<ValveEvent>, 2> events;
+  for (int run = 0; run < 2; ++run) {
+    Bench b(s);
+    b.world->commandPressureKPa(0, 60.0);
+    b.world->commandPressureKPa(1, 30.0);
+    b.clock->advanceNs(1000 * kMs);
+    // Run 1 reads the regulator 17 times more, as a slower host would.
+    for (int k = 0; k < (run == 0 ? 3 : 20); ++k)
+      b.world->gaussian(SimWorld::Noise::Regulator, 0.05);
+    const std::int64_t t0 = b.clock->nowNs() + kMs;
+    const auto fired = b.valves->fire({{0, t0, 15000}, {1, t0 + 2 * kMs, 15000}});
+    ASSERT_TRUE(fired) << fired.error().message;
+    for (const ValveEvent& e : *fired)
+      events[run].push_back({e.valve, e.opened_ns - t0, e.closed_ns - t0});
+    launches[run] = b.world->currentLaunch();
+    ASSERT_TRUE(launches[run]);
+  }
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(events[0][i].opened_ns, events[1][i].opened_ns) << "valve " << i << "'s jitter";
+    EXPECT_EQ(launches[0]->exit_speed_m_s[i], launches[1]->exit_speed_m_s[i]) << "sphere " << i;
+    EXPECT_EQ(launches[0]->dots[i].centres, launches[1]->dots[i].centres) << "sphere " << i;
+    const auto a = launches[0]->at(launches[0]->launch_ns[1] + 5 * kMs);
+    const auto b = launches[1]->at(launches[1]->launch_ns[1] + 5 * kMs);
+    EXPECT_EQ(a[i].spin_rad_s, b[i].spin_rad_s) << "sphere " << i;
+    EXPECT_EQ(a[i].velocity_m_s, b[i].velocity_m_s) << "sphere " << i;
+  }
+}
