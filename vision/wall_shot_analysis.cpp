@@ -143,6 +143,38 @@ std::optional<double> faceInstant(const TrajectoryFit& fit, const Wall& wall, do
   return best;
 }
 
+// The samples' centres taken at depth(t) from the plane z = 0 through the
+// lens (then projected onto the plane, as detectSphere leaves them).
+std::vector<Sample> atDepth(std::vector<Sample> samples, const PinholeCamera& camera,
+                            double radius_m, const std::function<double(double)>& depth) {
+  for (Sample& smp : samples) {
+    smp.centre_m = camera.sphereCentre(smp.m.circle.u, smp.m.circle.v, radius_m, depth(smp.t_s));
+    smp.centre_m.z() = 0.0;
+  }
+  return samples;
+}
+
+// The post-impact side refitted with its centres at the depth an
+// out-of-plane velocity vz gives after the contact at t_contact_s: the fit,
+// the instant it leaves the face and its velocity then.
+struct DepthRefit {
+  TrajectoryFit fit;
+  double t_separation_s = 0;
+  Vec3 velocity = Vec3::Zero();
+};
+std::optional<DepthRefit> refitAtDepth(const std::vector<Sample>& after,
+                                       const PinholeCamera& camera, double radius_m,
+                                       double t_contact_s, double vz, const Wall& wall) {
+  const auto depth = [&](double t) { return vz * (t - t_contact_s); };
+  const std::vector<Sample> moved = atDepth(after, camera, radius_m, depth);
+  auto fit = fitSide(moved, moved.front().t_s);
+  if (!fit) return std::nullopt;
+  const auto ts = faceInstant(*fit, wall, radius_m, false);
+  if (!ts) return std::nullopt;
+  DepthRefit out{*fit, *ts, fit->velocityAt_m_s(*ts).value};
+  return out;
+}
+
 struct SpinSide {
   bool known = false;
   Vec3 spin = Vec3::Zero();
@@ -203,10 +235,21 @@ double stddev(const std::vector<double>& x) {
   return std::sqrt(ss / (v.size() - 1));
 }
 
+// How the post-impact fit depends on the out-of-plane velocity the impact
+// gave (under a lens): the in-plane velocity at separation moves by
+// dv_dvz (v_z - vz_used) to first order, the centres being taken at the depth
+// v_z (t - t_contact) (see analyzeWallBurst). Zero without a lens.
+struct DepthCoupling {
+  Eigen::Vector2d dv_dvz = Eigen::Vector2d::Zero();
+  double vz_used = 0;
+};
+
 // Monte Carlo: velocities from the fits' per-axis sigmas at contact, spins
-// from their covariances, the face turned and shifted by its sigmas.
+// from their covariances, the face turned and shifted by its sigmas; the
+// post-impact velocity follows the v_z each draw's spins give (`depth`).
 void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, const SpinSide& sb,
-               const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma) {
+               const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma,
+               const DepthCoupling& depth) {
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
@@ -231,7 +274,10 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
     w.normal = Vec3(std::cos(th) * w.normal.x() - std::sin(th) * w.normal.y(),
                     std::sin(th) * w.normal.x() + std::cos(th) * w.normal.y(), 0.0);
     if (spins_known) {
-      if (auto vz = wallOutOfPlaneVelocity(b, af, w)) af.velocity_m_s.z() = *vz;
+      if (auto vz = wallOutOfPlaneVelocity(b, af, w)) {
+        af.velocity_m_s.head<2>() += depth.dv_dvz * (*vz - depth.vz_used);
+        af.velocity_m_s.z() = *vz;
+      }
     }
     auto m = measureWallCollision(b, af, w);
     if (!m) continue;
@@ -389,6 +435,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.sphere_after.spin_rad_s = sa.spin;
   // The out-of-plane velocity the impact gave (not seen in the image) from
   // the spin change (appendix B): needs both spins.
+  DepthCoupling coupling;
   if (sb.known && sa.known) {
     if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall)) {
       a.sphere_after.velocity_m_s.z() = *vz;
@@ -399,23 +446,26 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       // refitted, and v_z again from the spins.
       if (s.camera) {
         const auto depth = [vz = *vz, t0 = *tc](double t) { return vz * (t - t0); };
-        for (Sample& smp : after) {
-          smp.centre_m = s.camera->sphereCentre(smp.m.circle.u, smp.m.circle.v, R, depth(smp.t_s));
-          smp.centre_m.z() = 0.0;
-        }
-        if (SpinSide at_depth = spinOf(burst, after, r_med, s.camera, R, depth); at_depth.known) {
+        if (SpinSide at_depth =
+                spinOf(burst, atDepth(after, *s.camera, R, depth), r_med, s.camera, R, depth);
+            at_depth.known) {
           sa = at_depth;
           a.sphere_after.spin_rad_s = sa.spin;
           a.spin_sigma_after = Vec3(sa.cov.diagonal().cwiseSqrt());
         }
-        auto refit = fitSide(after, after.front().t_s);
-        const auto ts2 = refit ? faceInstant(*refit, a.wall, R, false) : std::nullopt;
-        if (refit && ts2) {
-          a.after = *refit;
-          a.t_separation_s = *ts2;
-          a.sphere_after.velocity_m_s = refit->velocityAt_m_s(*ts2).value;
-          fa = std::move(refit);
-          ts = ts2;
+        auto refit = refitAtDepth(after, *s.camera, R, *tc, *vz, a.wall);
+        if (refit) {
+          // The same at a v_z 0.01 m/s away: how much the spins' error in
+          // v_z moves the post-impact velocity (propagate()).
+          constexpr double kDvz = 0.01;
+          if (auto nudged = refitAtDepth(after, *s.camera, R, *tc, *vz + kDvz, a.wall))
+            coupling.dv_dvz = (nudged->velocity - refit->velocity).head<2>() / kDvz;
+          coupling.vz_used = *vz;
+          a.after = refit->fit;
+          a.t_separation_s = refit->t_separation_s;
+          a.sphere_after.velocity_m_s = refit->velocity;
+          ts = refit->t_separation_s;
+          fa = std::move(refit->fit);
           if (auto vz2 = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
             a.sphere_after.velocity_m_s.z() = *vz2;
         }
@@ -437,7 +487,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     return sigma;
   };
   propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
-            sa, velocitySigma(*fb, *tc), velocitySigma(*fa, *ts));
+            sa, velocitySigma(*fb, *tc), velocitySigma(*fa, *ts), coupling);
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;

@@ -269,9 +269,15 @@ TEST(WallCampaignSim, ShotsThroughALensAreMeasuredThroughIt) {
     const double spin_err = std::max((a.sphere_before.spin_rad_s - truth.before.spin_rad_s).norm(),
                                      (a.sphere_after.spin_rad_s - truth.after.spin_rad_s).norm());
     std::printf(
-        "wall through a lens: e %.4f (truth %.4f), beta %.4f (truth %.4f), spin error %.2f rad/s\n",
-        a.measured.e, m.e, a.measured.beta, m.beta, spin_err);
+        "wall through a lens: e %.4f +- %.4f (truth %.4f), beta %.4f (truth %.4f), spin error "
+        "%.2f rad/s\n",
+        a.measured.e, a.e_sigma, m.e, a.measured.beta, m.beta, spin_err);
     EXPECT_NEAR(a.measured.e, m.e, 0.002) << file;
+    // The stated sigma covers the error (issue 12: none beyond 4), the
+    // post-impact depth's share included: under a lens the centres after the
+    // impact are taken at the depth the spins' v_z gives, so the spins'
+    // error moves the post-impact velocity too.
+    EXPECT_LT(std::abs(a.measured.e - m.e), 4 * a.e_sigma) << file;
     EXPECT_NEAR(a.measured.beta, m.beta, 0.01) << file;
     EXPECT_LT(spin_err, 1.0) << file;
   }
