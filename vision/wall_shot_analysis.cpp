@@ -143,17 +143,6 @@ std::optional<double> faceInstant(const TrajectoryFit& fit, const Wall& wall, do
   return best;
 }
 
-// The samples' centres taken at depth(t) from the plane z = 0 through the
-// lens (then projected onto the plane, as detectSphere leaves them).
-std::vector<Sample> atDepth(std::vector<Sample> samples, const PinholeCamera& camera,
-                            double radius_m, const std::function<double(double)>& depth) {
-  for (Sample& smp : samples) {
-    smp.centre_m = camera.sphereCentre(smp.m.circle.u, smp.m.circle.v, radius_m, depth(smp.t_s));
-    smp.centre_m.z() = 0.0;
-  }
-  return samples;
-}
-
 // The post-impact side refitted with its centres at the depth an
 // out-of-plane velocity vz gives after the contact at t_contact_s: the fit,
 // the instant it leaves the face and its velocity then.
@@ -165,8 +154,12 @@ struct DepthRefit {
 std::optional<DepthRefit> refitAtDepth(const std::vector<Sample>& after,
                                        const PinholeCamera& camera, double radius_m,
                                        double t_contact_s, double vz, const Wall& wall) {
-  const auto depth = [&](double t) { return vz * (t - t_contact_s); };
-  const std::vector<Sample> moved = atDepth(after, camera, radius_m, depth);
+  std::vector<Sample> moved = after;
+  for (Sample& smp : moved) {
+    smp.centre_m =
+        camera.sphereCentre(smp.m.circle.u, smp.m.circle.v, radius_m, vz * (smp.t_s - t_contact_s));
+    smp.centre_m.z() = 0.0;  // projected onto the plane, as detectSphere leaves them
+  }
   auto fit = fitSide(moved, moved.front().t_s);
   if (!fit) return std::nullopt;
   const auto ts = faceInstant(*fit, wall, radius_m, false);
@@ -446,9 +439,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       // refitted, and v_z again from the spins.
       if (s.camera) {
         const auto depth = [vz = *vz, t0 = *tc](double t) { return vz * (t - t0); };
-        if (SpinSide at_depth =
-                spinOf(burst, atDepth(after, *s.camera, R, depth), r_med, s.camera, R, depth);
-            at_depth.known) {
+        if (SpinSide at_depth = spinOf(burst, after, r_med, s.camera, R, depth); at_depth.known) {
           sa = at_depth;
           a.sphere_after.spin_rad_s = sa.spin;
           a.spin_sigma_after = Vec3(sa.cov.diagonal().cwiseSqrt());
