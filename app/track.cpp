@@ -282,7 +282,7 @@ std::vector<FlightPoint> flightPoints(const TrackResult& r, int t, const SphereS
     p.t_s = frameTime(r, f.index);
     p.position_m = toWorld(r, t, sp.u_px, sp.v_px, depth.depthAt(f.index, p.t_s));
     p.sigma_m = std::max(sp.sigma_px, 1e-3) * r.pixel_size_m;
-    p.usable = !sp.cut_by_border && !sp.touching && !sp.contact;
+    p.usable = !sp.cut_by_border && !sp.near_border && !sp.touching && !sp.contact;
     p.contact = sp.contact;
     pts.push_back(p);
     frame_of.push_back(f.index);
@@ -299,8 +299,8 @@ std::optional<DepthMotion> segmentDepth(const TrackResult& r, int t, std::int64_
   std::vector<double> ts, rad, sr, r0;
   for (const auto& f : r.tracks.frames) {
     const vision::TrackedSphere& sp = f.spheres[t];
-    if (f.index < first || f.index > last || !sp.found || sp.cut_by_border || sp.touching ||
-        sp.contact)
+    if (f.index < first || f.index > last || !sp.found || sp.cut_by_border || sp.near_border ||
+        sp.touching || sp.contact)
       continue;
     const double plane = planeRadiusPx(*r.camera, sp.u_px, sp.v_px, radius_m);
     if (!std::isfinite(plane)) continue;
@@ -486,6 +486,7 @@ std::string trackToJson(const TrackResult& r) {
       fr["position_m"] =
           pair(toWorld(r, t, s.u_px, s.v_px, r.spheres[t].depthAt(f.index, frameTime(r, f.index))));
       if (s.cut_by_border) fr["cut_by_border"] = true;
+      if (s.near_border) fr["near_border"] = true;
       if (s.touching) fr["touching"] = true;
       if (s.contact) fr["contact"] = true;
       frames.push_back(std::move(fr));

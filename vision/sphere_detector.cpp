@@ -928,6 +928,7 @@ FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetector
     m.background = st.accepted ? st.sum_out / st.accepted : lv.bg;
     m.rim_level = st.accepted ? st.sum_rim / st.accepted : lv.threshold;
     m.saturated_pixels = st.saturated;
+    m.border_profiles = st.border;
     const double r = fit->radius;
     m.cut_by_border =
         fit->u - r < -0.5 || fit->v - r < -0.5 || fit->u + r > w - 0.5 || fit->v + r > h - 0.5;

@@ -117,7 +117,12 @@ struct SphereDetectorSettings {
 /// One sphere found in one frame (pixels).
 struct SphereMeasurement {
   CircleFit circle;
-  bool cut_by_border = false;   ///< the outline runs off the frame
+  bool cut_by_border = false;  ///< the outline runs off the frame
+  /// Edge profiles left out because their window ran off the frame: the
+  /// outline is whole but comes within a profile's length (about 15 px) of
+  /// the border, and the circle rests on the rest of it. Any shading the
+  /// edge model misses then moves the centre instead of the radius.
+  int border_profiles = 0;
   bool touching = false;        ///< its blob was merged with another sphere's
   double background = 0;        ///< local background level, grey levels
   double rim_level = 0;         ///< mean brightness at the limb, grey levels

@@ -123,6 +123,7 @@ TrackedSphere fromMeasurement(const SphereMeasurement& m) {
   s.sigma_px = std::max(m.circle.sigma_u, m.circle.sigma_v);
   s.radius_sigma_px = m.circle.sigma_radius;
   s.cut_by_border = m.cut_by_border;
+  s.near_border = !m.cut_by_border && m.border_profiles > 0;
   s.touching = m.touching;
   return s;
 }

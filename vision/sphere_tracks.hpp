@@ -50,6 +50,9 @@ struct TrackedSphere {
   double sigma_px = 0;         ///< standard uncertainty of the centre, per axis
   double radius_sigma_px = 0;  ///< standard uncertainty of the radius
   bool cut_by_border = false;
+  /// Whole, but edge profiles were lost to the border (SphereMeasurement::
+  /// border_profiles): the centre may carry the edge model's bias.
+  bool near_border = false;
   bool touching = false;  ///< its blob merged with another
   bool contact = false;   ///< within the contact margin of another sphere
 };

@@ -106,6 +106,18 @@ TEST_F(CliBacklitFootage, TrackEndsEachSpheresFlightAtTheContact) {
     while (k < static_cast<int>(segs.size()) && segs[k]["ends_at"] != "contact") ++k;
     ASSERT_LT(k + 1, static_cast<int>(segs.size())) << "no segment ends at a contact";
     const int last_before = segs[k]["last_frame"], first_after = segs[k + 1]["first_frame"];
+    // Each sphere flies in from the side: some frames come within an edge
+    // profile of the frame's edge, and are in no segment (their centres lean
+    // by 0.1-0.2 px here, issue 12).
+    int near = 0;
+    for (const auto& f : j["spheres"][s]["frames"]) {
+      if (!f.contains("near_border")) continue;
+      ++near;
+      for (const auto& g : segs)
+        EXPECT_FALSE(f["index"] >= g["first_frame"] && f["index"] <= g["last_frame"])
+            << "sphere " << s + 1 << ": frame " << f["index"] << " is near the border";
+    }
+    EXPECT_GT(near, 0) << "sphere " << s + 1;
     EXPECT_LT(truth.t_s[last_before], truth.t_collision_s) << "sphere " << s + 1;
     EXPECT_GT(truth.t_s[first_after], truth.t_collision_s) << "sphere " << s + 1;
     // Before the contact: the sphere's own velocity, through the profile's

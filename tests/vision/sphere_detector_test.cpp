@@ -164,6 +164,30 @@ TEST(SphereDetector, TwoDottedSpheresMeetTheAccuracyTarget) {
   EXPECT_LT(err.radiusRms(), 0.03);
 }
 
+// An outline that stays inside the frame but comes within an edge profile's
+// length of the border loses the profiles that would run off it: the circle
+// rests on the rest of the outline, so the measurement says so
+// (border_profiles, which `collide track` leaves out of its fits); one well
+// inside loses none.
+TEST(SphereDetector, ProfilesLostToANearBorderAreCounted) {
+  RenderSettings rs;
+  rs.noise_grey = 1.0;
+  SphereDetector det;
+  for (const double gap : {2.0, 6.0, 40.0}) {  // px between the outline and the right border
+    SphereView v;
+    v.radius_px = 60;
+    v.centre_px = {rs.width - 0.5 - gap - v.radius_px, 240.3};
+    const FrameSpheres found = det.detect(Renderer(rs).render({v}, 0), 255);
+    ASSERT_EQ(found.spheres.size(), 1u) << "gap " << gap;
+    const SphereMeasurement& m = found.spheres[0];
+    EXPECT_FALSE(m.cut_by_border) << "gap " << gap;
+    if (gap < 10)
+      EXPECT_GT(m.border_profiles, 10) << "gap " << gap;
+    else
+      EXPECT_EQ(m.border_profiles, 0) << "gap " << gap;
+  }
+}
+
 // One-sided front light (config/sim-lab.toml's lamp): the limb away from the
 // lamp falls dark and dark dots cut into the bright blob, so the coarse fit may
 // take one sphere for a pair and split it. Both halves refine onto the same
