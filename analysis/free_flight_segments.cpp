@@ -5,6 +5,8 @@
 #include <limits>
 #include <utility>
 
+#include "analysis/residual_structure.hpp"
+
 namespace collide {
 
 namespace {
@@ -186,10 +188,13 @@ Result<FreeFlightSegment> segmentFrom(const std::vector<FlightPoint>& points,
   FreeFlightSegment seg{s.first, s.last, std::move(*fit)};
   const Estimate3 v = seg.fit.velocityAt_m_s(points[s.first].t_s);
   const Estimate3 a = seg.fit.acceleration_m_s2();
+  // Residuals that run in one direction over several frames move the fit more
+  // than its covariance (independent frames) says.
+  const double inflate = std::sqrt(residualInflation(seg.fit));
   seg.velocity_m_s = v.value.head<2>();
-  seg.velocity_sigma_m_s = v.sigma.head<2>();
+  seg.velocity_sigma_m_s = inflate * v.sigma.head<2>();
   seg.acceleration_m_s2 = a.value.head<2>();
-  seg.acceleration_sigma_m_s2 = a.sigma.head<2>();
+  seg.acceleration_sigma_m_s2 = inflate * a.sigma.head<2>();
   double sum2 = 0;
   int n = 0;
   for (int axis = 0; axis < 2; ++axis) {

@@ -45,7 +45,8 @@ struct FreeFlightSegment {
   int first = 0, last = 0;  ///< indices into the points, both included
   TrajectoryFit fit;        ///< t_ref = the first sample's time
   /// At the first sample's time, with standard uncertainties from the fit's
-  /// covariance scaled by its residuals (chi^2/dof).
+  /// covariance scaled by its residuals (chi^2/dof) and by their correlation
+  /// from frame to frame (residualInflation, analysis/residual_structure.hpp).
   Eigen::Vector2d velocity_m_s = Eigen::Vector2d::Zero();
   Eigen::Vector2d velocity_sigma_m_s = Eigen::Vector2d::Zero();
   Eigen::Vector2d acceleration_m_s2 = Eigen::Vector2d::Zero();

@@ -1,6 +1,7 @@
 #include "analysis/residual_structure.hpp"
 
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -96,6 +97,17 @@ bool residualsStructured(const LinearFit& fit, double z) {
     return f > t * t;
   }
   return false;
+}
+
+double residualInflation(const TrajectoryFit& fit) {
+  double num = 0, den = 0;
+  for (int k = 0; k < 2; ++k) {  // x and y pooled
+    const Lag1Sums sums = lag1Sums(fit.axisFit(k));
+    num += sums.products, den += sums.squares;
+  }
+  if (!(den > 0)) return 1;
+  const double rho = std::clamp(num / den, 0.0, 0.8);
+  return (1 + rho) / (1 - rho);
 }
 
 }  // namespace collide

@@ -27,6 +27,7 @@
 //    misfit is only about 0.56 there).
 // Both are independent of the residuals' scale: they ask about order, not size.
 #include "analysis/least_squares.hpp"
+#include "analysis/trajectory.hpp"
 
 namespace collide {
 
@@ -54,5 +55,13 @@ double residualTrendF(const LinearFit& fit);
 /// z / sqrt(n), or F > t^2 with t Student's quantile for n - 4 degrees of
 /// freedom at the same probability. False when neither can be computed.
 bool residualsStructured(const LinearFit& fit, double z = 3.29);
+
+/// Variance inflation for a track whose residuals are correlated from frame
+/// to frame: (1 + rho) / (1 - rho), rho the lag-1 autocorrelation of the
+/// weighted residuals pooled over x and y, clamped to [0, 0.8] (Bartlett).
+/// The fit's covariance assumes independent frames; neighbouring frames share
+/// slowly changing detection errors (dots near the limb, blur, shading the
+/// edge model misses), which move a velocity more than independent ones would.
+double residualInflation(const TrajectoryFit& fit);
 
 }  // namespace collide

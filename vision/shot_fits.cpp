@@ -8,17 +8,6 @@
 
 namespace collide::vision {
 
-double residualInflation(const TrajectoryFit& fit) {
-  double num = 0, den = 0;
-  for (int k = 0; k < 2; ++k) {  // x and y pooled
-    const Lag1Sums sums = lag1Sums(fit.axisFit(k));
-    num += sums.products, den += sums.squares;
-  }
-  if (!(den > 0)) return 1;
-  const double rho = std::clamp(num / den, 0.0, 0.8);
-  return (1 + rho) / (1 - rho);
-}
-
 double dotBiasPx(double radius_px, double blur_px) {
   return 0.22 / radius_px * std::max(blur_px, 0.5) / 1.9;
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "analysis/camera_model.hpp"
+#include "analysis/residual_structure.hpp"
 #include "analysis/result.hpp"
 #include "analysis/trajectory.hpp"
 #include "vision/shot_tracking.hpp"
@@ -41,16 +42,9 @@ struct PixelScale {
 struct SideFit {
   TrajectoryFit fit;
   std::vector<int> frames;  ///< indices into the FrameData vector
-  /// Variance inflation for residuals correlated from frame to frame:
-  /// (1 + rho) / (1 - rho), rho their lag-1 autocorrelation (Bartlett): the
-  /// fit's covariance assumes independent frames, and neighbouring frames
-  /// share slowly changing detection errors (dots near the limb, blur).
+  /// residualInflation(fit) (analysis/residual_structure.hpp).
   double inflation = 1;
 };
-
-/// Lag-1 autocorrelation inflation of a fit's normalised residuals, pooled
-/// over the axes: (1 + rho) / (1 - rho), rho clamped to [0, 0.8].
-double residualInflation(const TrajectoryFit& fit);
 
 /// Dots crossing the limb displace the detected edge, and so the centre, by
 /// an amount that grows with the motion blur smearing them over it; as the

@@ -6,6 +6,7 @@
 #include <limits>
 #include <random>
 
+#include "analysis/residual_structure.hpp"
 #include "analysis/shot_inverse.hpp"
 #include "vision/dot_detector.hpp"
 #include "vision/shot_fits.hpp"
