@@ -84,6 +84,7 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
     } else {
       out.results_json = failedResultsJson(wall->error().message);
       out.message = wall->error().message;
+      out.unmeasurable = true;
     }
   } else if (auto analysis = vision::analyzeBurst(shot->burst, analysisSettingsFor(*shot));
              analysis) {
@@ -92,6 +93,7 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
   } else {
     out.results_json = failedResultsJson(analysis.error().message);
     out.message = analysis.error().message;
+    out.unmeasurable = true;
   }
   const std::string dir = fs::path(path).parent_path().string();
   std::lock_guard lock(store_mutex);
@@ -101,6 +103,7 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
                              : storeResults(path, out.results_json);
   if (!stored) {
     out.analysed = false;
+    out.unmeasurable = false;
     out.message = "results not stored: " + stored.error().message;
   }
   return out;
@@ -164,6 +167,8 @@ AnalyzeFolderReport analyzeFiles(const std::vector<std::string>& files,
     if (o.file.empty()) continue;  // not reached before a cancel
     if (o.analysed) {
       ++report.analysed;
+    } else if (o.unmeasurable) {
+      ++report.unmeasurable;
     } else if (o.skipped) {
       ++report.skipped;
     } else {

@@ -38,9 +38,14 @@ std::optional<PinholeCamera> recordedLens(const hw::RigProfile& profile);
 /// What happened to one shot file.
 struct AnalyzeOutcome {
   std::string file;
-  std::string id;            ///< empty if the file could not be read
-  bool analysed = false;     ///< results computed and stored
-  bool skipped = false;      ///< not analysed: failed shot, or already analysed
+  std::string id;         ///< empty if the file could not be read
+  bool analysed = false;  ///< results computed and stored
+  bool skipped = false;   ///< not analysed: failed shot, or already analysed
+  /// Read and analysed, but it holds no collision that can be measured (the
+  /// spheres missed each other, a sphere was never found): why is stored in
+  /// the file as its results (failedResultsJson). A verdict on the shot, not a
+  /// failure of the analysis: running it again gives the same.
+  bool unmeasurable = false;
   std::string message;       ///< why it failed or was skipped (what to do)
   std::string results_json;  ///< what was stored (empty if nothing was)
 };
@@ -57,7 +62,7 @@ struct AnalyzeFolderOptions {
 };
 struct AnalyzeFolderReport {
   std::vector<AnalyzeOutcome> outcomes;  ///< in file-name order
-  int analysed = 0, failed = 0, skipped = 0;
+  int analysed = 0, unmeasurable = 0, failed = 0, skipped = 0;
   bool cancelled = false;
 };
 using AnalyzeProgress = std::function<void(int done, int total, const AnalyzeOutcome& last)>;

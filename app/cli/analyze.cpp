@@ -82,6 +82,8 @@ std::string summaryLine(const collide::app::ShotResults& r) {
 std::string describe(const collide::app::AnalyzeOutcome& o) {
   const std::string name = o.id.empty() ? o.file : o.id;
   if (o.skipped) return name + ": skipped, " + o.message;
+  if (o.unmeasurable)
+    return name + ": no measurable collision (stored as its results): " + o.message;
   if (!o.analysed) return name + ": NOT analysed: " + o.message;
   auto r = collide::app::parseResultsJson(o.results_json);
   return name + ": " + (r ? summaryLine(*r) : r.error().message);
@@ -326,21 +328,23 @@ int analyzeShots(const Options& o) {
         continue;
       }
       for (const auto& out : report->outcomes) std::cout << describe(out) << "\n";
-      std::cout << path << ": " << report->analysed << " analysed, " << report->failed
+      std::cout << path << ": " << report->analysed << " analysed, " << report->unmeasurable
+                << " without a measurable collision, " << report->failed
                 << " could not be analysed, " << report->skipped << " skipped"
                 << (report->cancelled ? " (stopped on request)" : "") << "\n";
       failed += report->failed;
     } else if (fs::is_regular_file(path, ec)) {
       auto out = collide::app::analyzeShotFile(path);
       std::cout << describe(out) << "\n";
-      if (!out.analysed && !out.skipped) ++failed;
+      if (!out.analysed && !out.skipped && !out.unmeasurable) ++failed;
     } else {
       std::cerr << "collide analyze: " << path << ": no such file or folder\n";
       ++bad;
     }
   }
   if (bad) return kExitBadInput;
-  return failed ? kExitFailure : kExitOk;
+  // Stopped by Ctrl-C or SIGTERM: some shots were never reached.
+  return failed || stop.interrupted() ? kExitFailure : kExitOk;
 }
 
 // `collide analyze --manifest LIST [--index I] [--chunk K]`: one task of a
@@ -420,7 +424,8 @@ int analyzeManifest(const Options& o) {
                 seconds > 0 ? static_cast<double>(report.analysed) / seconds : 0.0);
   std::cout << list << (index ? " task " + std::to_string(*index) : std::string()) << " (shots "
             << first << "-" << last << " of " << total << "): " << report.analysed << " analysed, "
-            << report.failed << " could not be analysed, " << report.skipped << " skipped, " << rate
+            << report.unmeasurable << " without a measurable collision, " << report.failed
+            << " could not be analysed, " << report.skipped << " skipped, " << rate
             << (report.cancelled ? "; stopped on request before the end of the chunk" : "") << "\n";
   return report.failed > 0 || report.cancelled ? kExitFailure : kExitOk;
 }
@@ -469,9 +474,11 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
                  "With --frames: one sphere striking a plate whose face passes through pixels "
                  "u1,v1,u2,v2 (image axes: u right, v down)");
   sub.footer(
-      "Shot files: the results are stored in each file and its catalog row; a shot that\n"
-      "cannot be analysed keeps its frames and gets results saying why. Ctrl-C stops after\n"
-      "the shots in progress. Exit status: 0 all analysed, 1 some could not be, 2 bad input.\n"
+      "Shot files: the results are stored in each file and its catalog row; a shot with no\n"
+      "measurable collision (a near miss, no sphere found) keeps its frames and gets results\n"
+      "saying why. Ctrl-C stops after the shots in progress. Exit status: 0 every shot\n"
+      "analysed or found to hold no measurable collision, 1 some could not be analysed\n"
+      "(unreadable, results not stored, stopped), 2 bad input.\n"
       "Safe to run twice, and beside other tasks on the same folders (docs/cluster.md).");
   run = [o] {
     if (!o->manifest.empty()) {

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "app/store/save.hpp"
 #include "app/store/shot_file.hpp"
 #include "tests/app/cli_run.hpp"
 #include "tests/app/shot_fixtures.hpp"
@@ -96,13 +97,47 @@ TEST(CliManifest, TasksOfAManifestAnalyseEveryShotOnceAndFitTheCampaign) {
   EXPECT_EQ(gone.exit_code, 1) << gone.out << gone.err;
   EXPECT_THAT(gone.out, HasSubstr(list + ":9: "));
   EXPECT_THAT(gone.out, HasSubstr(paths[8]));
-  EXPECT_THAT(gone.out, HasSubstr("1 analysed, 1 could not be analysed"));
+  EXPECT_THAT(gone.out,
+              HasSubstr("1 analysed, 0 without a measurable collision, 1 could not be analysed"));
   auto no_index = runCollide("analyze --manifest " + q(list) + " --chunk 4", scratch);
   EXPECT_EQ(no_index.exit_code, 2);
   EXPECT_THAT(no_index.err, HasSubstr("SLURM_ARRAY_TASK_ID"));
   auto bad_env = runCollide("analyze --manifest " + q(list), scratch, "SLURM_ARRAY_TASK_ID=x ");
   EXPECT_EQ(bad_env.exit_code, 2);
   EXPECT_THAT(bad_env.err, HasSubstr("'x' is not a task index"));
+}
+
+// A shot with no collision to measure (here: frames with no sphere at all; on
+// the rig, spheres that miss each other) is a verdict on the shot, stored as
+// its results, not a failed task: the task exits 0, so a reduce step queued
+// with --dependency=afterok still runs, and says how many such shots there were.
+TEST(CliManifest, AShotWithNoCollisionIsStoredAndDoesNotFailTheTask) {
+  unsetenv("SLURM_ARRAY_TASK_ID");
+  ScratchDir scratch;
+  const std::string dir = scratch.file("odd");
+  fs::create_directories(dir);
+  ShotSpec spec;
+  spec.results = false;
+  auto id = collide::app::saveShot(dir, makeShot(spec));
+  ASSERT_TRUE(id.ok()) << id.error().message;
+  const std::string file = dir + "/" + *id + ".h5";
+  const std::string list = scratch.file("odd.list");
+  ASSERT_EQ(runCollide("manifest " + q(dir) + " --out " + q(list), scratch).exit_code, 0);
+  auto task = runCollide("analyze --manifest " + q(list) + " --index 0", scratch);
+  EXPECT_EQ(task.exit_code, 0) << task.out << task.err;
+  EXPECT_THAT(task.out, HasSubstr("no measurable collision (stored as its results)"));
+  EXPECT_THAT(task.out,
+              HasSubstr("0 analysed, 1 without a measurable collision, 0 could not be analysed"));
+  auto shot = collide::app::readShot(file, {.frames = false});
+  ASSERT_TRUE(shot.ok()) << shot.error().message;
+  EXPECT_THAT(shot->results_json, HasSubstr("\"error\""));
+  // The same verdict from a folder and from the file itself.
+  auto folder = runCollide("analyze " + q(dir), scratch);
+  EXPECT_EQ(folder.exit_code, 0) << folder.out << folder.err;
+  EXPECT_THAT(folder.out, HasSubstr("1 without a measurable collision"));
+  auto one = runCollide("analyze " + q(file), scratch);
+  EXPECT_EQ(one.exit_code, 0) << one.out << one.err;
+  EXPECT_THAT(one.out, HasSubstr("no measurable collision"));
 }
 
 }  // namespace
