@@ -89,6 +89,14 @@ std::string describe(const collide::app::AnalyzeOutcome& o) {
   return name + ": " + (r ? summaryLine(*r) : r.error().message);
 }
 
+// "N analysed, U without a measurable collision, F could not be analysed, S
+// skipped": what a folder or a manifest task came to.
+std::string counts(const collide::app::AnalyzeFolderReport& r) {
+  return std::to_string(r.analysed) + " analysed, " + std::to_string(r.unmeasurable) +
+         " without a measurable collision, " + std::to_string(r.failed) +
+         " could not be analysed, " + std::to_string(r.skipped) + " skipped";
+}
+
 // "down", "up", "left", "right", or "U,V" (image axes: u right, v down).
 bool parseGravity(const std::string& s, std::array<double, 2>& out) {
   if (s == "down")
@@ -328,9 +336,7 @@ int analyzeShots(const Options& o) {
         continue;
       }
       for (const auto& out : report->outcomes) std::cout << describe(out) << "\n";
-      std::cout << path << ": " << report->analysed << " analysed, " << report->unmeasurable
-                << " without a measurable collision, " << report->failed
-                << " could not be analysed, " << report->skipped << " skipped"
+      std::cout << path << ": " << counts(*report)
                 << (report->cancelled ? " (stopped on request)" : "") << "\n";
       failed += report->failed;
     } else if (fs::is_regular_file(path, ec)) {
@@ -423,9 +429,7 @@ int analyzeManifest(const Options& o) {
   std::snprintf(rate, sizeof rate, "%.1f s, %.3f shots/s", seconds,
                 seconds > 0 ? static_cast<double>(report.analysed) / seconds : 0.0);
   std::cout << list << (index ? " task " + std::to_string(*index) : std::string()) << " (shots "
-            << first << "-" << last << " of " << total << "): " << report.analysed << " analysed, "
-            << report.unmeasurable << " without a measurable collision, " << report.failed
-            << " could not be analysed, " << report.skipped << " skipped, " << rate
+            << first << "-" << last << " of " << total << "): " << counts(report) << ", " << rate
             << (report.cancelled ? "; stopped on request before the end of the chunk" : "") << "\n";
   return report.failed > 0 || report.cancelled ? kExitFailure : kExitOk;
 }
