@@ -14,6 +14,8 @@ Result<RegulatorSimSettings> RegulatorSimSettings::read(SettingsReader& r) {
   COLLIDE_ASSIGN_OR_RETURN(const double tau_ms,
                            r.number("time_constant_ms", 10.0, {.gt = 0.0, .le = 60000.0}));
   s.time_constant_s = tau_ms * 1e-3;
+  COLLIDE_ASSIGN_OR_RETURN(s.hold_band_kPa,
+                           r.number("hold_band_kpa", kDefaultHoldBandKPa, {.ge = 0.0}));
   COLLIDE_ASSIGN_OR_RETURN(s.noise_kPa, r.number("noise_kpa", 0.0, {.ge = 0.0}));
   COLLIDE_ASSIGN_OR_RETURN(const std::string fault,
                            r.text("fault", "none", {"none", "never_settles", "error", "silent"}));
@@ -31,7 +33,7 @@ Result<RegulatorSimSettings> RegulatorSimSettings::read(SettingsReader& r) {
 
 LineModel RegulatorSimSettings::lineModel() const {
   // A leak lets the line reach only part of any rise: it never settles.
-  return {time_constant_s, fault == Fault::NeverSettles ? kLeakReach : 1.0};
+  return {time_constant_s, fault == Fault::NeverSettles ? kLeakReach : 1.0, hold_band_kPa};
 }
 
 PressureRegulatorSim::PressureRegulatorSim(std::shared_ptr<SimWorld> world,

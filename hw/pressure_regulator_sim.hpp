@@ -20,9 +20,13 @@ namespace collide::hw {
 
 struct RegulatorSimSettings {
   enum class Fault { None, NeverSettles, Error, Silent };
+  /// A real regulator holds its setpoint to a fraction of a percent of its range.
+  static constexpr double kDefaultHoldBandKPa = 1.0;
   int channels = 2;
   double time_constant_s = 0.01;
   double noise_kPa = 0.0;  ///< read-back noise, std dev
+  /// Within this of the goal the regulator holds the line at it (LineModel).
+  double hold_band_kPa = kDefaultHoldBandKPa;
   Fault fault = Fault::None;
   /// Fault::Silent: setpoints answered (in this process) before it goes silent.
   int silent_after_setpoints = 0;
@@ -32,7 +36,7 @@ struct RegulatorSimSettings {
   double device_min_kPa = 0.0;
   double device_max_kPa = 1000.0;
 
-  /// From the [regulator] table (channels, time_constant_ms, noise_kpa, fault,
+  /// From the [regulator] table (channels, time_constant_ms, hold_band_kpa, noise_kpa, fault,
   /// silent_after_setpoints, silent_timeout_ms);
   /// refuses unknown keys.
   static Result<RegulatorSimSettings> read(SettingsReader& r);

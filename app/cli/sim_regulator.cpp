@@ -23,6 +23,7 @@ struct Options {
   std::string map;
   int unit = -1;
   double time_constant_ms = 10.0;
+  double hold_band_kPa = collide::hw::RegulatorSimSettings::kDefaultHoldBandKPa;
   double noise_kPa = 0.05;
   bool leak = false;
   std::uint64_t seed = 1;
@@ -86,6 +87,7 @@ int run(const Options& o) {
   s.unit_id = o.unit >= 0 ? o.unit : s.map.link.unit_id;
   s.dynamics.channels = s.map.channels;
   s.dynamics.time_constant_s = o.time_constant_ms * 1e-3;
+  s.dynamics.hold_band_kPa = o.hold_band_kPa;
   s.dynamics.noise_kPa = o.noise_kPa;
   s.dynamics.fault =
       o.leak ? RegulatorSimSettings::Fault::NeverSettles : RegulatorSimSettings::Fault::None;
@@ -141,6 +143,11 @@ void setupSimRegulator(CLI::App& sub, std::function<int()>& run_command) {
   sub.add_option("--time-constant-ms", o->time_constant_ms,
                  "First-order response of each line to a new setpoint, ms")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub.add_option("--hold-band-kpa", o->hold_band_kPa,
+                 "Within this of the setpoint the line is held at it, kPa (0: a pure "
+                 "first-order approach that never quite arrives)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sub.add_option("--noise-kpa", o->noise_kPa, "Read-back noise, std dev, kPa")
       ->check(CLI::NonNegativeNumber)

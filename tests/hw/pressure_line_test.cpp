@@ -42,3 +42,18 @@ TEST(PressureLine, ALeakStallsARiseButNotAFall) {
   line.command(0.0, 1000 * kMs);
   EXPECT_NEAR(line.pressureKPa(2000 * kMs), 0.0, 1e-9);
 }
+
+TEST(PressureLine, ArrivesAtTheGoalOnceWithinTheHoldBand) {
+  PressureLine line;
+  line.setModel({0.01, 1.0, 1.0}, 0);
+  line.command(100.0, 0);
+  // The first-order curve until 1 kPa short: 100 (1 - e^-t/tau) at t = tau ln 100 = 46.05 ms.
+  EXPECT_NEAR(line.pressureKPa(40 * kMs), 100.0 * (1.0 - std::exp(-4.0)), 1e-9);
+  EXPECT_NEAR(line.pressureKPa(46 * kMs), 100.0 * (1.0 - std::exp(-4.6)), 1e-9);
+  EXPECT_EQ(line.pressureKPa(47 * kMs), 100.0);
+  EXPECT_EQ(line.pressureKPa(500 * kMs), 100.0);
+  // A leak's goal is where the line stalls (80 % of the rise), and it holds there.
+  line.setModel({0.01, kLeakReach, 1.0}, 500 * kMs);
+  line.command(200.0, 500 * kMs);
+  EXPECT_EQ(line.pressureKPa(1500 * kMs), 180.0);
+}

@@ -31,6 +31,7 @@ RegulatorSimSettings noiseless(
   RegulatorSimSettings s;
   s.time_constant_s = 0.02;
   s.noise_kPa = 0.0;
+  s.hold_band_kPa = 0.0;  // the pure first-order curve (the band: PressureLine's tests)
   s.fault = fault;
   return s;
 }

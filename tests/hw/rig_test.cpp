@@ -13,7 +13,6 @@ using collide::hw::testing::simProfileText;
 using collide::hw::testing::withKey;
 using ::testing::Contains;
 using ::testing::HasSubstr;
-using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
 namespace {
@@ -83,7 +82,7 @@ TEST(Rig, BringUpRunsEveryDeviceAndShutDownClosesThem) {
 TEST(Rig, ALaterBackendRegistersItselfAndReadsItsOwnSettings) {
   ASSERT_TRUE(test_backend_registered);
   std::string text = withKey(simProfileText(), "regulator", "backend", "\"test\"");
-  for (const char* k : {"channels", "time_constant_ms", "noise_kpa", "fault"})
+  for (const char* k : {"channels", "time_constant_ms", "hold_band_kpa", "noise_kpa", "fault"})
     text = collide::hw::testing::withoutKey(text, "regulator", k);
   text = withKey(text, "regulator", "address", "\"10.0.0.7:502\"");
   auto rig = makeRig(profileFrom(text));
