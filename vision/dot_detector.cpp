@@ -20,6 +20,87 @@ int findRoot(std::vector<Run>& runs, int i) {
   return i;
 }
 
+// ------------------------------------------------------ bare sphere near a dot
+
+// One pixel of the bare sphere near a dot: its offset from the dot's box
+// centre and its level.
+struct BareSample {
+  double dx, dy, level;
+};
+// B(dx, dy) = c0 + c1 dx + c2 dy + c3 dx^2 + c4 dx dy + c5 dy^2.
+using Quadratic = Eigen::Matrix<double, 6, 1>;
+
+struct FitScratch {
+  std::vector<char> use;
+  std::vector<double> res, absr;
+};
+
+// The least-squares quadratic through the samples in use (all when `use` is
+// empty), from the moments sum dx^i dy^j (i + j <= 4) and sum level dx^i dy^j
+// (i + j <= 2): 21 sums a sample instead of a 6 x 6 outer product.
+bool solveQuadratic(const std::vector<BareSample>& s, const std::vector<char>& use,
+                    Quadratic& coef) {
+  double m[5][5] = {}, r[3][3] = {};
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (!use.empty() && !use[i]) continue;
+    const double x = s[i].dx, y = s[i].dy, v = s[i].level;
+    const double x2 = x * x, y2 = y * y, xy = x * y;
+    m[0][0] += 1, m[1][0] += x, m[0][1] += y, m[2][0] += x2, m[1][1] += xy, m[0][2] += y2;
+    m[3][0] += x2 * x, m[2][1] += x2 * y, m[1][2] += x * y2, m[0][3] += y2 * y;
+    m[4][0] += x2 * x2, m[3][1] += x2 * xy, m[2][2] += x2 * y2, m[1][3] += xy * y2,
+        m[0][4] += y2 * y2;
+    r[0][0] += v, r[1][0] += v * x, r[0][1] += v * y, r[2][0] += v * x2, r[1][1] += v * xy,
+        r[0][2] += v * y2;
+  }
+  // The basis's powers of (dx, dy).
+  constexpr int px[6] = {0, 1, 0, 2, 1, 0}, py[6] = {0, 0, 1, 0, 1, 2};
+  Eigen::Matrix<double, 6, 6> a;
+  Quadratic rhs;
+  for (int c = 0; c < 6; ++c) {
+    rhs(c) = r[px[c]][py[c]];
+    for (int d = 0; d < 6; ++d) a(c, d) = m[px[c] + px[d]][py[c] + py[d]];
+  }
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(a);
+  if (ldlt.info() != Eigen::Success) return false;
+  coef = ldlt.solve(rhs);
+  return true;
+}
+
+double quadraticAt(const Quadratic& c, double dx, double dy) {
+  return c[0] + c[1] * dx + c[2] * dy + c[3] * dx * dx + c[4] * dx * dy + c[5] * dy * dy;
+}
+
+// The bare sphere's brightness around a dot: a quadratic fitted to the
+// samples, refitted once without those that stray beyond 3.5 robust standard
+// deviations (plus one grey level) of the first fit: a neighbouring dot, a
+// glint. False (coef untouched or not finite) with fewer than 24 samples or a
+// degenerate fit.
+bool fitBareQuadratic(const std::vector<BareSample>& s, FitScratch& k, Quadratic& coef) {
+  if (s.size() < 24) return false;
+  k.use.clear();
+  if (!solveQuadratic(s, k.use, coef)) return false;
+  if (!coef.allFinite()) return false;
+  k.res.resize(s.size());
+  k.absr.resize(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    k.res[i] = s[i].level - quadraticAt(coef, s[i].dx, s[i].dy);
+    k.absr[i] = std::abs(k.res[i]);
+  }
+  std::nth_element(k.absr.begin(), k.absr.begin() + k.absr.size() / 2, k.absr.end());
+  const double limit = 3.5 * 1.4826 * k.absr[k.absr.size() / 2] + 1.0;
+  k.use.resize(s.size());
+  bool dropped = false;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    k.use[i] = std::abs(k.res[i]) <= limit;
+    dropped |= !k.use[i];
+  }
+  if (!dropped) return true;  // the refit would be the same fit
+  // A failed refit keeps the first fit.
+  Quadratic refit;
+  if (solveQuadratic(s, k.use, refit)) coef = refit;
+  return coef.allFinite();
+}
+
 template <class T>
 DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
   DotFrame out;
@@ -61,22 +142,26 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   if (bx0 > bx1) return out;
   cv::Mat level;
   {
-    cv::Mat roi;
-    img(cv::Range(v0, v1 + 1), cv::Range(bx0, bx1 + 1)).convertTo(roi, CV_32F);
+    // The closing runs on the frame's own integers (max and min commute with
+    // the conversion, so it equals the closing of the converted levels, at a
+    // fraction of the cost); the blur on floats.
+    const cv::Mat roi = img(cv::Range(v0, v1 + 1), cv::Range(bx0, bx1 + 1));
     const int k = 2 * std::max(2, static_cast<int>(std::lround(0.17 * r))) + 1;
     const cv::Mat square = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k));
-    cv::morphologyEx(roi, level, cv::MORPH_CLOSE, square, cv::Point(-1, -1), 1,
-                     cv::BORDER_REPLICATE);
+    cv::Mat closed;
+    cv::morphologyEx(roi, closed, cv::MORPH_CLOSE, square, cv::Point(-1, -1), 1,
+                     cv::BORDER_REPLICATE | cv::BORDER_ISOLATED);
+    closed.convertTo(level, CV_32F);
     cv::GaussianBlur(level, level, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
     // The closing rides on the noise's maxima: take the noise's spread in
     // the sphere off (the median of closing - image over bare pixels).
     std::vector<float> diff;
     for (int y = 0; y < roi.rows; y += 3) {
-      const float* a = roi.ptr<float>(y);
+      const T* a = roi.ptr<T>(y);
       const float* b = level.ptr<float>(y);
       const int iy = y;
       for (int x = std::max(0, lo[iy] - bx0); x <= std::min(roi.cols - 1, hi[iy] - bx0); x += 3)
-        diff.push_back(b[x] - a[x]);
+        diff.push_back(b[x] - static_cast<float>(a[x]));
     }
     if (diff.size() >= 10) {
       std::nth_element(diff.begin(), diff.begin() + diff.size() / 2, diff.end());
@@ -181,6 +266,8 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   }
   const double max_area = 0.25 * r * r;
   const double cos_max = std::cos(set.max_polar_deg * std::numbers::pi / 180.0);
+  std::vector<BareSample> bare_samples;
+  FitScratch fit_scratch;
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const Group& gr = groups[g];
     if (gr.edge) {
@@ -193,61 +280,22 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     // refitted once without the pixels that stray (a neighbouring dot, a glint).
     const int gap = 2, ring = std::max(3, static_cast<int>(std::lround(0.06 * r)));
     const double mx = 0.5 * (gr.x0 + gr.x1), my = 0.5 * (gr.y0 + gr.y1);
-    Eigen::Matrix<double, 6, 1> coef = Eigen::Matrix<double, 6, 1>::Zero();
-    bool local = false;
-    {
-      std::vector<Eigen::Matrix<double, 6, 1>> fx;
-      std::vector<double> fy;
-      for (int y = std::max(v0, gr.y0 - gap - ring); y <= std::min(v1, gr.y1 + gap + ring); ++y) {
-        const int iy = y - v0;
-        const T* row = img.ptr<T>(y);
-        const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
-        for (int x = std::max(lo[iy], gr.x0 - gap - ring);
-             x <= std::min(hi[iy], gr.x1 + gap + ring); ++x) {
-          if (x >= gr.x0 - gap && x <= gr.x1 + gap && y >= gr.y0 - gap && y <= gr.y1 + gap)
-            continue;
-          if (o[x] >= 0) continue;
-          const double dx = x - mx, dy = y - my;
-          Eigen::Matrix<double, 6, 1> f;
-          f << 1, dx, dy, dx * dx, dx * dy, dy * dy;
-          fx.push_back(f);
-          fy.push_back(row[x]);
-        }
-      }
-      std::vector<char> use(fy.size(), 1);
-      for (int round = 0; round < 2 && fy.size() >= 24; ++round) {
-        Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Zero();
-        Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
-        for (std::size_t i = 0; i < fy.size(); ++i) {
-          if (!use[i]) continue;
-          const Eigen::Matrix<double, 6, 1>& f = fx[i];
-          for (int c = 0; c < 6; ++c)
-            for (int d = c; d < 6; ++d) a(c, d) += f[c] * f[d];
-          rhs += f * fy[i];
-        }
-        for (int c = 0; c < 6; ++c)
-          for (int d = 0; d < c; ++d) a(c, d) = a(d, c);
-        const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(a);
-        if (ldlt.info() != Eigen::Success) break;
-        coef = ldlt.solve(rhs);
-        local = coef.allFinite();
-        if (!local || round == 1) break;  // the last round's residuals are not used
-        std::vector<double> res(fy.size());
-        std::vector<double> absr;
-        for (std::size_t i = 0; i < fy.size(); ++i) {
-          res[i] = fy[i] - coef.dot(fx[i]);
-          if (use[i]) absr.push_back(std::abs(res[i]));
-        }
-        std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
-        const double limit = 3.5 * 1.4826 * absr[absr.size() / 2] + 1.0;
-        for (std::size_t i = 0; i < fy.size(); ++i) use[i] = std::abs(res[i]) <= limit;
+    Quadratic coef = Quadratic::Zero();
+    bare_samples.clear();
+    for (int y = std::max(v0, gr.y0 - gap - ring); y <= std::min(v1, gr.y1 + gap + ring); ++y) {
+      const int iy = y - v0;
+      const T* row = img.ptr<T>(y);
+      const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
+      for (int x = std::max(lo[iy], gr.x0 - gap - ring); x <= std::min(hi[iy], gr.x1 + gap + ring);
+           ++x) {
+        if (x >= gr.x0 - gap && x <= gr.x1 + gap && y >= gr.y0 - gap && y <= gr.y1 + gap) continue;
+        if (o[x] >= 0) continue;
+        bare_samples.push_back({x - mx, y - my, static_cast<double>(row[x])});
       }
     }
+    const bool local = fitBareQuadratic(bare_samples, fit_scratch, coef);
     const auto bare = [&](int x, int y) {
-      if (!local) return shade(x, y);
-      const double dx = x - mx, dy = y - my;
-      return coef[0] + coef[1] * dx + coef[2] * dy + coef[3] * dx * dx + coef[4] * dx * dy +
-             coef[5] * dy * dy;
+      return local ? quadraticAt(coef, x - mx, y - my) : shade(x, y);
     };
     double sw_ = 0, su = 0, sv = 0;
     for (int y = std::max(v0, gr.y0 - 2); y <= std::min(v1, gr.y1 + 2); ++y) {
