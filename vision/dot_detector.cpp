@@ -7,6 +7,8 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
+#include "vision/morphology.hpp"
+
 namespace collide::vision {
 namespace {
 
@@ -143,14 +145,11 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   cv::Mat level;
   {
     // The closing runs on the frame's own integers (max and min commute with
-    // the conversion, so it equals the closing of the converted levels, at a
-    // fraction of the cost); the blur on floats.
+    // the conversion, so it equals the closing of the converted levels); the
+    // blur on floats.
     const cv::Mat roi = img(cv::Range(v0, v1 + 1), cv::Range(bx0, bx1 + 1));
-    const int k = 2 * std::max(2, static_cast<int>(std::lround(0.17 * r))) + 1;
-    const cv::Mat square = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k));
     cv::Mat closed;
-    cv::morphologyEx(roi, closed, cv::MORPH_CLOSE, square, cv::Point(-1, -1), 1,
-                     cv::BORDER_REPLICATE | cv::BORDER_ISOLATED);
+    closeWithSquare(roi, std::max(2, static_cast<int>(std::lround(0.17 * r))), closed);
     closed.convertTo(level, CV_32F);
     cv::GaussianBlur(level, level, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
     // The closing rides on the noise's maxima: take the noise's spread in
