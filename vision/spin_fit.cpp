@@ -172,16 +172,22 @@ struct JointFit {
 Eigen::VectorXd solveWithFrameOffsets(const Eigen::MatrixXd& h, const Eigen::VectorXd& g, int nb,
                                       Eigen::MatrixXd* a_inverse = nullptr) {
   const auto np = h.rows();
-  const auto offsets = (np - nb) / 2;
-  Eigen::MatrixXd s = h.topLeftCorner(nb, nb);
-  Eigen::VectorXd rhs = g.head(nb);
+  const auto no = np - nb;  // two per offset
+  const auto offsets = no / 2;
+  // B D^-1, one 2 x 2 block at a time; then S and its right-hand side in one
+  // product each (one large product is far cheaper than one per frame).
   std::vector<Eigen::Matrix2d> d_inv(static_cast<std::size_t>(offsets));
+  Eigen::MatrixXd bd(nb, no);
   for (Eigen::Index k = 0; k < offsets; ++k) {
     const Eigen::Index po = nb + 2 * k;
     d_inv[k] = h.block<2, 2>(po, po).inverse();
-    const Eigen::MatrixXd bd = h.block(0, po, nb, 2) * d_inv[k];
-    s.noalias() -= bd * h.block(0, po, nb, 2).transpose();
-    rhs.noalias() -= bd * g.segment<2>(po);
+    bd.middleCols<2>(2 * k).noalias() = h.block(0, po, nb, 2) * d_inv[k];
+  }
+  Eigen::MatrixXd s = h.topLeftCorner(nb, nb);
+  Eigen::VectorXd rhs = g.head(nb);
+  if (no > 0) {
+    s.noalias() -= bd * h.topRightCorner(nb, no).transpose();
+    rhs.noalias() -= bd * g.tail(no);
   }
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(s);
   Eigen::VectorXd dx(np);
