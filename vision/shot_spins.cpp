@@ -47,51 +47,53 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
     const auto [k, s] = wanted[i];
     out.dots[k][s] = findDots(burst.frames[data[k].index].image, onTrackRadius(k, s), max_value);
   });
-  for (int s = 0; s < 2; ++s)
-    for (int side = 0; side < 2; ++side) {
-      const SideFit& sf = *fits.fit[s][side];
-      std::vector<SpinFrame> sfr;
-      for (const int k : sf.frames) {
-        const SphereMeasurement m = onTrackRadius(k, s);
-        if (out.dots[k][s].dots.empty()) continue;
-        SpinFrame f;
-        f.t_s = data[k].t;
-        const bool lens = scale && scale->camera && scale->radius_m[s] > 0;
-        // Dot centroids lie on a sphere of radius R cos(alpha) (alpha: the dots' angular radius).
-        const double r_dots =
-            lens ? scale->radius_m[s] * std::cos(out.dots[k][s].angular_radius_rad) : 0.0;
-        // The centre at its depth (from the apparent size, when measured): a
-        // sphere placed 3 mm too far from a camera 0.53 m away meets the rays
-        // through its dots at the wrong points, and its spin comes out about
-        // 0.5 % wrong (accuracy_bench, lab imaging: spin pulls of 9).
-        const double z = scale && scale->depth_m[s] ? scale->depth_m[s](data[k].t) : 0.0;
-        const Vec3 centre =
-            lens ? scale->camera->sphereCentre(m.circle.u, m.circle.v, scale->radius_m[s], z)
-                 : Vec3::Zero();
-        for (const Dot& d : out.dots[k][s].dots) {
-          f.dots.push_back(lens ? liftThroughLens(*scale->camera, centre, r_dots, d.u_px, d.v_px)
-                                : d.on_sphere);
-          f.weights.push_back(d.weight);
-        }
-        f.centre_sigma = 1.2 * std::max(m.circle.sigma_u, m.circle.sigma_v) / r_med[s];
-        sfr.push_back(std::move(f));
+  // Then each sphere's spin on each side: four independent fits, in parallel.
+  const auto fitSide = [&](int s, int side) {
+    const SideFit& sf = *fits.fit[s][side];
+    std::vector<SpinFrame> sfr;
+    for (const int k : sf.frames) {
+      const SphereMeasurement m = onTrackRadius(k, s);
+      if (out.dots[k][s].dots.empty()) continue;
+      SpinFrame f;
+      f.t_s = data[k].t;
+      const bool lens = scale && scale->camera && scale->radius_m[s] > 0;
+      // Dot centroids lie on a sphere of radius R cos(alpha) (alpha: the dots' angular radius).
+      const double r_dots =
+          lens ? scale->radius_m[s] * std::cos(out.dots[k][s].angular_radius_rad) : 0.0;
+      // The centre at its depth (from the apparent size, when measured): a
+      // sphere placed 3 mm too far from a camera 0.53 m away meets the rays
+      // through its dots at the wrong points, and its spin comes out about
+      // 0.5 % wrong (accuracy_bench, lab imaging: spin pulls of 9).
+      const double z = scale && scale->depth_m[s] ? scale->depth_m[s](data[k].t) : 0.0;
+      const Vec3 centre =
+          lens ? scale->camera->sphereCentre(m.circle.u, m.circle.v, scale->radius_m[s], z)
+               : Vec3::Zero();
+      for (const Dot& d : out.dots[k][s].dots) {
+        f.dots.push_back(lens ? liftThroughLens(*scale->camera, centre, r_dots, d.u_px, d.v_px)
+                              : d.on_sphere);
+        f.weights.push_back(d.weight);
       }
-      SideSpin& r = out.side[s][side];
-      auto spin = fitSpin(sfr);
-      if (spin) {
-        r.spin = spin->spin_rad_s;
-        r.cov = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
-        if (scale && scale->camera) addLensSpinSystematic(r.cov, r.spin);
-        r.sigma = r.cov.diagonal().cwiseSqrt();
-      } else {
-        // Unknown spin: zero, with a spread wide enough for any spin these
-        // launches give, so beta and f carry the ignorance in their sigmas.
-        r.spin = Vec3::Zero();
-        r.cov = Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
-        r.sigma = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
-        r.unknown_reason = spin.error().message;
-      }
+      f.centre_sigma = 1.2 * std::max(m.circle.sigma_u, m.circle.sigma_v) / r_med[s];
+      sfr.push_back(std::move(f));
     }
+    SideSpin& r = out.side[s][side];
+    auto spin = fitSpin(sfr);
+    if (spin) {
+      r.spin = spin->spin_rad_s;
+      r.cov = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
+      if (scale && scale->camera) addLensSpinSystematic(r.cov, r.spin);
+      r.sigma = r.cov.diagonal().cwiseSqrt();
+    } else {
+      // Unknown spin: zero, with a spread wide enough for any spin these
+      // launches give, so beta and f carry the ignorance in their sigmas.
+      r.spin = Vec3::Zero();
+      r.cov = Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
+      r.sigma = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+      r.unknown_reason = spin.error().message;
+    }
+  };
+  forEachFrame(4,
+               [&](std::size_t i) { fitSide(static_cast<int>(i / 2), static_cast<int>(i % 2)); });
   return out;
 }
 
