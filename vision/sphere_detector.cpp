@@ -822,21 +822,49 @@ void refineSmallSpheres(const cv::Mat& img, const SphereDetectorSettings& set,
   }
 }
 
+double maxRadius(const SphereDetectorSettings& set, int w, int h) {
+  return set.max_radius_px > 0 ? set.max_radius_px : 0.5 * std::min(w, h);
+}
+double minRadius(const SphereDetectorSettings& set, int w, int h) {
+  return set.min_radius_px > 0 ? set.min_radius_px : std::min(w, h) / 40.0;
+}
+// The coarse grid's spacing: a third of the smallest radius looked for.
+int coarseStep(const SphereDetectorSettings& set, int w, int h) {
+  int step = set.coarse_step;
+  if (step <= 0) step = std::clamp(static_cast<int>(minRadius(set, w, h) / 3.0), 1, 8);
+  if (std::min(w, h) < 4 * step) step = 1;
+  return step;
+}
+
+// Dark spheres on a bright field: most of the grid above half of full scale,
+// and little of it clipped (a white, overexposed frame stays a bright one and
+// is reported so).
+bool darkSpheres(const Grid& g, int max_value) {
+  std::size_t above = 0, clipped = 0;
+  for (const std::uint16_t v : g.v) {
+    above += 2 * static_cast<int>(v) > max_value;
+    clipped += v >= max_value;
+  }
+  return 2 * above > g.v.size() && 5 * clipped < g.v.size();
+}
+
+// The grid of the frame's negative (max_value - level, 0 above full scale),
+// as cv::subtract gives it.
+Grid negativeGrid(Grid g, int max_value) {
+  for (std::uint16_t& v : g.v) v = static_cast<std::uint16_t>(std::max(0, max_value - v));
+  return g;
+}
+
 // `top_clips`: full scale is where the sensor clipped (false for a backlit
 // frame's negative: there full scale is black, no light, the silhouette's
 // true level, and the profiles into it are whole).
 template <class T>
-FrameSpheres detectTyped(const cv::Mat& img, int max_value, const SphereDetectorSettings& set,
-                         bool top_clips) {
+FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
+                         const SphereDetectorSettings& set, bool top_clips) {
   FrameSpheres out;
   const int w = img.cols, h = img.rows;
-  const double max_r = set.max_radius_px > 0 ? set.max_radius_px : 0.5 * std::min(w, h);
-  const double min_r = set.min_radius_px > 0 ? set.min_radius_px : std::min(w, h) / 40.0;
-  int step = set.coarse_step;
-  if (step <= 0) step = std::clamp(static_cast<int>(min_r / 3.0), 1, 8);
-  if (std::min(w, h) < 4 * step) step = 1;
-
-  const Grid grid = sampleGrid<T>(img, step);
+  const double max_r = maxRadius(set, w, h), min_r = minRadius(set, w, h);
+  const int step = grid.step;
   const int clip_value = top_clips ? max_value : std::numeric_limits<int>::max();
   const Levels lv = measureLevels(grid, max_value, clip_value);
   out.background = lv.bg;
@@ -1119,32 +1147,26 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
     return out;
   }
   using Polarity = SphereDetectorSettings::Polarity;
-  bool dark = settings_.polarity == Polarity::Dark;
-  if (settings_.polarity == Polarity::Auto && max_value > 0) {
-    // A sparse sample: most of it above half of full scale, and little of it
-    // clipped (a white, overexposed frame stays a bright one and is reported so).
-    int above = 0, clipped = 0, n = 0;
-    const int sy = std::max(1, image.rows / 48), sx = std::max(1, image.cols / 64);
-    for (int y = sy / 2; y < image.rows; y += sy)
-      for (int x = sx / 2; x < image.cols; x += sx) {
-        const int v =
-            image.depth() == CV_8U ? image.at<std::uint8_t>(y, x) : image.at<std::uint16_t>(y, x);
-        above += 2 * v > max_value;
-        clipped += v >= max_value;
-        ++n;
-      }
-    dark = 2 * above > n && 5 * clipped < n;
-  }
+  const bool bytes = image.depth() == CV_8U;
+  const int step = coarseStep(settings_, image.cols, image.rows);
+  const Grid grid =
+      bytes ? sampleGrid<std::uint8_t>(image, step) : sampleGrid<std::uint16_t>(image, step);
+  // The polarity from the grid the coarse stage reads anyway (one pass over
+  // the frame's memory, not two).
+  const bool dark =
+      settings_.polarity == Polarity::Dark ||
+      (settings_.polarity == Polarity::Auto && max_value > 0 && darkSpheres(grid, max_value));
   if (!dark) {
-    if (image.depth() == CV_8U) return detectTyped<std::uint8_t>(image, max_value, settings_, true);
-    return detectTyped<std::uint16_t>(image, max_value, settings_, true);
+    if (bytes) return detectTyped<std::uint8_t>(image, grid, max_value, settings_, true);
+    return detectTyped<std::uint16_t>(image, grid, max_value, settings_, true);
   }
   // Saturating: levels above full scale give 0.
   cv::Mat negative;
   cv::subtract(cv::Scalar(max_value), image, negative);
-  FrameSpheres out = image.depth() == CV_8U
-                         ? detectTyped<std::uint8_t>(negative, max_value, settings_, false)
-                         : detectTyped<std::uint16_t>(negative, max_value, settings_, false);
+  const Grid negative_grid = negativeGrid(grid, max_value);
+  FrameSpheres out =
+      bytes ? detectTyped<std::uint8_t>(negative, negative_grid, max_value, settings_, false)
+            : detectTyped<std::uint16_t>(negative, negative_grid, max_value, settings_, false);
   out.dark_spheres = true;
   out.background = max_value - out.background;
   out.threshold = max_value - out.threshold;

@@ -86,8 +86,9 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
 
 struct SphereDetectorSettings {
   /// Bright spheres on a dark background (front light), dark silhouettes on a
-  /// bright field (backlight), or Auto: dark when most of the frame is
-  /// brighter than half of full scale (and not clipped there). Dark frames are
+  /// bright field (backlight), or Auto: dark when most of the coarse grid's
+  /// samples (every coarse_step-th pixel of every coarse_step-th row) are
+  /// brighter than half of full scale and at most a fifth clipped. Dark frames are
   /// measured as their negative (full scale - grey level), by the same method.
   enum class Polarity { Auto, Bright, Dark };
   Polarity polarity = Polarity::Auto;
