@@ -44,6 +44,10 @@ struct ShotSpec {
   /// stay where an orthographic camera puts them). 0: radius constant.
   double camera_distance_m = 0;
   Material material{0.97, 0.176, 0.44};
+  /// Lamps, lens and sensor (vision/imaging.hpp): the spheres are ray-cast at
+  /// their world positions (the optics' pixel size should be pixel_size_m,
+  /// its origin the image centre). Unset: the even-light picture.
+  std::optional<Imaging> imaging;
   /// Not physics: sphere 1 drawn after the contact with this much more spin
   /// about the camera axis (rad/s) than the impact gave it, as a dot taken for
   /// another would make it seem (angular momentum then not conserved).
@@ -119,6 +123,7 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   rs.exposure_s = spec.exposure_us * 1e-6;
   rs.noise_grey = spec.noise_grey;
   rs.noise_seed = spec.seed * 7919 + 1;
+  rs.imaging = spec.imaging;
   const Renderer renderer(rs);
   const double ou = (spec.width - 1) / 2.0, ov = (spec.height - 1) / 2.0;
   const double px = spec.pixel_size_m;
@@ -145,6 +150,9 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
         v.spin_rad_s.z() += spec.spin_kick_after_rad_s;
       }
       v.dots = &shot.dots[i];
+      v.centre_m = st[i].position_m;
+      v.radius_m = 0.5 * d;
+      v.velocity_m_s = st[i].velocity_m_s;
       views.push_back(v);
     }
     Frame f;
