@@ -141,9 +141,10 @@ TEST(CampaignReport, ASpinThatBreaksAngularMomentumLeavesTheShotOut) {
   ASSERT_EQ(entries->size(), 3u);
   for (const auto& e : *entries) {
     EXPECT_EQ(!e.shot, e.id == idFor(0)) << e.id;
-    if (e.id == idFor(0))
+    if (e.id == idFor(0)) {
       EXPECT_NE(e.excluded_because.find("spin_impulse_disagree"), std::string::npos)
           << e.excluded_because;
+    }
   }
   auto kept = loadCampaign(dir.path(), /*include_flagged=*/true);
   ASSERT_TRUE(kept.ok());

@@ -75,7 +75,7 @@ TEST(CliWallFootage, AnalyzeFramesWithWallOrWallLineGivesTheTrueEAndBeta) {
   char given[160];
   std::snprintf(given, sizeof given, "--wall-line %.6f,%.6f,%.6f,%.6f", a.x(), a.y(), b.x(), b.y());
 
-  for (const std::string how : {std::string("--wall"), std::string(given)}) {
+  for (const std::string& how : {std::string("--wall"), std::string(given)}) {
     const std::string json = scratch.file("wall.json");
     run =
         runCollide("analyze --frames " + q(frames) + " --fps " + std::to_string(shot->camera.fps) +

@@ -54,9 +54,10 @@ TEST(ReplayData, EveryRecordedShotReplaysFrameForFrame) {
     for (std::size_t i = 0; i < a.size(); ++i) {
       EXPECT_EQ(a[i].id, b[i].id);
       // Frame spacing is kept (the replay's clock starts elsewhere).
-      if (i > 0)
+      if (i > 0) {
         EXPECT_NEAR(double(b[i].timestamp_ns - b[0].timestamp_ns),
                     double(a[i].timestamp_ns - a[0].timestamp_ns), 1000.0);
+      }
       testing::expectSameImage(a[i].image, b[i].image, "frame " + std::to_string(a[i].id));
     }
     // Saved like a live shot, then analysed like one: the material the

@@ -28,7 +28,7 @@ TEST(LiftThroughLens, GivesBackTheDirectionOfAVisiblePoint) {
   const double R = 0.0127;
   std::mt19937_64 rng(3);
   std::normal_distribution<double> nd;
-  for (const Vec3 centre : {Vec3(0, 0, 0), Vec3(0.07, -0.03, 0.002)}) {
+  for (const Vec3& centre : {Vec3(0, 0, 0), Vec3(0.07, -0.03, 0.002)}) {
     double worst = 0, worst_ortho = 0;
     int n = 0;
     while (n < 200) {
