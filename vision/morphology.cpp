@@ -82,28 +82,37 @@ void pairwise(const T* __restrict a, const T* __restrict b, T* __restrict out, i
 }
 
 // Each row's op over columns x - a .. x + a (columns beyond the ends repeat
-// the end columns), in place. On the padded row (length w + 2a), windows of
-// 2, 4, 8, ... columns by doubling, up to the largest power of two P within
-// the window's k = 2a + 1; the window is then the op of the two windows of P
-// starting at its two ends (they overlap, which max and min do not mind).
+// the end columns), in place. The rows are padded (length n = w + 2a) into
+// one flat plane; windows of 2, 4, 8, ... columns follow by doubling, up to
+// the largest power of two P within the window's k = 2a + 1, and the window
+// is then the op of the two windows of P starting at its two ends (they
+// overlap, which max and min do not mind). Each doubling runs over the whole
+// plane at once (long loops): position j of a row holds its row's window
+// wherever that window ends within the row (j <= n - len); positions past it
+// mix in the next row and are never read for an output.
 template <class T, class Op>
 void windowColumns(Plane<T>& img, int a, std::vector<T>& ping, std::vector<T>& pong, Op op) {
-  const int w = img.w, n = w + 2 * a, k = 2 * a + 1;
-  ping.resize(n);
-  pong.resize(n);
-  for (int i = 0; i < img.h; ++i) {
-    T* r = img.row(i);
-    std::fill(ping.begin(), ping.begin() + a, r[0]);
-    std::copy(r, r + w, ping.begin() + a);
-    std::fill(ping.begin() + a + w, ping.end(), r[w - 1]);
-    T* cur = ping.data();
-    T* next = pong.data();
-    int len = 1;  // cur[j] = op over padded columns j .. j + len - 1
-    for (; 2 * len <= k; len *= 2) {
-      pairwise(cur, cur + len, next, n - 2 * len + 1, op);
-      std::swap(cur, next);
-    }
-    pairwise(cur, cur + (k - len), r, w, op);
+  const int w = img.w, h = img.h, n = w + 2 * a, k = 2 * a + 1;
+  const std::size_t total = static_cast<std::size_t>(n) * h;
+  ping.resize(total);
+  pong.resize(total);
+  for (int i = 0; i < h; ++i) {
+    const T* r = img.row(i);
+    T* p = ping.data() + static_cast<std::size_t>(i) * n;
+    std::fill(p, p + a, r[0]);
+    std::copy(r, r + w, p + a);
+    std::fill(p + a + w, p + n, r[w - 1]);
+  }
+  T* cur = ping.data();
+  T* next = pong.data();
+  int len = 1;  // cur[j] = op over padded columns j .. j + len - 1
+  for (; 2 * len <= k; len *= 2) {
+    pairwise(cur, cur + len, next, static_cast<int>(total) - len, op);
+    std::swap(cur, next);
+  }
+  for (int i = 0; i < h; ++i) {
+    const T* c = cur + static_cast<std::size_t>(i) * n;
+    pairwise(c, c + (k - len), img.row(i), w, op);
   }
 }
 
