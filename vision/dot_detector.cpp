@@ -82,17 +82,28 @@ bool fitBareQuadratic(const std::vector<BareSample>& s, FitScratch& k, Quadratic
   k.use.clear();
   if (!solveQuadratic(s, k.use, coef)) return false;
   if (!coef.allFinite()) return false;
-  k.res.resize(s.size());
-  k.absr.resize(s.size());
-  for (std::size_t i = 0; i < s.size(); ++i) {
+  constexpr double kCut = 3.5 * 1.4826;  // robust standard deviations
+  const std::size_t n = s.size(), mid = n / 2;
+  k.res.resize(n);
+  k.absr.resize(n);
+  double largest = 0;
+  for (std::size_t i = 0; i < n; ++i) {
     k.res[i] = s[i].level - quadraticAt(coef, s[i].dx, s[i].dy);
     k.absr[i] = std::abs(k.res[i]);
+    largest = std::max(largest, k.absr[i]);
   }
-  std::nth_element(k.absr.begin(), k.absr.begin() + k.absr.size() / 2, k.absr.end());
-  const double limit = 3.5 * 1.4826 * k.absr[k.absr.size() / 2] + 1.0;
-  k.use.resize(s.size());
+  // Nothing strays when the median is at least what would put the limit above
+  // the largest residual; counting the residuals below that tells without
+  // finding the median (a pass instead of a selection).
+  const double enough = (largest - 1.0) / kCut * (1 + 1e-9) + 1e-12;
+  if (std::count_if(k.absr.begin(), k.absr.end(), [&](double r) { return r < enough; }) <=
+      static_cast<std::ptrdiff_t>(mid))
+    return true;
+  std::nth_element(k.absr.begin(), k.absr.begin() + mid, k.absr.end());
+  const double limit = kCut * k.absr[mid] + 1.0;
+  k.use.resize(n);
   bool dropped = false;
-  for (std::size_t i = 0; i < s.size(); ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     k.use[i] = std::abs(k.res[i]) <= limit;
     dropped |= !k.use[i];
   }
