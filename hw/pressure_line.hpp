@@ -2,10 +2,11 @@
 // One simulated air line behind a regulator output: a first-order response to
 // each new setpoint (time constant) until the line is within the regulator's
 // hold band of its goal, where the regulator's own loop holds it at the goal;
-// optionally a leak that lets a rise reach only part of the way. The one model of the regulator's
-// dynamics, shared by the in-process simulated regulator (through SimWorld) and the simulated
-// Modbus regulator that `collide sim-regulator` serves (ModbusRegulatorServer),
-// so both answer a setpoint exactly alike.
+// optionally a leak that lets a rise reach only part of the way. The one
+// model of the regulator's dynamics, shared by the in-process simulated
+// regulator (through SimWorld) and the simulated Modbus regulator that
+// `collide sim-regulator` serves (ModbusRegulatorServer), so both answer a
+// setpoint exactly alike.
 //
 // Threads: not synchronised; the owner locks (SimWorld) or uses one thread.
 #include <cstdint>

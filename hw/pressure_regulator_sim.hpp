@@ -36,9 +36,9 @@ struct RegulatorSimSettings {
   double device_min_kPa = 0.0;
   double device_max_kPa = 1000.0;
 
-  /// From the [regulator] table (channels, time_constant_ms, hold_band_kpa, noise_kpa, fault,
-  /// silent_after_setpoints, silent_timeout_ms);
-  /// refuses unknown keys.
+  /// From the [regulator] table (channels, time_constant_ms, hold_band_kpa,
+  /// noise_kpa, fault, silent_after_setpoints, silent_timeout_ms); refuses
+  /// unknown keys.
   static Result<RegulatorSimSettings> read(SettingsReader& r);
   /// How each line answers a setpoint (the leak of NeverSettles included).
   LineModel lineModel() const;
