@@ -3,11 +3,11 @@
 // 640 x 480 Mono8, two dotted spheres ~120 px across, noise 2 grey levels, no
 // blur. items_per_second is frames per second.
 //   build/bench/render_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only
-// Measured (AMD EPYC VM, 2 cores, idle, median CPU time, 2026-11-29):
-// Mono8 6050 frames/s, Mono8 + motion blur (13 time samples) 500, Mono16 6570.
-// Realistic imaging as config/sim-lab.toml (ray-cast, docs/imaging.md): 250
-// frames/s, 37 with motion blur (7 time samples); its sensor alone 2840.
-// docs/benchmarks.md, "Rendering", has the breakdown.
+// Measured (AMD EPYC VM, 2 cores, idle, median CPU time, 2026-11-29, session
+// 24): Mono8 9,730 frames/s, Mono8 + motion blur (13 time samples) 886,
+// Mono16 8,920. Realistic imaging as config/sim-lab.toml (ray-cast,
+// docs/imaging.md): 2,090 frames/s, 352 with motion blur (7 time samples);
+// its sensor alone 7,970. docs/benchmarks.md, "Rendering", has the breakdown.
 #include <benchmark/benchmark.h>
 
 #include "vision/render.hpp"

@@ -4,16 +4,20 @@
 // the exposure's time samples (translation and rotation), then passed through
 // the sensor: vignetting, flicker, fixed patterns, shot and read noise, ADC.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <type_traits>
 
 #include "vision/random.hpp"
 #include "vision/render.hpp"
+#include "vision/render_trace.hpp"
 
 namespace collide::vision {
 
+using namespace raycast;  // the tracing's types (render_trace.hpp)
 using detail::splitmix64;
 using detail::uniform01;
 
@@ -25,44 +29,6 @@ constexpr int kNoiseTableSize = 1 << 18;
 // surface point (ray-casting costs more per sample than the analytic path).
 constexpr double kBlurStepPx = 0.5;
 constexpr int kMaxBlurSamples = 128;
-// Pixels this far from every silhouette edge may be sampled once (see
-// groupLevel()): a pixel reaches 0.71 px from its centre, the silhouette's
-// curvature (radius >= ~10 px) adds < 0.03 px over a pixel, and the angular
-// bound used under perspective (clearOfEdge) errs on the safe side.
-constexpr double kSmoothMarginPx = 1.0;
-
-// The dots of one sphere at one time sample that the camera may see: their
-// centres in the world frame as three arrays of floats, so that the dot tests
-// below run as vector code (a float places a dot's rim to ~1e-6 rad).
-struct DotSet {
-  std::vector<float> x, y, z;
-};
-
-// One sphere at one time sample of the exposure.
-struct Instance {
-  Vec3 centre;
-  double radius = 0;
-  double inv_radius = 0;
-  const DotSet* dots = nullptr;  // world frame
-  double cos_dot = 1;
-  double sin_dot = 0;
-  // Silhouette thresholds for clearOfEdge() (called by cast()): orthographic,
-  // squared distances from the centre (m^2) inside / outside the margin;
-  // perspective, cosines of the angle to the centre's direction, with
-  // 1 / distance to the centre.
-  double edge_inner = 0, edge_outer = 0, inv_distance = 0;
-  // Perspective: the centre from the optical centre, and |that|^2 - radius^2.
-  Vec3 rel = Vec3::Zero();
-  double rel_term = 0;
-  int sample = 0;
-  int u0 = 0, u1 = -1, v0 = 0, v1 = -1;  // pixels it may touch, clipped to the frame
-};
-
-struct Hit {
-  Vec3 normal = Vec3::UnitZ();  // unit, world
-  Vec3 view = Vec3::UnitZ();    // unit, from the surface towards the camera
-};
-
 double gaussian(std::uint64_t& state) {
   const double u1 = 1.0 - uniform01(state);
   const double u2 = uniform01(state);
@@ -80,12 +46,6 @@ double sinc(double x) {
   return std::abs(x) < 1e-9 ? 1.0 : std::sin(kPi * x) / (kPi * x);
 }
 
-// The ray through one sample position.
-struct Ray {
-  Vec3 origin;  // perspective: the optical centre; orthographic: (x, y, 0)
-  Vec3 dir;     // unit
-};
-
 // The ideal normalised (x, y) at image position (u + fu - 0.5, v + fv - 0.5),
 // fu, fv in [0, 1], from a distorted lens' table (ImagingTables::ray_xy):
 // bilinear between the pixel's corners.
@@ -100,7 +60,10 @@ Eigen::Vector2d lensTableXy(const std::vector<float>& ray_xy, int width, int u, 
   return {lerp(0), lerp(1)};
 }
 
-// The ray through image position (u + fu - 0.5, v + fv - 0.5), fu, fv in [0, 1].
+}  // namespace
+
+namespace raycast {
+
 Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int v, double fu,
           double fv) {
   const Optics& o = st.imaging->optics;
@@ -126,7 +89,7 @@ Ray rayAt(const RenderSettings& st, const std::vector<float>& ray_xy, int u, int
   return ray;
 }
 
-}  // namespace
+}  // namespace raycast
 
 // ---- optics -----------------------------------------------------------------
 
@@ -163,6 +126,9 @@ struct Renderer::ImagingTables {
   // samples inside a pixel interpolate bilinearly (the map is smooth: the
   // error is ~1e-4 px). Empty otherwise.
   std::vector<float> ray_xy;
+  // Perspective: the unit direction of every pixel centre's ray, as three
+  // planes (x, then y, then z, each width x height). Empty otherwise.
+  std::vector<float> centre_dirs;
   std::vector<float> gain;    // per pixel: vignetting x (1 + prnu)
   std::vector<float> offset;  // per pixel: dsnu + hot pixels, fraction of full scale
   std::vector<float> noise;   // unit Gaussians, read in runs from random offsets
@@ -192,6 +158,16 @@ std::shared_ptr<const Renderer::ImagingTables> Renderer::makeImagingTables(
         const std::size_t i = (static_cast<std::size_t>(v) * (w + 1) + u) * 2;
         t->ray_xy[i] = static_cast<float>(xy.x());
         t->ray_xy[i + 1] = static_cast<float>(xy.y());
+      }
+  }
+  if (o.perspective) {
+    const std::size_t plane = static_cast<std::size_t>(w) * h;
+    t->centre_dirs.resize(3 * plane);
+    for (int v = 0; v < h; ++v)
+      for (int u = 0; u < w; ++u) {
+        const Ray ray = rayAt(s, t->ray_xy, u, v, 0.5, 0.5);
+        const std::size_t i = static_cast<std::size_t>(v) * w + u;
+        for (int c = 0; c < 3; ++c) t->centre_dirs[c * plane + i] = static_cast<float>(ray.dir[c]);
       }
   }
   // Vignetting and fixed patterns, reproducible from the noise seed.
@@ -308,21 +284,30 @@ void edgeThresholds(const Optics& o, Instance& in) {
   if (!o.perspective) {
     const double inner = std::max(0.0, in.radius - kSmoothMarginPx * o.pixel_size_m);
     const double outer = in.radius + kSmoothMarginPx * o.pixel_size_m;
-    in.edge_inner = inner > 0 ? inner * inner : -1.0;
-    in.edge_outer = outer * outer;
+    in.in_thr = inner > 0 ? static_cast<float>(inner * inner) : -1.0f;
+    in.out_thr = static_cast<float>(outer * outer);
     return;
   }
+  // Under perspective: the angle between the ray and the centre's direction
+  // against alpha -+ margin / f (the tangent cone's half-angle alpha), which
+  // off-axis (pixels subtend less there) and with mild distortion still
+  // bounds the distance in pixels; as the perpendicular distance dist sin().
   const double dist = (in.centre - o.centre_m).norm();
   const double alpha = std::asin(std::min(1.0, in.radius / dist));
   const double margin = kSmoothMarginPx / o.focal_px;
-  in.inv_distance = 1.0 / dist;
-  in.edge_inner = alpha > margin ? std::cos(alpha - margin) : 2.0;  // 2: never inside
-  in.edge_outer = alpha + margin < kPi ? std::cos(alpha + margin) : -2.0;
+  const auto perp2 = [&](double angle) {
+    const double p = dist * std::sin(angle);
+    return static_cast<float>(p * p);
+  };
+  in.in_thr = alpha > margin ? perp2(alpha - margin) : -1.0f;  // -1: never inside
+  const bool outside_possible = alpha + margin < 0.5 * kPi;
+  in.out_thr = outside_possible ? perp2(alpha + margin) : std::numeric_limits<float>::infinity();
+  in.behind_clear = outside_possible;
 }
 
 // The dots of `pattern` turned by `body_to_world` that may show: a dot is left
 // out when its whole cap, widened by the largest rim margin a smooth pixel
-// uses (delta in groupLevel, at the limb's nv = 0.05), faces away from
+// uses (delta in surface(), at the limb's nv = 0.05), faces away from
 // `towards_camera` (unit, from the sphere's centre).
 void visibleDots(const DotPattern& pattern, const Eigen::Matrix3d& body_to_world,
                  const Vec3& towards_camera, double max_delta, DotSet& out) {
@@ -337,7 +322,66 @@ void visibleDots(const DotPattern& pattern, const Eigen::Matrix3d& body_to_world
   }
 }
 
-// The largest rim margin groupLevel() gives a smooth pixel on this sphere
+// Each dot's pixel box: the image of the part of its cap the camera sees,
+// bounded by the images of its rim (a circle on the sphere, kRimSamples
+// points) and, where the cap reaches over the limb, of the limb's arc inside
+// it (kLimbSamples points round the limb, each taken when within one sample's
+// spacing of the cap, so that the arc's ends are covered); widened by
+// kDotBoxMarginPx, which covers the chords between samples and every pixel
+// that reaches the rim (a pixel reaches 0.71 px from its centre). A cap wholly
+// behind the limb gets an empty box.
+constexpr int kRimSamples = 24;
+constexpr int kLimbSamples = 96;
+constexpr double kDotBoxMarginPx = 2.0;
+
+void dotBoxes(const Optics& o, const Instance& in, const Vec3& towards, double dot_radius_rad,
+              DotSet& d) {
+  // The camera sees the cap of the sphere within `limit` of `towards`.
+  const double limit = o.perspective
+                           ? std::acos(std::min(1.0, in.radius / (in.centre - o.centre_m).norm()))
+                           : 0.5 * kPi;
+  const double cos_r = std::cos(dot_radius_rad), sin_r = std::sin(dot_radius_rad);
+  const double limb_step = 2.0 * kPi / kLimbSamples;
+  const Vec3 t1 = towards.unitOrthogonal(), t2 = towards.cross(t1);
+  const std::size_t n = d.x.size();
+  d.u0.assign(n, 1), d.u1.assign(n, 0), d.v0.assign(n, 1), d.v1.assign(n, 0);
+  for (std::size_t j = 0; j < n; ++j) {
+    const Vec3 c = Vec3(d.x[j], d.y[j], d.z[j]).normalized();
+    const double from_axis = std::acos(std::clamp(c.dot(towards), -1.0, 1.0));
+    if (from_axis - dot_radius_rad > limit) continue;  // wholly hidden
+    double u_lo = 1e300, u_hi = -1e300, v_lo = 1e300, v_hi = -1e300;
+    const auto take = [&](const Vec3& unit) {
+      const Eigen::Vector2d uv = o.project(in.centre + in.radius * unit);
+      u_lo = std::min(u_lo, uv.x()), u_hi = std::max(u_hi, uv.x());
+      v_lo = std::min(v_lo, uv.y()), v_hi = std::max(v_hi, uv.y());
+    };
+    // Two unit vectors normal to the dot's centre span its rim.
+    const Vec3 e1 = c.unitOrthogonal(), e2 = c.cross(e1);
+    for (int k = 0; k < kRimSamples; ++k) {
+      const double a = 2.0 * kPi * k / kRimSamples;
+      take(cos_r * c + sin_r * (std::cos(a) * e1 + std::sin(a) * e2));
+    }
+    if (from_axis + dot_radius_rad >= limit - limb_step) {
+      const double cos_reach = std::cos(dot_radius_rad + limb_step);
+      for (int k = 0; k < kLimbSamples; ++k) {
+        const double a = limb_step * k;
+        const Vec3 p =
+            std::cos(limit) * towards + std::sin(limit) * (std::cos(a) * t1 + std::sin(a) * t2);
+        if (p.dot(c) >= cos_reach) take(p);
+      }
+    }
+    if (!std::isfinite(u_lo + u_hi + v_lo + v_hi)) {  // through the lens' edge: no bound
+      d.u0[j] = in.u0, d.u1[j] = in.u1, d.v0[j] = in.v0, d.v1[j] = in.v1;
+      continue;
+    }
+    d.u0[j] = std::max(in.u0, static_cast<int>(std::floor(u_lo - kDotBoxMarginPx)));
+    d.u1[j] = std::min(in.u1, static_cast<int>(std::ceil(u_hi + kDotBoxMarginPx)));
+    d.v0[j] = std::max(in.v0, static_cast<int>(std::floor(v_lo - kDotBoxMarginPx)));
+    d.v1[j] = std::min(in.v1, static_cast<int>(std::ceil(v_hi + kDotBoxMarginPx)));
+  }
+}
+
+// The largest rim margin surface() gives a smooth pixel on this sphere
 // (its delta at nv = 0.05, the visible surface being nearer than the centre).
 double maxRimDelta(const Optics& o, const Instance& in) {
   const double lateral_m =
@@ -365,7 +409,6 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
       edgeThresholds(o, in);
       in.inv_radius = 1.0 / in.radius;
       in.rel = in.centre - o.centre_m;
-      in.rel_term = in.rel.squaredNorm() - in.radius * in.radius;
       Eigen::Matrix3d rot = sv.orientation.normalized().toRotationMatrix();
       const double spin = sv.spin_rad_s.norm();
       if (spin > 0 && t != 0)
@@ -374,6 +417,7 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
         const Vec3 towards = o.perspective ? Vec3(-in.rel.normalized()) : Vec3::UnitZ();
         DotSet& d = dot_sets.emplace_back();
         visibleDots(*sv.dots, rot, towards, maxRimDelta(o, in), d);
+        dotBoxes(o, in, towards, sv.dots->angular_radius_rad, d);
         in.dots = &d;
         in.cos_dot = std::cos(sv.dots->angular_radius_rad);
         in.sin_dot = std::sin(sv.dots->angular_radius_rad);
@@ -384,256 +428,6 @@ std::vector<Instance> instances(const RenderSettings& st, const std::vector<Sphe
   return out;
 }
 
-// Brightness (fraction of full scale, before the sensor) of a sphere's
-// surface point, Lambert plus Blinn-Phong, or the backlit silhouette.
-// Highlights fainter than this (fraction of full scale, a 15th of a 16-bit
-// grey level) are not computed: n.h below the matching cosine skips pow().
-constexpr double kFaintestHighlight = 1e-6;
-
-// Constants for a frame: what shade() needs besides the hit, and the focal
-// length groupLevel()'s smoothness test converts distances with.
-struct Shading {
-  const Lighting* lighting = nullptr;
-  double nh_min = 2;        // the highlight's cut-off (above)
-  int int_exponent = -1;    // the highlight's exponent when a whole number up to 1024, else -1
-  double spot_cos = 1;      // backlit: the spot's rim, as n.view
-  double inv_focal_px = 0;  // perspective: 1 / focal length in pixels
-};
-
-Shading shadingFor(const Lighting& l, const Optics& o) {
-  Shading s;
-  s.inv_focal_px = 1.0 / o.focal_px;
-  s.lighting = &l;
-  s.nh_min = l.specular_strength > 0
-                 ? std::pow(kFaintestHighlight / l.specular_strength, 1.0 / l.specular_exponent)
-                 : 2.0;
-  if (l.specular_exponent >= 1 && l.specular_exponent <= 1024 &&
-      l.specular_exponent == std::floor(l.specular_exponent))
-    s.int_exponent = static_cast<int>(l.specular_exponent);
-  s.spot_cos = std::sqrt(std::max(0.0, 1.0 - l.spot_fraction * l.spot_fraction));
-  return s;
-}
-
-// x^n by repeated squaring (n >= 1): ~log2(n) products instead of pow().
-double powInt(double x, int n) {
-  double result = 1.0;
-  for (; n > 0; n >>= 1, x *= x)
-    if (n & 1) result *= x;
-  return result;
-}
-
-// Where a surface point lies among a sphere's dots: on a dot, and (when
-// `delta` >= 0) whether some dot's rim is within `delta` rad of it. The rim
-// band uses bounds on cos(radius -+ delta) (cos d >= 1 - d^2/2, sin d <= d),
-// so it is never narrower than the exact one.
-struct DotCover {
-  bool on_dot = false;
-  bool near_rim = false;
-};
-
-DotCover dotCover(const Instance& in, const Vec3& normal, double delta) {
-  DotCover out;
-  if (in.dots == nullptr) return out;
-  const float nx = static_cast<float>(normal.x()), ny = static_cast<float>(normal.y()),
-              nz = static_cast<float>(normal.z());
-  const DotSet& d = *in.dots;
-  const int n = static_cast<int>(d.x.size());
-  const float* xs = d.x.data();
-  const float* ys = d.y.data();
-  const float* zs = d.z.data();
-  const double reach = std::max(delta, 0.0);
-  const float far =
-      static_cast<float>(in.cos_dot * (1.0 - 0.5 * reach * reach) - in.sin_dot * reach);
-  // Most surface points are far from every dot: one pass that counts (vector code).
-  int close = 0;
-  for (int k = 0; k < n; ++k) close += xs[k] * nx + ys[k] * ny + zs[k] * nz >= far;
-  if (close == 0) return out;
-  const float on = static_cast<float>(in.cos_dot);
-  const float near = static_cast<float>(in.cos_dot + in.sin_dot * reach);
-  for (int k = 0; k < n; ++k) {
-    const float cd = xs[k] * nx + ys[k] * ny + zs[k] * nz;
-    out.on_dot = out.on_dot || cd >= on;
-    out.near_rim = out.near_rim || (delta >= 0 && cd > far && cd < near);
-  }
-  return out;
-}
-
-double shade(const Shading& sh, bool on_dot, const Hit& h) {
-  const Lighting& l = *sh.lighting;
-  const double albedo = on_dot ? l.dot_albedo : l.sphere_albedo;
-  if (l.mode == Lighting::Mode::Back) {
-    double level = albedo * l.ambient;
-    if (l.spot_level > 0 && h.normal.dot(h.view) >= sh.spot_cos) level += l.spot_level;
-    return level;
-  }
-  const double ndl = h.normal.dot(l.lamp_direction);
-  double level = albedo * (l.ambient + (1.0 - l.ambient) * std::max(0.0, ndl));
-  if (l.specular_strength > 0 && ndl > 0) {
-    const double nh = h.normal.dot((l.lamp_direction + h.view).normalized());
-    if (nh > sh.nh_min)
-      level += l.specular_strength * (sh.int_exponent > 0 ? powInt(nh, sh.int_exponent)
-                                                          : std::pow(nh, l.specular_exponent));
-  }
-  return level;
-}
-
-// How a ray passes one sphere, in the terms both the hit and the edge test
-// use: orthographic, the squared distance from the centre's line of sight
-// (m^2); perspective, dir . (centre - optical centre) (m).
-double passing(const Ray& ray, bool perspective, const Instance& in) {
-  if (!perspective) {
-    const double dx = ray.origin.x() - in.centre.x(), dy = ray.origin.y() - in.centre.y();
-    return dx * dx + dy * dy;
-  }
-  return ray.dir.dot(in.rel);
-}
-
-// The hit of a ray that `passing` says may hit: the distance along the ray
-// (smaller is nearer) and the surface there, or false.
-bool intersect(const Ray& ray, bool perspective, const Instance& in, double pass, double& t_hit,
-               Hit& hit) {
-  if (!perspective) {
-    const double r2 = in.radius * in.radius;
-    if (pass >= r2) return false;
-    const double dz = std::sqrt(r2 - pass);
-    t_hit = -(in.centre.z() + dz);
-    hit.normal =
-        Vec3(ray.origin.x() - in.centre.x(), ray.origin.y() - in.centre.y(), dz) * in.inv_radius;
-    hit.view = Vec3::UnitZ();
-    return true;
-  }
-  const double disc = pass * pass - in.rel_term;
-  if (disc < 0 || pass <= 0) return false;
-  t_hit = pass - std::sqrt(disc);
-  hit.normal = (t_hit * ray.dir - in.rel) * in.inv_radius;
-  hit.view = -ray.dir;
-  return true;
-}
-
-// Whether a ray passing a sphere as `pass` says is at least kSmoothMarginPx
-// inside (or outside) its silhouette. Under perspective: the angle to the
-// tangent cone's axis against alpha -+ margin / f, which off-axis (pixels
-// subtend less there) and with mild distortion still bounds the distance in
-// pixels.
-bool clearOfEdge(bool perspective, const Instance& in, double pass, bool inside) {
-  if (!perspective) return inside ? pass < in.edge_inner : pass > in.edge_outer;
-  const double c = pass * in.inv_distance;
-  return inside ? c > in.edge_inner : c < in.edge_outer;
-}
-
-// The instances of one time sample that may cover a pixel's column: the
-// entries [a, b) of `active`, indices into `inst`.
-struct Group {
-  const std::vector<Instance>& inst;
-  const std::vector<int>& active;
-  std::size_t a, b;
-  int u;
-};
-
-// The nearest sphere along `ray`, or null; with `edge_clear`, also whether
-// the ray is at least kSmoothMarginPx from every silhouette edge (inside the
-// nearest sphere, outside the others).
-const Instance* cast(const Ray& ray, bool perspective, const Group& g, double& t_hit, Hit& hit,
-                     bool* edge_clear = nullptr) {
-  const Instance* best = nullptr;
-  t_hit = std::numeric_limits<double>::infinity();
-  double best_pass = 0;
-  for (std::size_t k = g.a; k < g.b; ++k) {
-    const Instance& in = g.inst[g.active[k]];
-    if (g.u < in.u0 || g.u > in.u1) continue;
-    const double pass = passing(ray, perspective, in);
-    double t;
-    Hit h;
-    if (intersect(ray, perspective, in, pass, t, h) && t < t_hit)
-      t_hit = t, best = &in, hit = h, best_pass = pass;
-  }
-  if (edge_clear != nullptr) {
-    *edge_clear = true;
-    for (std::size_t k = g.a; k < g.b && *edge_clear; ++k) {
-      const Instance& in = g.inst[g.active[k]];
-      if (g.u < in.u0 || g.u > in.u1) continue;
-      const double pass = &in == best ? best_pass : passing(ray, perspective, in);
-      *edge_clear = clearOfEdge(perspective, in, pass, &in == best);
-    }
-  }
-  return best;
-}
-
-// One time sample's mean level over pixel (u, v). The pixel is smooth when
-// its centre ray is at least kSmoothMarginPx from every silhouette edge and
-// (on a sphere) clear of every dot's rim, the terminator and a backlit spot's
-// rim by the surface angle a pixel spans there: its centre sample then stands
-// for the pixel's mean (the shading's curvature over a pixel is ~1e-4 of full
-// scale). Otherwise the pixel is sampled n x n.
-double groupLevel(const RenderSettings& st, const std::vector<float>& ray_xy, const Shading& sh,
-                  const Group& g, int v) {
-  const Imaging& im = *st.imaging;
-  const Optics& o = im.optics;
-  const bool persp = o.perspective;
-  const int ss = im.samples_per_pixel;
-  const double backdrop = im.lighting.backdrop_level;
-  const Lighting& l = im.lighting;
-  double t;
-  Hit hit;
-  bool clear = true;
-  const Ray centre = rayAt(st, ray_xy, g.u, v, 0.5, 0.5);
-  const Instance* best = cast(centre, persp, g, t, hit, ss > 1 ? &clear : nullptr);
-  if (best == nullptr && clear) return backdrop;
-  if (best != nullptr && clear) {
-    const double nv = hit.normal.dot(hit.view);
-    // Near the limb (nv small) a pixel spans much of the surface.
-    clear = nv >= 0.05 || ss == 1;
-    // A pixel's corners are 0.71 px from its centre: on the surface, at most
-    // 0.71 lateral / (R cos(view angle)) rad, lateral the size a pixel spans
-    // across the line of sight there. Features (terminator, rims) further
-    // than delta = that / 0.71 leave the pixel smooth. Written as products:
-    // |x| < delta <=> |x| R nv < lateral.
-    const double lateral_m = persp ? t * sh.inv_focal_px : o.pixel_size_m;
-    const double r_nv = best->radius * nv;
-    // The terminator (n.l = 0): |cos a - cos b| <= |a - b| there.
-    if (clear && ss > 1 && l.mode == Lighting::Mode::Front &&
-        std::abs(hit.normal.dot(l.lamp_direction)) * r_nv < lateral_m)
-      clear = false;
-    if (clear && ss > 1 && l.mode == Lighting::Mode::Back && l.spot_level > 0 &&
-        std::abs(std::acos(std::min(1.0, nv)) - std::asin(l.spot_fraction)) * r_nv < lateral_m)
-      clear = false;
-    const double delta = ss == 1 || best->dots == nullptr ? -1.0 : lateral_m / r_nv;
-    if (clear) {
-      const DotCover cover = dotCover(*best, hit.normal, delta);
-      if (!cover.near_rim) return shade(sh, cover.on_dot, hit);
-    }
-  }
-  double sum = 0;
-  for (int j = 0; j < ss; ++j)
-    for (int i = 0; i < ss; ++i) {
-      const Ray ray = rayAt(st, ray_xy, g.u, v, (i + 0.5) / ss, (j + 0.5) / ss);
-      const Instance* in = cast(ray, persp, g, t, hit);
-      sum += in ? shade(sh, dotCover(*in, hit.normal, -1.0).on_dot, hit) : backdrop;
-    }
-  return sum / (ss * ss);
-}
-
-// Mean brightness of pixel (u, v) over its samples and the time samples.
-double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
-                  const std::vector<Instance>& inst, const std::vector<int>& active, int samples,
-                  const Shading& sh, int u, int v) {
-  double total = 0;  // sum over time samples of each one's pixel mean
-  int groups = 0;
-  std::size_t a = 0;
-  while (a < active.size()) {
-    // Instances are grouped by time sample.
-    std::size_t b = a;
-    while (b < active.size() && inst[active[b]].sample == inst[active[a]].sample) ++b;
-    ++groups;
-    total += groupLevel(st, ray_xy, sh, Group{inst, active, a, b, u}, v);
-    a = b;
-  }
-  if (samples == 1) return groups == 1 ? total : st.imaging->lighting.backdrop_level;
-  // Time samples with nothing near this pixel.
-  total += (samples - groups) * st.imaging->lighting.backdrop_level;
-  return total / samples;
-}
-
 // Light -> grey levels for one row: gain map, flicker, shot and read noise (or
 // plain additive noise), fixed offsets, ADC bits, the format's words. Shot and
 // read noise are independent Gaussians (Poisson at these counts), so their sum
@@ -641,8 +435,8 @@ double pixelLevel(const RenderSettings& st, const std::vector<float>& ray_xy,
 // Written to vectorise (the vision library is built with -fno-math-errno so
 // that the square root does too).
 template <class T>
-void sensorRow(const RenderSettings& st, const float* gain, const float* offset, const float* g,
-               double flicker, const float* light, T* out) {
+COLLIDE_SIMD_CLONES void sensorRow(const RenderSettings& st, const float* gain, const float* offset,
+                                   const float* g, double flicker, const float* light, T* out) {
   const Sensor& se = st.imaging->sensor;
   const int w = st.width;
   const int fmt_bits = bitDepth(st.format);
@@ -706,25 +500,55 @@ cv::Mat Renderer::renderImaging(const std::vector<SphereView>& spheres, std::uin
                                          std::cos(2.0 * kPi * se.flicker_hz * time_s)
                              : 1.0;
 
+  const Tracer tr{st,
+                  tab.ray_xy,
+                  tab.centre_dirs,
+                  sh,
+                  im.optics.perspective,
+                  im.samples_per_pixel,
+                  static_cast<float>(im.lighting.backdrop_level)};
   cv::Mat image(height, width, cvType(st.format));
   std::vector<float> light(static_cast<std::size_t>(width));
-  std::vector<int> active;
+  std::vector<float> levels(static_cast<std::size_t>(width));
+  std::vector<float> sum(static_cast<std::size_t>(width));  // over time samples, less the backdrop
+  std::vector<const Instance*> group;
+  RowScratch scratch;
   std::uint64_t rng = st.noise_seed ^ (frame_index * 0xd1b54a32d192ed03ULL) ^ 0x2f8ad3c4e1b7a965ULL;
   splitmix64(rng);
+  // `light` holds the backdrop outside the columns a row's instances touch;
+  // those are put back after each row.
+  std::fill(light.begin(), light.end(), tr.backdrop);
   for (int v = 0; v < height; ++v) {
-    std::fill(light.begin(), light.end(), static_cast<float>(im.lighting.backdrop_level));
-    active.clear();
-    int span0 = width, span1 = -1;
-    for (int i = 0; i < static_cast<int>(inst.size()); ++i) {
-      if (v < inst[i].v0 || v > inst[i].v1) continue;
-      active.push_back(i);
-      span0 = std::min(span0, inst[i].u0);
-      span1 = std::max(span1, inst[i].u1);
+    int row0 = width, row1 = -1;  // the columns any instance may touch
+    for (const Instance& in : inst)
+      if (v >= in.v0 && v <= in.v1) row0 = std::min(row0, in.u0), row1 = std::max(row1, in.u1);
+    if (samples > 1 && row0 <= row1) std::fill(sum.begin() + row0, sum.begin() + row1 + 1, 0.0f);
+    // Instances come grouped by time sample: each group is traced over the
+    // columns its instances may touch; a pixel's level is the mean over the
+    // time samples, the backdrop where a sample has nothing near it.
+    for (std::size_t a = 0; a < inst.size() && row0 <= row1;) {
+      std::size_t b = a;
+      group.clear();
+      int span0 = width, span1 = -1;
+      for (; b < inst.size() && inst[b].sample == inst[a].sample; ++b) {
+        if (v < inst[b].v0 || v > inst[b].v1) continue;
+        group.push_back(&inst[b]);
+        span0 = std::min(span0, inst[b].u0);
+        span1 = std::max(span1, inst[b].u1);
+      }
+      a = b;
+      if (group.empty()) continue;
+      if (samples == 1) {
+        traceRow(tr, group, v, span0, span1, scratch, light.data() + span0);
+        continue;
+      }
+      traceRow(tr, group, v, span0, span1, scratch, levels.data());
+      for (int u = span0; u <= span1; ++u) sum[u] += levels[u - span0] - tr.backdrop;
     }
-    for (int u = span0; u <= span1; ++u)
-      light[u] = static_cast<float>(pixelLevel(st, tab.ray_xy, inst, active, samples, sh, u, v));
-
+    if (samples > 1)
+      for (int u = row0; u <= row1; ++u) light[u] = tr.backdrop + sum[u] / samples;
     exposeRow(st, tab.noise, tab.gain, tab.offset, flicker, light.data(), v, rng, image);
+    if (row0 <= row1) std::fill(light.begin() + row0, light.begin() + row1 + 1, tr.backdrop);
   }
   return image;
 }
