@@ -137,6 +137,7 @@ struct PresetResult {
   // Errors over the analysed shots the analysis did not flag.
   Stat de, db, dg_deg, dv_rel, dspin, pe, pb, pg;
   Stat pspin;  ///< spins' error / sigma per axis, measured spins only
+  Stat pvel;   ///< in-plane velocities' error / sigma per axis, before and after
   // The same shots analysed without the lens model (pixel_size_m everywhere),
   // where the profile has a perspective lens: what the camera model buys.
   Stat de_flat, dg_flat, dv_flat;
@@ -272,6 +273,11 @@ void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeas
     };
     out.dv_rel.add(rel(k.velocity_before_m_s.value, tb[s].velocity_m_s));
     out.dv_rel.add(rel(k.velocity_after_m_s.value, ta[s].velocity_m_s));
+    for (const auto& [m, t] : {std::pair{k.velocity_before_m_s, tb[s].velocity_m_s},
+                               std::pair{k.velocity_after_m_s, ta[s].velocity_m_s}})
+      for (int a = 0; a < 2; ++a)
+        if (std::isfinite(m.sigma[a]) && m.sigma[a] > 0)
+          out.pvel.add((m.value[a] - t[a]) / m.sigma[a]);
     if (pr.spin) {
       out.dspin.add((k.spin_before_rad_s.value - tb[s].spin_rad_s).norm());
       out.dspin.add((k.spin_after_rad_s.value - ta[s].spin_rad_s).norm());
@@ -483,10 +489,10 @@ void printPreset(const PresetResult& r) {
       r.de.v.size(), r.de.rms(), r.de.maxAbs(), r.db.rms(), r.db.maxAbs(), r.db.v.size(),
       r.dg_deg.rms(), r.dg_deg.maxAbs());
   std::printf(
-      "   velocity RMS %.3f %% worst %.3f %% | spin RMS %.2f worst %.2f rad/s | spin pulls (per "
-      "axis) RMS %.2f worst %.1f\n",
-      100 * r.dv_rel.rms(), 100 * r.dv_rel.maxAbs(), r.dspin.rms(), r.dspin.maxAbs(), r.pspin.rms(),
-      r.pspin.maxAbs());
+      "   velocity RMS %.3f %% worst %.3f %% | spin RMS %.2f worst %.2f rad/s | pulls per axis: "
+      "velocity RMS %.2f worst %.1f, spin RMS %.2f worst %.1f\n",
+      100 * r.dv_rel.rms(), 100 * r.dv_rel.maxAbs(), r.dspin.rms(), r.dspin.maxAbs(), r.pvel.rms(),
+      r.pvel.maxAbs(), r.pspin.rms(), r.pspin.maxAbs());
   std::printf(
       "   pulls (error/sigma), unflagged: e RMS %.2f worst %.1f | beta RMS %.2f worst %.1f "
       "| gamma RMS %.2f worst %.1f\n",

@@ -478,8 +478,12 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     }
     return sigma;
   };
-  propagate(a, px_m, s.monte_carlo_draws, s.out_of_plane_speed_fraction * b.velocity_m_s.norm(), sb,
-            sa, velocitySigma(*fb, *tc), velocitySigma(*fa, *ts), coupling);
+  const double vz_sigma = s.out_of_plane_speed_fraction * b.velocity_m_s.norm();
+  a.velocity_sigma_before = velocitySigma(*fb, *tc);
+  a.velocity_sigma_after = velocitySigma(*fa, *ts);
+  a.velocity_sigma_before.z() = a.velocity_sigma_after.z() = vz_sigma;
+  propagate(a, px_m, s.monte_carlo_draws, vz_sigma, sb, sa, a.velocity_sigma_before,
+            a.velocity_sigma_after, coupling);
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;

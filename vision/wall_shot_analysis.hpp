@@ -64,6 +64,10 @@ struct WallShotAnalysis {
   Sphere sphere_before, sphere_after;  ///< at contact: velocity, spin (position: before)
   bool spin_before_known = false, spin_after_known = false;
   Vec3 spin_sigma_before = Vec3::Zero(), spin_sigma_after = Vec3::Zero();
+  /// Velocity sigmas at contact and at separation, as the uncertainty
+  /// propagation uses them: the fits' sigmas with the residuals' lag-1
+  /// inflation and the dots' drift (x, y), and the out-of-plane prior (z).
+  Vec3 velocity_sigma_before = Vec3::Zero(), velocity_sigma_after = Vec3::Zero();
   WaltonMeasurement measured;
   double e_sigma = 0, beta_sigma = 0, gamma_sigma_rad = 0, f_sigma = 0;
   double vn_sigma_m_s = 0, vs_sigma_m_s = 0, beta_from_impulse_sigma = 0;

@@ -61,9 +61,9 @@ std::string wallResultsToJson(const vision::WallShotAnalysis& a, int indent) {
   const auto vb = a.before->velocityAt_m_s(a.t_contact_s);
   const auto va = a.after->velocityAt_m_s(a.t_separation_s);
   s1["velocity_before_m_s"] = vec(vb.value);
-  s1u["velocity_before_m_s"] = vec(vb.sigma);
+  s1u["velocity_before_m_s"] = vec(a.velocity_sigma_before);
   s1["velocity_after_m_s"] = vec(va.value);
-  s1u["velocity_after_m_s"] = vec(va.sigma);
+  s1u["velocity_after_m_s"] = vec(a.velocity_sigma_after);
   const double nan = std::nan("");
   s1["spin_before_rad_s"] =
       vec(a.spin_before_known ? a.sphere_before.spin_rad_s : Vec3::Constant(nan));

@@ -15,6 +15,7 @@
 #include "analysis/walton.hpp"
 #include "app/campaign.hpp"
 #include "app/report/results_json.hpp"
+#include "app/report/wall_results_json.hpp"
 #include "app/store/shot_file.hpp"
 #include "app/wall_analyze.hpp"
 #include "app/wall_campaign.hpp"
@@ -280,6 +281,27 @@ TEST(WallCampaignSim, ShotsThroughALensAreMeasuredThroughIt) {
     EXPECT_LT(std::abs(a.measured.e - m.e), 4 * a.e_sigma) << file;
     EXPECT_NEAR(a.measured.beta, m.beta, 0.01) << file;
     EXPECT_LT(spin_err, 1.0) << file;
+    // The velocity sigmas reported are the ones propagated: the fits' own,
+    // widened for correlated residuals and the dots' drift (so never below
+    // them), and the out-of-plane prior along z; the results file says the
+    // same.
+    const Vec3 fit_before = a.before->velocityAt_m_s(a.t_contact_s).sigma;
+    const Vec3 fit_after = a.after->velocityAt_m_s(a.t_separation_s).sigma;
+    for (int ax = 0; ax < 2; ++ax) {
+      EXPECT_GE(a.velocity_sigma_before[ax], fit_before[ax]) << file;
+      EXPECT_GE(a.velocity_sigma_after[ax], fit_after[ax]) << file;
+    }
+    EXPECT_GT(a.velocity_sigma_before.z(), 0) << file;
+    auto results = parseResultsJson(wallResultsToJson(a));
+    ASSERT_TRUE(results) << results.error().message;
+    for (int ax = 0; ax < 3; ++ax) {
+      EXPECT_NEAR(results->sphere[0].velocity_before_m_s.sigma[ax], a.velocity_sigma_before[ax],
+                  1e-12)
+          << file;
+      EXPECT_NEAR(results->sphere[0].velocity_after_m_s.sigma[ax], a.velocity_sigma_after[ax],
+                  1e-12)
+          << file;
+    }
   }
 }
 
