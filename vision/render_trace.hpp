@@ -8,8 +8,8 @@
 // traced together, one stage at a time over arrays of floats, so that each
 // stage's loop runs as vector code: the nearest sphere along each ray, its
 // surface there, the dots, the shading. A stage that depends on which sphere
-// a ray hit runs once per sphere over all rays, keeping the rays that hit
-// that one (a row meets one or two spheres). Floats place a silhouette to
+// a ray hit runs once per sphere over the rays in that sphere's columns,
+// keeping those that hit it (a row meets one or two spheres). Floats place a silhouette to
 // ~1e-4 px and a level to ~1e-6 of full scale: the perpendicular distance
 // from a sphere's centre to a ray is taken from a cross product, not as the
 // difference of two squares near 0.3 m^2.
@@ -57,7 +57,7 @@ struct Instance {
   const DotSet* dots = nullptr;  // world frame
   double cos_dot = 1;
   double sin_dot = 0;
-  // Silhouette thresholds for the smoothness test (nearest()): a ray is
+  // Silhouette thresholds for the smoothness test (edgesClear()): a ray is
   // kSmoothMarginPx inside the silhouette when it heads towards the sphere
   // and passes its centre closer than sqrt(in_thr) (m), outside when it
   // passes further than sqrt(out_thr) or heads away (if behind_clear).
@@ -147,7 +147,7 @@ struct Tracer {
 // Scratch for one frame's rows.
 struct RowScratch {
   RayBatch centres, subs;
-  std::vector<int> rough;  // pixel columns whose centre ray was not smooth
+  std::vector<int> rough;  // the centre rays (indices, column u0 + i) that were not smooth
 };
 
 // The mean level over each pixel u0..u1 of row v (into out[u - u0]) for one
