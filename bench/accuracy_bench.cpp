@@ -192,8 +192,8 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
 }
 
 void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>& tb,
-                     const std::array<Sphere, 2>& ta) {
-  for (int s = 0; s < 2; ++s) {
+                     const std::array<Sphere, 2>& ta, int spheres) {
+  for (int s = 0; s < spheres; ++s) {
     const vision::SphereKinematics& k = r.sphere[s];
     const auto row = [](const char* what, const Estimate3& e, const Vec3& truth) {
       const Vec3 d = e.value - truth;
@@ -213,6 +213,7 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
                     side == 0 ? "before" : "after", vz->value, vz->sigma,
                     (side == 0 ? tb : ta)[s].velocity_m_s.z());
   }
+  if (spheres < 2) return;  // a wall shot: no line of centres between spheres
   const Vec3 n = (tb[0].position_m - tb[1].position_m).normalized();
   std::printf("  line of centres z part: truth %+.4f, analysis %+.4f +- %.4f", n.z(),
               r.collision.line_of_centres_z.value, r.collision.line_of_centres_z.sigma);
@@ -333,7 +334,7 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
         c.beta_from_impulse.value, c.gamma_deg.value, g_err, g_err / c.gamma_deg.sigma);
     for (const std::string& f : r.quality_flags) std::printf(" [%s]", f.c_str());
     std::printf("\n");
-    if (g_verbose && spheres == 2) printShotDetail(r, tb, ta);
+    if (g_verbose) printShotDetail(r, tb, ta, spheres);
   }
 }
 

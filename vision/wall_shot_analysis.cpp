@@ -144,29 +144,45 @@ std::optional<double> faceInstant(const TrajectoryFit& fit, const Wall& wall, do
   return best;
 }
 
-// The post-impact side refitted with its centres at the depth an
-// out-of-plane velocity vz gives after the contact at t_contact_s: the fit,
-// the instant it leaves the face and its velocity then.
+// One side refitted with its centres at the depth an out-of-plane velocity
+// vz gives, z = vz (t - t_contact_s) (the centre meets the face on the plane
+// z = 0): the fit, the instant it meets (before) or leaves the face, and its
+// velocity then.
 struct DepthRefit {
   TrajectoryFit fit;
-  double t_separation_s = 0;
+  double t_face_s = 0;
   Vec3 velocity = Vec3::Zero();
 };
-std::optional<DepthRefit> refitAtDepth(const std::vector<Sample>& after,
+std::optional<DepthRefit> refitAtDepth(const std::vector<Sample>& side, bool before,
                                        const PinholeCamera& camera, double radius_m,
                                        double t_contact_s, double vz, const Wall& wall) {
-  std::vector<Sample> moved = after;
+  std::vector<Sample> moved = side;
   for (Sample& smp : moved) {
     smp.centre_m =
         camera.sphereCentre(smp.m.circle.u, smp.m.circle.v, radius_m, vz * (smp.t_s - t_contact_s));
     smp.centre_m.z() = 0.0;  // projected onto the plane, as detectSphere leaves them
   }
-  auto fit = fitSide(moved, moved.front().t_s);
+  auto fit = fitSide(moved, before ? moved.back().t_s : moved.front().t_s);
   if (!fit) return std::nullopt;
-  const auto ts = faceInstant(*fit, wall, radius_m, false);
-  if (!ts) return std::nullopt;
-  DepthRefit out{*fit, *ts, fit->velocityAt_m_s(*ts).value};
+  const auto t_face = faceInstant(*fit, wall, radius_m, before);
+  if (!t_face) return std::nullopt;
+  DepthRefit out{*fit, *t_face, fit->velocityAt_m_s(*t_face).value};
   return out;
+}
+
+// How a side's in-plane velocity at the face moves with its out-of-plane
+// velocity v_z under a lens (dv/dv_z, to first order about vz): a centre x
+// from the optical axis placed on the wrong plane moves x dv_z / Z0 too fast
+// or too slow, and the track bends. Zero without a lens or when a refit fails.
+Eigen::Vector2d depthCoupling(const std::vector<Sample>& side, bool before,
+                              const std::optional<PinholeCamera>& camera, double radius_m,
+                              double t_contact_s, double vz, const Wall& wall) {
+  constexpr double kDvz = 0.01;  // m/s
+  if (!camera) return Eigen::Vector2d::Zero();
+  const auto lo = refitAtDepth(side, before, *camera, radius_m, t_contact_s, vz - kDvz, wall);
+  const auto hi = refitAtDepth(side, before, *camera, radius_m, t_contact_s, vz + kDvz, wall);
+  if (!lo || !hi) return Eigen::Vector2d::Zero();
+  return (hi->velocity - lo->velocity).head<2>() / (2 * kDvz);
 }
 
 struct SpinSide {
@@ -229,26 +245,30 @@ double stddev(const std::vector<double>& x) {
   return std::sqrt(ss / (v.size() - 1));
 }
 
-// How the post-impact fit depends on the out-of-plane velocity the impact
-// gave (under a lens): the in-plane velocity at separation moves by
-// dv_dvz (v_z - vz_used) to first order, the centres being taken at the depth
-// v_z (t - t_contact) (see analyzeWallBurst). Zero without a lens.
+// How the fits depend on the out-of-plane velocities (under a lens; zero
+// without): each side's in-plane velocity at the face moves by
+// dv_dvz (v_z - vz_used) to first order, its centres being taken at the depth
+// v_z (t - t_contact) (see analyzeWallBurst). Before the impact v_z is the
+// prior's (vz_used 0); after it, the spins' when both are known, else the
+// same as before.
 struct DepthCoupling {
-  Eigen::Vector2d dv_dvz = Eigen::Vector2d::Zero();
-  double vz_used = 0;
+  Eigen::Vector2d dv_dvz_before = Eigen::Vector2d::Zero();
+  Eigen::Vector2d dv_dvz = Eigen::Vector2d::Zero();  ///< after the impact
+  double vz_used = 0;                                ///< after the impact
 };
 
 // Monte Carlo: velocities from the fits' per-axis sigmas at contact, spins
 // from their covariances, the face turned and shifted by its sigmas; the
 // post-impact velocity follows the v_z each draw's spins give (`depth`).
-void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, const SpinSide& sb,
-               const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma,
-               const DepthCoupling& depth) {
+// Returns the spread of the post-impact v_z over the draws (m/s).
+double propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s,
+                 const SpinSide& sb, const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma,
+                 const DepthCoupling& depth) {
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
   const bool spins_known = sb.known && sa.known;
-  std::vector<double> e, beta, gamma, f, vn, vs, bi, spin_minus_impulse;
+  std::vector<double> e, beta, gamma, f, vn, vs, bi, spin_minus_impulse, vz_after;
   for (int k = 0; k < draws; ++k) {
     Sphere b = a.sphere_before, af = a.sphere_after;
     for (int ax = 0; ax < 2; ++ax) {
@@ -259,7 +279,9 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
     // (recomputed from the spins below when both are known).
     const double dz = z_sigma_m_s * unit(rng);
     b.velocity_m_s.z() += dz;
+    b.velocity_m_s.head<2>() += depth.dv_dvz_before * dz;
     af.velocity_m_s.z() += dz;
+    if (!spins_known) af.velocity_m_s.head<2>() += depth.dv_dvz * dz;
     b.spin_rad_s += Lb * Vec3(unit(rng), unit(rng), unit(rng));
     af.spin_rad_s += La * Vec3(unit(rng), unit(rng), unit(rng));
     Wall w = a.wall;
@@ -273,6 +295,7 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
         af.velocity_m_s.z() = *vz;
       }
     }
+    vz_after.push_back(af.velocity_m_s.z());
     auto m = measureWallCollision(b, af, w);
     if (!m) continue;
     e.push_back(m->e);
@@ -292,6 +315,7 @@ void propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s, 
   a.vs_sigma_m_s = stddev(vs);
   a.beta_from_impulse_sigma = stddev(bi);
   a.beta_spin_minus_impulse_sigma = stddev(spin_minus_impulse);
+  return stddev(vz_after);
 }
 
 }  // namespace
@@ -429,7 +453,12 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.sphere_after.spin_rad_s = sa.spin;
   // The out-of-plane velocity the impact gave (not seen in the image) from
   // the spin change (appendix B): needs both spins.
+  // Under a lens the unseen v_z before the impact (the prior's) moves the
+  // pre-impact velocity, and the post-impact one while the spins do not
+  // give their own v_z (replaced below when they do).
   DepthCoupling coupling;
+  coupling.dv_dvz_before = depthCoupling(before, true, s.camera, R, *tc, 0.0, a.wall);
+  coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, 0.0, a.wall);
   if (sb.known && sa.known) {
     if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall)) {
       a.sphere_after.velocity_m_s.z() = *vz;
@@ -445,18 +474,16 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
           a.sphere_after.spin_rad_s = sa.spin;
           a.spin_sigma_after = Vec3(sa.cov.diagonal().cwiseSqrt());
         }
-        auto refit = refitAtDepth(after, *s.camera, R, *tc, *vz, a.wall);
+        auto refit = refitAtDepth(after, false, *s.camera, R, *tc, *vz, a.wall);
         if (refit) {
-          // The same at a v_z 0.01 m/s away: how much the spins' error in
-          // v_z moves the post-impact velocity (propagate()).
-          constexpr double kDvz = 0.01;
-          if (auto nudged = refitAtDepth(after, *s.camera, R, *tc, *vz + kDvz, a.wall))
-            coupling.dv_dvz = (nudged->velocity - refit->velocity).head<2>() / kDvz;
+          // How much the spins' error in v_z moves the post-impact velocity
+          // (propagate()).
+          coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, *vz, a.wall);
           coupling.vz_used = *vz;
           a.after = refit->fit;
-          a.t_separation_s = refit->t_separation_s;
+          a.t_separation_s = refit->t_face_s;
           a.sphere_after.velocity_m_s = refit->velocity;
-          ts = refit->t_separation_s;
+          ts = refit->t_face_s;
           fa = std::move(refit->fit);
           if (auto vz2 = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
             a.sphere_after.velocity_m_s.z() = *vz2;
@@ -479,11 +506,20 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     return sigma;
   };
   const double vz_sigma = s.out_of_plane_speed_fraction * b.velocity_m_s.norm();
-  a.velocity_sigma_before = velocitySigma(*fb, *tc);
-  a.velocity_sigma_after = velocitySigma(*fa, *ts);
-  a.velocity_sigma_before.z() = a.velocity_sigma_after.z() = vz_sigma;
-  propagate(a, px_m, s.monte_carlo_draws, vz_sigma, sb, sa, a.velocity_sigma_before,
-            a.velocity_sigma_after, coupling);
+  const Vec3 fit_sigma_before = velocitySigma(*fb, *tc), fit_sigma_after = velocitySigma(*fa, *ts);
+  const double vz_after_sigma = propagate(a, px_m, s.monte_carlo_draws, vz_sigma, sb, sa,
+                                          fit_sigma_before, fit_sigma_after, coupling);
+  // Reported: the fits' sigmas and what the v_z uncertainty adds through the lens.
+  a.velocity_sigma_before = fit_sigma_before;
+  a.velocity_sigma_after = fit_sigma_after;
+  for (int ax = 0; ax < 2; ++ax) {
+    a.velocity_sigma_before(ax) =
+        std::hypot(fit_sigma_before(ax), coupling.dv_dvz_before(ax) * vz_sigma);
+    a.velocity_sigma_after(ax) =
+        std::hypot(fit_sigma_after(ax), coupling.dv_dvz(ax) * vz_after_sigma);
+  }
+  a.velocity_sigma_before.z() = vz_sigma;
+  a.velocity_sigma_after.z() = vz_after_sigma;
   // A spin not measured gives no beta or f: reported as unavailable, not guessed.
   if (!sb.known || !sa.known) {
     a.measured.beta = kNaN;
