@@ -183,7 +183,7 @@ std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
 
 // The Monte Carlo's inputs: fits, their inflation and systematics, spins, the priors.
 ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, const ShotSpins& spins,
-                    const std::array<double, 2>& r_med, double px, double exposure_s) {
+                    const std::array<double, 2>& r_med, double px, double exposure_s, bool dark) {
   ShotModel in;
   const std::array<double, 2>& diam = set.diameter_m;
   in.contact = 0.5 * (diam[0] + diam[1]);
@@ -206,7 +206,7 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
     if (sides[0].unknown_reason && sides[1].unknown_reason) continue;  // no dots seen
     for (int side = 0; side < 2; ++side) {
       const TrajectoryFit& f = fits.fit[s][side]->fit;
-      const double bias_m = dotBias_m(f, r_med[s], px, exposure_s);
+      const double bias_m = dotBias_m(f, r_med[s], px, exposure_s, dark);
       const double span = f.tLast_s() - f.tFirst_s();
       in.drift[s][side] = span > 0 ? bias_m / span : 0.0;
       in.offset[s] = std::max(in.offset[s], bias_m);
@@ -603,7 +603,10 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   flagPoorSpins(out, spins);
 
   // ---- Walton's inverse, and its spread over draws of every fitted input
-  ShotModel model = shotModel(set, *fits, spins, r_med, *px, burst.exposure_us * 1e-6);
+  int dark_frames = 0;
+  for (const FrameData& f : data) dark_frames += f.found.dark_spheres ? 1 : 0;
+  ShotModel model = shotModel(set, *fits, spins, r_med, *px, burst.exposure_us * 1e-6,
+                              2 * dark_frames > static_cast<int>(data.size()));
   const double t_c0 = model.w_before * fits->t_before + (1 - model.w_before) * fits->t_after;
   out.collision.line_of_centres_z_from_size =
       lineOfCentresZFromSize(depth, fits->t_split, t_c0, contact);

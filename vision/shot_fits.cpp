@@ -8,19 +8,21 @@
 
 namespace collide::vision {
 
-double dotBiasPx(double radius_px, double blur_px) {
+double dotBiasPx(double radius_px, double blur_px, bool dark) {
+  if (dark) return kDarkDotBiasPx2 / radius_px;
   return 0.22 / radius_px * std::max(blur_px, 0.5) / 1.9;
 }
 
-double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s) {
+double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s,
+                 bool dark) {
   const double blur_px = fit.velocityAt_m_s(fit.tRef_s()).value.norm() * exposure_s / pixel_m;
-  return dotBiasPx(radius_px, blur_px) * pixel_m;
+  return dotBiasPx(radius_px, blur_px, dark) * pixel_m;
 }
 
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
-                         double exposure_s) {
+                         double exposure_s, bool dark) {
   const double span = fit.tLast_s() - fit.tFirst_s();
-  return span > 0 ? dotBias_m(fit, radius_px, pixel_m, exposure_s) / span : 0.0;
+  return span > 0 ? dotBias_m(fit, radius_px, pixel_m, exposure_s, dark) / span : 0.0;
 }
 
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,

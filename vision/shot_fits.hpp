@@ -50,23 +50,37 @@ struct SideFit {
 /// an amount that grows with the motion blur smearing them over it; as the
 /// sphere turns, the displacement changes slowly: an error correlated over
 /// many frames that the trajectory fits absorb, so their residuals cannot
-/// reveal it. Its RMS, px: 0.22 px / radius x max(blur, 0.5 px) / 1.9 px,
-/// calibrated on simulated shots of 120 px spheres blurred by 1.9 px (1000
-/// frames/s, 200 us), where it is 0.004 px, and of 90 px spheres blurred by
-/// 0.5 px (4000 frames/s, 50 us), where a term without the blur made the
-/// sigmas five times too wide; below 0.5 px of blur (a slow sphere) it was
-/// not measured and is held there (docs/benchmarks.md, "Uncertainty
-/// calibration"). A sphere whose dots were seen on neither side carries none.
-double dotBiasPx(double radius_px, double blur_px);
+/// reveal it. Its RMS, px, on a bright (front-lit) sphere: 0.22 px / radius x
+/// max(blur, 0.5 px) / 1.9 px, calibrated on simulated shots of 120 px
+/// spheres blurred by 1.9 px (1000 frames/s, 200 us), where it is 0.004 px,
+/// and of 90 px spheres blurred by 0.5 px (4000 frames/s, 50 us), where a
+/// term without the blur made the sigmas five times too wide; below 0.5 px of
+/// blur (a slow sphere) it was not measured and is held there
+/// (docs/benchmarks.md, "Uncertainty calibration").
+///
+/// On a `dark` sphere (a silhouette on a backlight whose dots show in the
+/// room light on its face) it is kDarkDotBiasPx2 / radius, whatever the
+/// blur: there a dot at the limb darkens the level the edge is cut against
+/// (30 % of the way from the bright field to the limb) by too little to be
+/// dropped as a stray profile, and it moves the edge on every profile it
+/// touches. Measured on noise-free simulated wall-backlit shots (60 px
+/// spheres, 1.9 px of blur): 0.023 px, where the bright-sphere term gives
+/// 0.004 px; with 0.2 px of blur the velocity errors were no smaller; with
+/// the dots unlit, or still (no spin before the impact), the velocity pulls
+/// were about 1 without it (docs/benchmarks.md, "The dots' pull on a
+/// silhouette"). A sphere whose dots were seen on neither side carries none.
+inline constexpr double kDarkDotBiasPx2 = 1.4;
+double dotBiasPx(double radius_px, double blur_px, bool dark = false);
 
 /// That bias for a track (m), its blur from the track's speed over the
 /// exposure.
-double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s);
+double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s,
+                 bool dark = false);
 
 /// The systematic velocity sigma that bias gives a track fitted over `fit`'s
 /// span (m/s): dotBias_m / span.
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
-                         double exposure_s);
+                         double exposure_s, bool dark = false);
 
 /// Fits one sphere's centres over `frames` (metres, world axes), dropping
 /// frames that lie far off the fit (more than 5 robust sigmas) once.

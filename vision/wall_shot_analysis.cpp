@@ -500,7 +500,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   const auto velocitySigma = [&](const TrajectoryFit& f, double t) {
     Vec3 sigma = f.velocityAt_m_s(t).sigma * std::sqrt(residualInflation(f));
     if (sb.known || sa.known) {
-      const double drift = dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6);
+      const double drift = dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6, dark);
       for (int ax = 0; ax < 2; ++ax) sigma(ax) = std::hypot(sigma(ax), drift);
     }
     return sigma;
