@@ -112,4 +112,20 @@ void conserveMomentumZ(std::array<double, 4>& vz, std::array<double, 4>& sigma,
   }
 }
 
+void holdDepthToImpulse(DepthMotion& after, const DepthMotion& before, double vz_impulse_m_s,
+                        double vz_impulse_sigma_m_s, double t_contact_s, double t_ref_s) {
+  if (!std::isfinite(vz_impulse_m_s) || !(vz_impulse_sigma_m_s > 0) ||
+      !std::isfinite(vz_impulse_sigma_m_s))
+    return;
+  const double wi = 1 / (vz_impulse_sigma_m_s * vz_impulse_sigma_m_s);
+  const double ws = after.vz_sigma_m_s > 0 && std::isfinite(after.vz_sigma_m_s)
+                        ? 1 / (after.vz_sigma_m_s * after.vz_sigma_m_s)
+                        : 0.0;
+  after.vz_m_s = (wi * vz_impulse_m_s + ws * after.vz_m_s) / (wi + ws);
+  after.vz_sigma_m_s = 1 / std::sqrt(wi + ws);
+  const double dz_contact = before.dz0_m + before.vz_m_s * (t_contact_s - t_ref_s);
+  after.dz0_m = dz_contact - after.vz_m_s * (t_contact_s - t_ref_s);
+  after.dz0_sigma_m = before.dz0_sigma_m;
+}
+
 }  // namespace collide

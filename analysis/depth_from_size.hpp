@@ -87,4 +87,17 @@ void completeDepthSigmas(DepthMotion& d, double camera_distance_m, double radius
 void conserveMomentumZ(std::array<double, 4>& vz, std::array<double, 4>& sigma,
                        const std::array<double, 2>& mass_kg);
 
+/// The post-impact depth line held to what the impact gives: its v_z becomes
+/// the weighted mean of the size-measured one (`after`'s, with its sigma) and
+/// `vz_impulse` (v_z before plus dP_z / m from the spin changes and the line
+/// of centres, thesis appendix B: measured through the impulse, not through
+/// a radius whose lit part changes along the track), and its depth joins the
+/// pre-impact line's at the contact instant `t_contact_s` (a sphere does not
+/// jump in depth), with that line's depth sigma. Both lines have their depth
+/// at the same reference time (fitDepthMotion's t_ref_s), `t_ref_s`.
+/// Nothing changes when vz_impulse or its sigma is not finite, or the sigma
+/// is not > 0.
+void holdDepthToImpulse(DepthMotion& after, const DepthMotion& before, double vz_impulse_m_s,
+                        double vz_impulse_sigma_m_s, double t_contact_s, double t_ref_s);
+
 }  // namespace collide

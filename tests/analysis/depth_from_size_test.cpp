@@ -172,3 +172,26 @@ TEST(CompleteDepthSigmas, ResidualScaleAndAChangingRadiusBias) {
   completeDepthSigmas(good, 0.5, 50, 0.04, 0.0);
   EXPECT_DOUBLE_EQ(good.vz_sigma_m_s, 0.01);
 }
+
+// The post-impact line: v_z the two estimates' weighted mean (an analytic
+// case: sigmas 0.04 and 0.01 weigh 1 : 16), its depth continuous with the
+// pre-impact line's at the contact instant.
+TEST(HoldDepthToImpulse, WeighsBothVelocitiesAndJoinsTheLinesAtContact) {
+  DepthMotion before, after;
+  before.dz0_m = 0.002, before.dz0_sigma_m = 0.0005, before.vz_m_s = 0.04;
+  after.dz0_m = 0.010, after.dz0_sigma_m = 0.001, after.vz_m_s = 0.186, after.vz_sigma_m_s = 0.04;
+  const double t_ref = 0.0, t_contact = 0.0004;
+  holdDepthToImpulse(after, before, 0.114, 0.01, t_contact, t_ref);
+  EXPECT_NEAR(after.vz_m_s, (0.186 * 1 + 0.114 * 16) / 17, 1e-12);
+  EXPECT_NEAR(after.vz_sigma_m_s, 1 / std::sqrt(1 / 0.0016 + 1 / 0.0001), 1e-12);
+  const double dz_before = before.dz0_m + before.vz_m_s * (t_contact - t_ref);
+  const double dz_after = after.dz0_m + after.vz_m_s * (t_contact - t_ref);
+  EXPECT_NEAR(dz_after, dz_before, 1e-15);
+  EXPECT_DOUBLE_EQ(after.dz0_sigma_m, before.dz0_sigma_m);
+  // No usable impulse estimate: nothing moves.
+  DepthMotion untouched = after;
+  holdDepthToImpulse(untouched, before, std::nan(""), 0.01, t_contact, t_ref);
+  holdDepthToImpulse(untouched, before, 0.1, 0.0, t_contact, t_ref);
+  EXPECT_EQ(untouched.vz_m_s, after.vz_m_s);
+  EXPECT_EQ(untouched.dz0_m, after.dz0_m);
+}
