@@ -28,6 +28,7 @@
 #include <regex>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "app/report/results_summary.hpp"
 #include "app/store/catalog.hpp"
@@ -367,10 +368,22 @@ class SlurmCluster : public ::testing::Test {
     expected_ = nullptr;
     if (root_) {
       std::error_code ec;
-      if (!::testing::UnitTest::GetInstance()->Passed())
-        std::printf("[ cluster  ] kept %s for a look (slurm logs, task outputs)\n", root_->c_str());
-      else
+      if (!::testing::UnitTest::GetInstance()->Passed()) {
+        // The logs and outputs stay for a look; the shot files (2-4 GB over
+        // the copies, and the same seed fires them again) do not: a machine
+        // that runs the suite often must not fill its disk with them.
+        std::vector<fs::path> shots;
+        for (auto it = fs::recursive_directory_iterator(*root_, ec);
+             !ec && it != fs::recursive_directory_iterator(); it.increment(ec))
+          if (it->is_regular_file() && it->path().extension() == ".h5") shots.push_back(it->path());
+        for (const fs::path& f : shots) fs::remove(f, ec);
+        std::printf(
+            "[ cluster  ] kept %s for a look (slurm logs, task outputs; its %zu shot files "
+            "removed: --seed 2 fires them again)\n",
+            root_->c_str(), shots.size());
+      } else {
         fs::remove_all(*root_, ec);
+      }
       delete root_;
       root_ = nullptr;
     }
