@@ -14,7 +14,6 @@
 #include <limits>
 #include <numbers>
 #include <string>
-#include <tuple>
 
 #include "analysis/depth_from_size.hpp"
 #include "analysis/error_model.hpp"
@@ -555,6 +554,56 @@ void addQualityFlags(ShotAnalysis& out, const FlagInputs& q) {
   flagGravity(out, q);
 }
 
+// What every pass of the inverse shares: the settings, the spins, the frames.
+struct InverseInputs {
+  const AnalysisSettings& set;
+  const ShotSpins& spins;
+  std::array<double, 2> r_med;
+  double px, exposure_s;
+  bool dark;
+  double contact;
+  const std::vector<FrameData>& data;
+  Vec3 gravity;
+  double frame_dt;
+};
+
+// One pass of Walton's inverse and its spread over draws of every fitted
+// input, on given fits and depths (and the scale that placed the centres).
+struct InversePass {
+  CollisionFits fits;
+  DepthFits depth;
+  PixelScale scale;
+  ShotModel model;
+  ShotUncertainty u;
+  std::optional<Measured> nz_size;
+};
+InversePass inversePass(const InverseInputs& in, CollisionFits fits, DepthFits depth,
+                        PixelScale scale) {
+  InversePass p{std::move(fits), std::move(depth), std::move(scale), {}, {}, {}};
+  p.model = shotModel(in.set, p.fits, in.spins, in.r_med, in.px, in.exposure_s, in.dark);
+  const double t_c0 = p.model.w_before * p.fits.t_before + (1 - p.model.w_before) * p.fits.t_after;
+  p.nz_size = lineOfCentresZFromSize(p.depth, p.fits.t_split, t_c0, in.contact);
+  useDepths(p.model, p.depth, p.nz_size, p.fits, in.set, in.r_med);
+  p.u = propagateShot(p.model);
+  return p;
+}
+
+// With the lens, the post-impact depths held to the v_z the impulse gives
+// (the first pass' inverse, appendix B), and the fits and the inverse again.
+// The first pass stands when there is nothing to hold or the second fails.
+InversePass withHeldDepths(const InverseInputs& in, InversePass first) {
+  if (!first.u.nominal.ok || !in.set.camera) return first;
+  DepthFits held = first.depth;
+  if (!holdDepthsToImpulse(held, first.u, first.fits.t_split)) return first;
+  PixelScale held_scale = first.scale;
+  setDepths(held_scale, held, first.fits.t_split);
+  auto refit = fitCollision(in.data, held_scale, in.contact, in.gravity, in.set.fix_gravity,
+                            in.exposure_s, in.frame_dt);
+  if (!refit) return first;
+  InversePass second = inversePass(in, std::move(*refit), std::move(held), std::move(held_scale));
+  return second.u.nominal.ok ? second : first;
+}
+
 }  // namespace
 
 Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& set) {
@@ -626,32 +675,16 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   int dark_frames = 0;
   for (const FrameData& f : data) dark_frames += f.found.dark_spheres ? 1 : 0;
   const bool dark = 2 * dark_frames > static_cast<int>(data.size());
-  const auto propagate = [&] {
-    ShotModel model = shotModel(set, *fits, spins, r_med, *px, burst.exposure_us * 1e-6, dark);
-    const double t_c0 = model.w_before * fits->t_before + (1 - model.w_before) * fits->t_after;
-    out.collision.line_of_centres_z_from_size =
-        lineOfCentresZFromSize(depth, fits->t_split, t_c0, contact);
-    useDepths(model, depth, out.collision.line_of_centres_z_from_size, *fits, set, r_med);
-    return std::pair{model, propagateShot(model)};
-  };
-  ShotModel model;
-  ShotUncertainty u;
-  std::tie(model, u) = propagate();
-  // ---- with the lens, the post-impact depths held to the v_z the impulse
-  // gives (the inverse's, appendix B), and the fits and the inverse again
-  if (u.nominal.ok && set.camera && holdDepthsToImpulse(depth, u, fits->t_split)) {
-    setDepths(scale, depth, fits->t_split);
-    auto refit = fitCollision(data, scale, contact, gravity, set.fix_gravity,
-                              burst.exposure_us * 1e-6, frames->frame_dt);
-    if (!refit) return refit.error();
-    fits = std::move(refit);
-    std::tie(model, u) = propagate();
-  }
+  const InverseInputs in{set,  spins,   r_med, *px,     burst.exposure_us * 1e-6,
+                         dark, contact, data,  gravity, frames->frame_dt};
+  const InversePass pass = withHeldDepths(in, inversePass(in, *fits, depth, scale));
+  out.collision.line_of_centres_z_from_size = pass.nz_size;
+  const ShotUncertainty& u = pass.u;
   if (!u.nominal.ok)
     return fail(
         "the measured kinematics are not a collision (the spheres do not approach at "
         "the contact instant); check the tracks");
-  fillKinematics(out, u, *fits, spins, model.vz_fraction);
+  fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction);
   withoutUnmeasuredSpins(out.collision, spins);
   fillFrames(out, burst, data, spins);
 
@@ -660,10 +693,10 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   q.settings = &set;
   q.burst = &burst;
   q.frames = &*frames;
-  q.fits = &*fits;
+  q.fits = &pass.fits;
   q.u = &u;
   q.r_med = r_med;
-  q.scale = scale;
+  q.scale = pass.scale;
   q.gdir = gdir;
   q.contact = contact;
   q.saturated = saturated;

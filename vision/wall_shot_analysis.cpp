@@ -451,14 +451,14 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.sphere_after = b;
   a.sphere_after.velocity_m_s = fa->velocityAt_m_s(*ts).value;
   a.sphere_after.spin_rad_s = sa.spin;
-  // The out-of-plane velocity the impact gave (not seen in the image) from
-  // the spin change (appendix B): needs both spins.
   // Under a lens the unseen v_z before the impact (the prior's) moves the
   // pre-impact velocity, and the post-impact one while the spins do not
   // give their own v_z (replaced below when they do).
   DepthCoupling coupling;
   coupling.dv_dvz_before = depthCoupling(before, true, s.camera, R, *tc, 0.0, a.wall);
   coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, 0.0, a.wall);
+  // The out-of-plane velocity the impact gave (not seen in the image) from
+  // the spin change (appendix B): needs both spins.
   if (sb.known && sa.known) {
     if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall)) {
       a.sphere_after.velocity_m_s.z() = *vz;
