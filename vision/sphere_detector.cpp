@@ -702,22 +702,30 @@ double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, 
   // known, so S = A(L) L + integral of the shape is solved for L by Newton.
   double sum = 0;
   for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
+  // Terms of the shape whose coefficient is zero are left out (exactly: they
+  // add nothing), which spares the square roots on a smooth shape.
+  const bool quad = ctx.quadratic && sh(1) != 0, root = sh(2) != 0;
   double len = pr.len0, level = 0;
   for (int it = 0, iterations = st ? 4 : 2; it < iterations; ++it) {
-    ShapeVec fbar = ShapeVec::Zero(), dfbar = ShapeVec::Zero();
+    double f0 = 0, f1 = 0, f2 = 0, d0 = 0, d1 = 0, d2 = 0;
     for (int j = 1; j <= ctx.n_in; ++j) {
       const double along = len + pr.in_off + j - 1, dd = depthAlong(along, g, h);
-      fbar += shapeBasis(dd, ctx.quadratic);
       const double slope = g - 2 * h * along;
-      dfbar += ShapeVec(slope, ctx.quadratic ? 2 * dd * slope : 0.0, 0.5 * slope / std::sqrt(dd));
+      f0 += dd, d0 += slope;
+      if (quad) f1 += dd * dd, d1 += 2 * dd * slope;
+      if (root) {
+        const double sd = std::sqrt(dd);
+        f2 += sd, d2 += 0.5 * slope / sd;
+      }
     }
-    fbar /= ctx.n_in, dfbar /= ctx.n_in;
+    const ShapeVec fbar = ShapeVec(f0, f1, f2) / ctx.n_in;
+    const ShapeVec dfbar = ShapeVec(d0, d1, d2) / ctx.n_in;
     level = pr.mean_in - pr.out - sh.dot(fbar);  // at the limb, above background
     const double l2 = len * len, l3 = l2 * len;
     const ShapeVec integral(
         0.5 * g * l2 - h * l3 / 3,
-        ctx.quadratic ? g * g * l3 / 3 - 0.5 * g * h * l2 * l2 + h * h * l2 * l3 / 5 : 0.0,
-        sg * (2.0 / 3.0 * len * std::sqrt(len) - h / (5 * g) * l2 * std::sqrt(len)));
+        quad ? g * g * l3 / 3 - 0.5 * g * h * l2 * l2 + h * h * l2 * l3 / 5 : 0.0,
+        root ? sg * (2.0 / 3.0 * len * std::sqrt(len) - h / (5 * g) * l2 * std::sqrt(len)) : 0.0);
     const double f = level * len + sh.dot(integral) - sum;
     const double df =
         level - len * sh.dot(dfbar) + sh.dot(shapeBasis(depthAlong(len, g, h), ctx.quadratic));
