@@ -18,28 +18,38 @@ struct Circle {
   double u = 0, v = 0, r = 0;
 };
 
+// The edge points as arrays, with a weight of 1 for each point in use and 0
+// for one left out: the fits' loops over them have no branches and vectorise.
+struct PointArrays {
+  std::vector<double> u, v, w;
+  explicit PointArrays(const std::vector<CirclePoint>& p)
+      : u(p.size()), v(p.size()), w(p.size(), 1.0) {
+    for (std::size_t i = 0; i < p.size(); ++i) u[i] = p[i].u, v[i] = p[i].v;
+  }
+  std::size_t size() const { return u.size(); }
+};
+
 // Kasa's algebraic fit: minimises sum (x^2 + y^2 + D x + E y + F)^2, in
 // coordinates centred on the points' mean so the normal equations stay well
 // conditioned. Good to a fraction of the noise for full circles, biased low in
 // radius for short arcs; only the starting point of the geometric fit.
-bool kasaFit(const std::vector<CirclePoint>& p, const std::vector<char>& use, Circle& out) {
-  double mu = 0, mv = 0;
-  int n = 0;
+bool kasaFit(const PointArrays& p, Circle& out) {
+  double mu = 0, mv = 0, n = 0;
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (use[i]) mu += p[i].u, mv += p[i].v, ++n;
+    mu += p.w[i] * p.u[i], mv += p.w[i] * p.v[i], n += p.w[i];
   if (n < 3) return false;
   mu /= n;
   mv /= n;
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, bx = 0, by = 0, b1 = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    if (!use[i]) continue;
-    const double x = p[i].u - mu, y = p[i].v - mv;
-    const Eigen::Vector3d row(x, y, 1.0);
+    const double w = p.w[i], x = p.u[i] - mu, y = p.v[i] - mv;
     const double z = -(x * x + y * y);
-    a += row * row.transpose();
-    b += row * z;
+    sxx += w * x * x, sxy += w * x * y, syy += w * y * y, sx += w * x, sy += w * y;
+    bx += w * x * z, by += w * y * z, b1 += w * z;
   }
+  Eigen::Matrix3d a;
+  a << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
+  const Eigen::Vector3d b(bx, by, b1);
   Eigen::FullPivLU<Eigen::Matrix3d> lu(a);
   if (lu.rank() < 3) return false;
   const Eigen::Vector3d s = lu.solve(b);
@@ -51,19 +61,20 @@ bool kasaFit(const std::vector<CirclePoint>& p, const std::vector<char>& use, Ci
 }
 
 // Gauss-Newton on the geometric distances; returns false if it diverges.
-bool geometricFit(const std::vector<CirclePoint>& p, const std::vector<char>& use, Circle& c,
-                  Eigen::Matrix3d& jtj_out) {
+bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out) {
+  const std::size_t n_points = p.size();
   for (int it = 0; it < 25; ++it) {
-    // Normal equations summed by hand: J_i = -(dx/d, dy/d, 1).
+    // Normal equations summed by hand: J_i = -(dx/d, dy/d, 1). A point at the
+    // centre (d = 0) has no direction and is left out.
     double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      if (!use[i]) continue;
-      const double dx = p[i].u - c.u, dy = p[i].v - c.v;
+    for (std::size_t i = 0; i < n_points; ++i) {
+      const double dx = p.u[i] - c.u, dy = p.v[i] - c.v;
       const double d = std::sqrt(dx * dx + dy * dy);
-      if (d == 0) continue;
-      const double ex = dx / d, ey = dy / d, r = d - c.r;
-      sxx += ex * ex, sxy += ex * ey, syy += ey * ey, sx += ex, sy += ey, n += 1;
-      rx += ex * r, ry += ey * r, r1 += r;
+      const double w = d > 0 ? p.w[i] : 0.0, inv = d > 0 ? 1.0 / d : 0.0;
+      const double ex = dx * inv, ey = dy * inv, r = d - c.r;
+      const double wex = w * ex, wey = w * ey;
+      sxx += wex * ex, sxy += wex * ey, syy += wey * ey, sx += wex, sy += wey, n += w;
+      rx += wex * r, ry += wey * r, r1 += w * r;
     }
     Eigen::Matrix3d jtj;
     jtj << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
@@ -1012,14 +1023,15 @@ namespace {
 
 // Residuals of every point from circle c; returns the robust (MAD) standard
 // deviation of those in use.
-double residuals(const std::vector<CirclePoint>& p, const std::vector<char>& use, const Circle& c,
-                 std::vector<double>& res, std::vector<double>& scratch) {
+double residuals(const PointArrays& p, const Circle& c, std::vector<double>& res,
+                 std::vector<double>& scratch) {
   scratch.clear();
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const double dx = p[i].u - c.u, dy = p[i].v - c.v;
+    const double dx = p.u[i] - c.u, dy = p.v[i] - c.v;
     res[i] = std::sqrt(dx * dx + dy * dy) - c.r;
-    if (use[i]) scratch.push_back(std::abs(res[i]));
   }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    if (p.w[i] > 0) scratch.push_back(std::abs(res[i]));
   if (scratch.empty()) return 0;
   const std::size_t mid = scratch.size() / 2;
   std::nth_element(scratch.begin(), scratch.begin() + mid, scratch.end());
@@ -1043,11 +1055,11 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
                             double min_reject_px, bool ordered) {
   const std::size_t n = points.size();
   if (n < 5) return fail("circle fit: " + std::to_string(n) + " edge points; need at least 5");
-  std::vector<char> use(n, 1);
+  PointArrays pa(points);  // pa.w: 1 for the points in use
   Circle c;
-  if (!kasaFit(points, use, c)) return fail("circle fit: the edge points lie on a line");
+  if (!kasaFit(pa, c)) return fail("circle fit: the edge points lie on a line");
   Eigen::Matrix3d jtj;
-  if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
+  if (!geometricFit(pa, c, jtj)) return fail("circle fit: did not converge");
   std::vector<double> res(n), scratch;
   scratch.reserve(n);
   int kept = static_cast<int>(n);
@@ -1057,15 +1069,15 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   const auto trim = [&]() -> Status {
     fresh = false;
     for (int round = 0; round < 4; ++round) {
-      const double robust = residuals(points, use, c, res, scratch);
+      const double robust = residuals(pa, c, res, scratch);
       spread = robust;
       const double limit = std::max(reject_sigmas * robust, min_reject_px);
       bool changed = false;
       kept = 0;
       for (std::size_t i = 0; i < n; ++i) {
-        const char keep = std::abs(res[i]) <= limit;
-        changed |= keep != use[i];
-        use[i] = keep;
+        const bool keep = std::abs(res[i]) <= limit;
+        changed |= keep != (pa.w[i] > 0);
+        pa.w[i] = keep ? 1.0 : 0.0;
         kept += keep;
       }
       if (kept < 5) return fail("circle fit: too many outlying edge points");
@@ -1073,7 +1085,7 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
         fresh = true;
         break;
       }
-      if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
+      if (!geometricFit(pa, c, jtj)) return fail("circle fit: did not converge");
     }
     return Ok{};
   };
@@ -1085,7 +1097,7 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   // far better than with the circle. Then search circles through triples of
   // points (RANSAC) for the one most points lie on, and trim from there.
   if (ordered && n >= 30) {
-    if (!fresh) spread = residuals(points, use, c, res, scratch);
+    if (!fresh) spread = residuals(pa, c, res, scratch);
     scratch.clear();
     for (std::size_t i = 1; i < n; ++i) scratch.push_back(std::abs(res[i] - res[i - 1]));
     std::nth_element(scratch.begin(), scratch.begin() + scratch.size() / 2, scratch.end());
@@ -1107,7 +1119,7 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
         if (!circleThrough(points[i], points[j], points[k], t)) continue;
         int count = 0;
         for (std::size_t m = 0; m < n; ++m) {
-          const double dx = points[m].u - t.u, dy = points[m].v - t.v;
+          const double dx = pa.u[m] - t.u, dy = pa.v[m] - t.v;
           count += std::abs(std::sqrt(dx * dx + dy * dy) - t.r) <= band;
         }
         if (count > best) best = count, best_c = t;
@@ -1117,19 +1129,18 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
       if (best > now) {
         c = best_c;
         for (std::size_t m = 0; m < n; ++m) {
-          const double dx = points[m].u - c.u, dy = points[m].v - c.v;
-          use[m] = std::abs(std::sqrt(dx * dx + dy * dy) - c.r) <= band;
+          const double dx = pa.u[m] - c.u, dy = pa.v[m] - c.v;
+          pa.w[m] = std::abs(std::sqrt(dx * dx + dy * dy) - c.r) <= band ? 1.0 : 0.0;
         }
-        if (!geometricFit(points, use, c, jtj)) return fail("circle fit: did not converge");
+        if (!geometricFit(pa, c, jtj)) return fail("circle fit: did not converge");
         if (Status st = trim(); !st) return st.error();
       }
     }
   }
 
-  if (!fresh) residuals(points, use, c, res, scratch);
+  if (!fresh) residuals(pa, c, res, scratch);
   double ss = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (use[i]) ss += res[i] * res[i];
+  for (std::size_t i = 0; i < n; ++i) ss += pa.w[i] * res[i] * res[i];
   CircleFit f;
   f.u = c.u;
   f.v = c.v;
