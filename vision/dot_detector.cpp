@@ -114,6 +114,48 @@ bool fitBareQuadratic(const std::vector<BareSample>& s, FitScratch& k, Quadratic
   return coef.allFinite();
 }
 
+// The chord's pixels darker than halfway from the dark reference `bg` to the
+// bare sphere's level (`level`, from column bx0 and row v0) as runs along
+// each row, joined into 8-connected groups (Run::parent, a union-find). Each
+// row is first turned into a mask in one branch-free pass that vectorises,
+// then the mask is scanned for runs.
+template <class T>
+std::vector<Run> darkRuns(const cv::Mat& img, const cv::Mat& level, double bg, int v0, int bx0,
+                          const std::vector<int>& lo, const std::vector<int>& hi,
+                          const std::vector<char>& clipped) {
+  const int rows = static_cast<int>(lo.size());
+  std::vector<Run> runs;
+  std::vector<int> row_first(rows + 1, 0);
+  std::vector<unsigned char> mask(static_cast<std::size_t>(img.cols) + 1);
+  for (int iy = 0; iy < rows; ++iy) {
+    const int y = v0 + iy, x_lo = lo[iy], x_hi = hi[iy];
+    row_first[iy] = static_cast<int>(runs.size());
+    if (x_lo > x_hi) continue;
+    const T* row = img.ptr<T>(y);
+    const float* shade = level.ptr<float>(iy);
+    for (int x = x_lo; x <= x_hi; ++x)
+      mask[x] = static_cast<double>(row[x]) < 0.5 * (static_cast<double>(shade[x - bx0]) + bg);
+    mask[x_hi + 1] = 0;  // a stop for the scan
+    for (int x = x_lo; x <= x_hi;) {
+      while (x <= x_hi && !mask[x]) ++x;
+      if (x > x_hi) break;
+      const int x0 = x;
+      while (mask[x]) ++x;
+      const int self = static_cast<int>(runs.size());
+      const bool edge = x0 == x_lo || x - 1 == x_hi || iy == 0 || iy == rows - 1 || clipped[iy];
+      runs.push_back({y, x0, x - 1, self, edge});
+      if (iy == 0) continue;
+      for (int k = row_first[iy - 1]; k < row_first[iy]; ++k) {
+        if (runs[k].x1 < x0 - 1) continue;
+        if (runs[k].x0 > x) break;
+        const int a = findRoot(runs, k), b = findRoot(runs, self);
+        if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
+      }
+    }
+  }
+  return runs;
+}
+
 template <class T>
 DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
   DotFrame out;
@@ -182,33 +224,7 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     return static_cast<double>(level.at<float>(y - v0, x - bx0));
   };
   // A pixel is a dot candidate below halfway from the dark reference to B.
-  const auto dark = [&](int x, int y, double value) { return value < 0.5 * (shade(x, y) + bg); };
-
-  // Runs of dark pixels, joined into 8-connected groups.
-  std::vector<Run> runs;
-  std::vector<int> row_first(rows + 1, 0);
-  for (int y = v0; y <= v1; ++y) {
-    const int iy = y - v0;
-    row_first[iy] = static_cast<int>(runs.size());
-    const T* row = img.ptr<T>(y);
-    for (int x = lo[iy]; x <= hi[iy];) {
-      while (x <= hi[iy] && !dark(x, y, row[x])) ++x;
-      if (x > hi[iy]) break;
-      const int x0 = x;
-      while (x <= hi[iy] && dark(x, y, row[x])) ++x;
-      const int self = static_cast<int>(runs.size());
-      const bool edge = x0 == lo[iy] || x - 1 == hi[iy] || iy == 0 || iy == rows - 1 || clipped[iy];
-      runs.push_back({y, x0, x - 1, self, edge});
-      if (iy == 0) continue;
-      for (int k = row_first[iy - 1]; k < row_first[iy]; ++k) {
-        if (runs[k].x1 < x0 - 1) continue;
-        if (runs[k].x0 > x) break;
-        const int a = findRoot(runs, k), b = findRoot(runs, self);
-        if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
-      }
-    }
-  }
-  row_first[rows] = static_cast<int>(runs.size());
+  std::vector<Run> runs = darkRuns<T>(img, level, bg, v0, bx0, lo, hi, clipped);
   if (runs.empty()) return out;
 
   struct Group {
