@@ -32,8 +32,12 @@ std::optional<Result<WallShotResults>> analyzeWallShotInFull(const hw::Shot& sho
   if (!settings) return std::nullopt;
   auto a = vision::analyzeWallBurst(shot.burst, *settings);
   if (!a) return Result<WallShotResults>(a.error());
+  // Built in place (a temporary Result moved into the optional made GCC 12
+  // warn, falsely, -Wmaybe-uninitialized).
+  std::optional<Result<WallShotResults>> out;
   std::string json = wallResultsToJson(*a);
-  return Result<WallShotResults>(WallShotResults{std::move(*a), std::move(json)});
+  out.emplace(WallShotResults{std::move(*a), std::move(json)});
+  return out;
 }
 
 std::optional<Result<std::string>> analyzeWallShot(const hw::Shot& shot) {

@@ -642,9 +642,11 @@ int main(int argc, char** argv) {
   const std::string root = COLLIDE_SOURCE_DIR;
   std::vector<PresetResult> results;
   for (const Preset& pr : kPresets) {
-    if (!presets.empty() &&
-        ("," + presets + ",").find("," + std::string(pr.name) + ",") == std::string::npos)
-      continue;
+    // (Built by appending: GCC 12 warns falsely, -Wrestrict, on "," + name + ",".)
+    std::string list = ",", key = ",";
+    list.append(presets).append(",");
+    key.append(pr.name).append(",");
+    if (!presets.empty() && list.find(key) == std::string::npos) continue;
     auto profile = hw::loadRigProfile(root + "/" + pr.profile);
     if (!profile) {
       std::fprintf(stderr, "%s\n", profile.error().message.c_str());
