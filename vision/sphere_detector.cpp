@@ -115,16 +115,8 @@ Grid sampleGrid(const cv::Mat& img, int step) {
   g.w = (img.cols - g.off + step - 1) / step;
   g.h = (img.rows - g.off + step - 1) / step;
   g.v.resize(static_cast<std::size_t>(g.w) * g.h);
-  // The frame is usually fresh from the camera, not in any cache, and its
-  // rows are `step` apart: the next grid row is fetched while this one is read
-  // (a cache line at a time), which hides most of the memory's latency.
-  const std::size_t row_bytes = static_cast<std::size_t>(img.cols) * sizeof(T);
   for (int gy = 0; gy < g.h; ++gy) {
     const T* row = img.ptr<T>(gy * step + g.off) + g.off;
-    if (gy + 1 < g.h) {
-      const char* next = reinterpret_cast<const char*>(img.ptr<T>((gy + 1) * step + g.off));
-      for (std::size_t b = 0; b < row_bytes; b += 64) __builtin_prefetch(next + b);
-    }
     std::uint16_t* out = g.v.data() + static_cast<std::size_t>(gy) * g.w;
     for (int gx = 0; gx < g.w; ++gx) out[gx] = row[gx * step];
   }
