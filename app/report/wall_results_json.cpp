@@ -58,11 +58,12 @@ std::string wallResultsToJson(const vision::WallShotAnalysis& a, int indent) {
   c["t_collision_before_s"] = number(a.t_contact_s);
   c["t_collision_after_s"] = number(a.t_separation_s);
   json s1, s1u;
-  const auto vb = a.before->velocityAt_m_s(a.t_contact_s);
-  const auto va = a.after->velocityAt_m_s(a.t_separation_s);
-  s1["velocity_before_m_s"] = vec(vb.value);
+  // The analysis' velocities: the fits' in the image plane, and along z the
+  // prior's before the impact and, after it, what the spin change gave
+  // (appendix B), not the orthographic fit's zero.
+  s1["velocity_before_m_s"] = vec(a.sphere_before.velocity_m_s);
   s1u["velocity_before_m_s"] = vec(a.velocity_sigma_before);
-  s1["velocity_after_m_s"] = vec(va.value);
+  s1["velocity_after_m_s"] = vec(a.sphere_after.velocity_m_s);
   s1u["velocity_after_m_s"] = vec(a.velocity_sigma_after);
   const double nan = std::nan("");
   s1["spin_before_rad_s"] =
