@@ -117,8 +117,8 @@ bool fitBareQuadratic(const std::vector<BareSample>& s, FitScratch& k, Quadratic
 // The chord's pixels darker than halfway from the dark reference `bg` to the
 // bare sphere's level (`level`, from column bx0 and row v0) as runs along
 // each row, joined into 8-connected groups (Run::parent, a union-find). Each
-// row is first turned into a mask in one branch-free pass that vectorises,
-// then the mask is scanned for runs.
+// row is first turned into a mask in one branch-free pass, then the mask is
+// scanned for runs.
 template <class T>
 std::vector<Run> darkRuns(const cv::Mat& img, const cv::Mat& level, double bg, int v0, int bx0,
                           const std::vector<int>& lo, const std::vector<int>& hi,

@@ -19,7 +19,9 @@ struct Circle {
 };
 
 // The edge points as arrays, with a weight of 1 for each point in use and 0
-// for one left out: the fits' loops over them have no branches and vectorise.
+// for one left out: the fits' loops over them have no branches. (Their sums
+// are not vectorised: that would reorder them, which the compiler may not do
+// without -ffast-math.)
 struct PointArrays {
   std::vector<double> u, v, w;
   explicit PointArrays(const std::vector<CirclePoint>& p)
