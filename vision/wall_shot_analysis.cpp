@@ -69,7 +69,7 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
     smp.m = *best;
     out.push_back(smp);
   }
-  dark = 2 * dark_frames > static_cast<int>(out.size());
+  dark = mostlyDark(dark_frames, static_cast<int>(out.size()));
   if (cut > 0)
     notes.push_back(std::to_string(cut) +
                     " frames with the sphere cut by the frame's edge left out");
@@ -453,10 +453,10 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.sphere_after.spin_rad_s = sa.spin;
   // Under a lens the unseen v_z before the impact (the prior's) moves the
   // pre-impact velocity, and the post-impact one while the spins do not
-  // give their own v_z (replaced below when they do).
+  // give their own v_z (then taken about that v_z, below).
   DepthCoupling coupling;
   coupling.dv_dvz_before = depthCoupling(before, true, s.camera, R, *tc, 0.0, a.wall);
-  coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, 0.0, a.wall);
+  bool after_at_depth = false;  // the post-impact centres at the spins' v_z
   // The out-of-plane velocity the impact gave (not seen in the image) from
   // the spin change (appendix B): needs both spins.
   if (sb.known && sa.known) {
@@ -480,6 +480,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
           // (propagate()).
           coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, *vz, a.wall);
           coupling.vz_used = *vz;
+          after_at_depth = true;
           a.after = refit->fit;
           a.t_separation_s = refit->t_face_s;
           a.sphere_after.velocity_m_s = refit->velocity;
@@ -491,6 +492,9 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       }
     }
   }
+  // Otherwise the post-impact centres stay on the plane z = 0, and the
+  // coupling is taken about v_z = 0 (the prior's, as before the impact).
+  if (!after_at_depth) coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, 0.0, a.wall);
   auto m = measureWallCollision(b, a.sphere_after, a.wall);
   if (!m) return fail("wall inverse: " + m.error().message);
   a.measured = *m;
