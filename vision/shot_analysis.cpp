@@ -674,7 +674,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   // ---- Walton's inverse, and its spread over draws of every fitted input
   int dark_frames = 0;
   for (const FrameData& f : data) dark_frames += f.found.dark_spheres ? 1 : 0;
-  const bool dark = 2 * dark_frames > static_cast<int>(data.size());
+  const bool dark = mostlyDark(dark_frames, static_cast<int>(data.size()));
   const InverseInputs in{set,  spins,   r_med, *px,     burst.exposure_us * 1e-6,
                          dark, contact, data,  gravity, frames->frame_dt};
   const InversePass pass = withHeldDepths(in, inversePass(in, *fits, depth, scale));

@@ -296,7 +296,7 @@ Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
     int used = (f.assigned[0] >= 0) + (f.assigned[1] >= 0);
     if (static_cast<int>(f.candidates.size()) > used) {
       blobs.third_blobs += static_cast<int>(f.candidates.size()) - used;
-      f.found.notes.push_back("a sphere-sized blob off both tracks: ignored");
+      f.found.notes.emplace_back("a sphere-sized blob off both tracks: ignored");
     }
   }
   return Ok{};

@@ -143,6 +143,13 @@ struct FrameSpheres {
   std::vector<std::string> notes;  ///< why something was not found
 };
 
+/// Whether a sequence of frames is backlit: most of them, `dark_frames` of
+/// `frames`, measured their spheres as dark silhouettes
+/// (FrameSpheres::dark_spheres).
+inline bool mostlyDark(int dark_frames, int frames) {
+  return 2 * dark_frames > frames;
+}
+
 class SphereDetector {
  public:
   explicit SphereDetector(SphereDetectorSettings settings = {});

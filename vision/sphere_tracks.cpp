@@ -223,7 +223,7 @@ Result<SphereTracks> trackFootageSpheres(const FrameSource& source,
                 (d.first_error.empty() ? "" : ": " + d.first_error) + ")");
   SphereTracks out;
   out.frames_unreadable = d.unreadable;
-  out.dark_spheres = 2 * d.dark > static_cast<int>(d.frames.size());
+  out.dark_spheres = mostlyDark(d.dark, static_cast<int>(d.frames.size()));
   const int seen = mostFrequentCount(d);
   if (seen == 0)
     return fail("no sphere found in any of the " + std::to_string(d.frames.size()) +
