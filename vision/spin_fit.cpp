@@ -163,39 +163,80 @@ struct JointFit {
   std::vector<std::vector<char>> used_obs;  ///< [frame][dot]: kept by the outlier cut
 };
 
-// Solves h dx = g where h = [[A, B], [B^T, D]] and D, after the first `nb`
-// parameters, is block-diagonal in 2 x 2 blocks: each frame's centre offset
-// touches only its own frame. The offsets are eliminated (Schur complement
-// S = A - B D^-1 B^T), so the dense solve is the size of A (spin and dot
-// positions), not of A plus two per frame. `a_inverse`, when given, receives
-// S^-1: the top-left nb x nb block of h^-1.
-Eigen::VectorXd solveWithFrameOffsets(const Eigen::MatrixXd& h, const Eigen::VectorXd& g, int nb,
-                                      Eigen::MatrixXd* a_inverse = nullptr) {
-  const auto np = h.rows();
-  const auto no = np - nb;  // two per offset
-  const auto offsets = no / 2;
-  // B D^-1, one 2 x 2 block at a time; then S and its right-hand side in one
-  // product each (one large product is far cheaper than one per frame).
-  std::vector<Eigen::Matrix2d> d_inv(static_cast<std::size_t>(offsets));
-  Eigen::MatrixXd bd(nb, no);
-  for (Eigen::Index k = 0; k < offsets; ++k) {
-    const Eigen::Index po = nb + 2 * k;
-    d_inv[k] = h.block<2, 2>(po, po).inverse();
-    bd.middleCols<2>(2 * k).noalias() = h.block(0, po, nb, 2) * d_inv[k];
+// The joint fit's normal equations h dx = g, kept in blocks: h = [[A, B],
+// [B^T, D]], where A holds the first `nb` parameters (spin and dot positions),
+// B couples them to each frame's centre offset and D is block-diagonal, one
+// 2 x 2 block per offset (an offset touches only its own frame). A frame's
+// column pair of B is non-zero only in the spin's rows and in those of the
+// tracks seen in that frame (`rows`), so neither the zeros of D nor most of
+// B's are stored or multiplied: with 100 frames a side, a dense h would be
+// ten times the size of A and B, and the Schur product ten times the work.
+struct NormalEquations {
+  int nb = 0;
+  Eigen::MatrixXd a;                   ///< nb x nb
+  Eigen::VectorXd ga;                  ///< nb
+  Eigen::MatrixXd b;                   ///< nb x 2 per offset
+  std::vector<Eigen::Matrix2d> d;      ///< per offset
+  std::vector<Eigen::Vector2d> gd;     ///< per offset
+  std::vector<std::vector<int>> rows;  ///< per offset: rows of its B columns that may be non-zero
+
+  NormalEquations(int nb_, int offsets)
+      : nb(nb_),
+        a(nb_, nb_),
+        ga(nb_),
+        b(nb_, 2 * offsets),
+        d(offsets),
+        gd(offsets),
+        rows(offsets) {}
+  int offsets() const { return static_cast<int>(d.size()); }
+  void setZero() {
+    a.setZero();
+    ga.setZero();
+    b.setZero();
+    for (Eigen::Matrix2d& m : d) m.setZero();
+    for (Eigen::Vector2d& v : gd) v.setZero();
   }
-  Eigen::MatrixXd s = h.topLeftCorner(nb, nb);
-  Eigen::VectorXd rhs = g.head(nb);
-  if (no > 0) {
-    s.noalias() -= bd * h.topRightCorner(nb, no).transpose();
-    rhs.noalias() -= bd * g.tail(no);
+};
+
+// Solves the normal equations: the offsets are eliminated (Schur complement
+// S = A - B D^-1 B^T, one frame at a time over its own rows; A's lower
+// triangle is all that is read), so the dense
+// solve is the size of A, not of A plus two per frame. Returns dx for the
+// nb parameters followed by two per offset. `a_inverse`, when given,
+// receives S^-1: the top-left nb x nb block of h^-1.
+Eigen::VectorXd solveWithFrameOffsets(const NormalEquations& ne,
+                                      Eigen::MatrixXd* a_inverse = nullptr) {
+  const int nb = ne.nb, offsets = ne.offsets();
+  std::vector<Eigen::Matrix2d> d_inv(static_cast<std::size_t>(offsets));
+  Eigen::MatrixXd s = ne.a;
+  Eigen::VectorXd rhs = ne.ga;
+  // A frame's B rows (b0, b1) and B D^-1 (d0, d1), gathered.
+  std::vector<double> b0, b1, d0, d1;
+  for (int k = 0; k < offsets; ++k) {
+    const std::vector<int>& r = ne.rows[k];
+    const std::size_t m = r.size();
+    const Eigen::Matrix2d& di = d_inv[k] = ne.d[k].inverse();
+    b0.resize(m), b1.resize(m), d0.resize(m), d1.resize(m);
+    for (std::size_t i = 0; i < m; ++i) {
+      b0[i] = ne.b(r[i], 2 * k), b1[i] = ne.b(r[i], 2 * k + 1);
+      d0[i] = b0[i] * di(0, 0) + b1[i] * di(1, 0);
+      d1[i] = b0[i] * di(0, 1) + b1[i] * di(1, 1);
+    }
+    // The lower triangle only: the LDLT reads nothing else. `rows` is sorted,
+    // so r[i] >= r[j] for i >= j.
+    for (std::size_t j = 0; j < m; ++j) {
+      double* col = s.col(r[j]).data();
+      for (std::size_t i = j; i < m; ++i) col[r[i]] -= d0[i] * b0[j] + d1[i] * b1[j];
+      rhs[r[j]] -= d0[j] * ne.gd[k].x() + d1[j] * ne.gd[k].y();
+    }
   }
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(s);
-  Eigen::VectorXd dx(np);
+  Eigen::VectorXd dx(nb + 2 * offsets);
   dx.head(nb) = ldlt.solve(rhs);
-  for (Eigen::Index k = 0; k < offsets; ++k) {
-    const Eigen::Index po = nb + 2 * k;
-    dx.segment<2>(po) =
-        d_inv[k] * (g.segment<2>(po) - h.block(0, po, nb, 2).transpose() * dx.head(nb));
+  for (int k = 0; k < offsets; ++k) {
+    Eigen::Vector2d bx = Eigen::Vector2d::Zero();
+    for (const int i : ne.rows[k]) bx += ne.b.block<1, 2>(i, 2 * k).transpose() * dx[i];
+    dx.segment<2>(nb + 2 * k) = d_inv[k] * (ne.gd[k] - bx);
   }
   if (a_inverse) *a_inverse = ldlt.solve(Eigen::MatrixXd::Identity(nb, nb));
   return dx;
@@ -252,9 +293,18 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
   if (warm)
     for (std::size_t i = 0; i < obs.size(); ++i) use[i] = warm->used_obs[obs[i].frame][obs[i].dot];
   const int nb = 3 + 2 * tracks;
-  const int np = nb + 2 * offsets;
-  Eigen::MatrixXd h(np, np);
-  Eigen::VectorXd g(np);
+  NormalEquations ne(nb, offsets);
+  for (const Observation& o : obs) {
+    if (offset_of[o.frame] < 0) continue;
+    std::vector<int>& r = ne.rows[offset_of[o.frame]];
+    if (r.empty()) r = {0, 1, 2};
+    r.push_back(3 + 2 * o.track);
+    r.push_back(4 + 2 * o.track);
+  }
+  for (std::vector<int>& r : ne.rows) {
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+  }
   double s2 = warm ? warm->s2 : 0;
   int used = 0;
   // Offsets are held at zero until the residuals have given the dots' noise
@@ -264,8 +314,7 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
   for (int outer = 0; outer < outer_rounds; ++outer) {
     const double prior_scale = with_offsets ? s2 : 0.0;
     for (int it = 0; it < inner_steps; ++it) {
-      h.setZero();
-      g.setZero();
+      ne.setZero();
       std::vector<Eigen::Matrix<double, 3, 2>> basis(tracks);
       for (int j = 0; j < tracks; ++j) {
         const Vec3& b = body[j];
@@ -289,36 +338,33 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
         const int pb = 3 + 2 * o.track;
         const Eigen::Matrix<double, 5, 5> jtj = o.w * jac.transpose() * jac;
         const Eigen::Matrix<double, 5, 1> jtr = o.w * jac.transpose() * r;
-        h.topLeftCorner<3, 3>() += jtj.topLeftCorner<3, 3>();
-        h.block<3, 2>(0, pb) += jtj.topRightCorner<3, 2>();
-        h.block<2, 3>(pb, 0) += jtj.bottomLeftCorner<2, 3>();
-        h.block<2, 2>(pb, pb) += jtj.bottomRightCorner<2, 2>();
-        g.head<3>() += jtr.head<3>();
-        g.segment<2>(pb) += jtr.tail<2>();
+        ne.a.topLeftCorner<3, 3>() += jtj.topLeftCorner<3, 3>();
+        ne.a.block<3, 2>(0, pb) += jtj.topRightCorner<3, 2>();
+        ne.a.block<2, 3>(pb, 0) += jtj.bottomLeftCorner<2, 3>();
+        ne.a.block<2, 2>(pb, pb) += jtj.bottomRightCorner<2, 2>();
+        ne.ga.head<3>() += jtr.head<3>();
+        ne.ga.segment<2>(pb) += jtr.tail<2>();
         if (off >= 0) {
           // d(model)/d(shift) = identity.
-          const int po = nb + 2 * off;
-          h.block<3, 2>(0, po) += o.w * jac.leftCols<3>().transpose();
-          h.block<2, 3>(po, 0) += o.w * jac.leftCols<3>();
-          h.block<2, 2>(pb, po) += o.w * jac.rightCols<2>().transpose();
-          h.block<2, 2>(po, pb) += o.w * jac.rightCols<2>();
-          h.block<2, 2>(po, po) += o.w * Eigen::Matrix2d::Identity();
-          g.segment<2>(po) += o.w * r;
+          ne.b.block<3, 2>(0, 2 * off) += o.w * jac.leftCols<3>().transpose();
+          ne.b.block<2, 2>(pb, 2 * off) += o.w * jac.rightCols<2>().transpose();
+          ne.d[off] += o.w * Eigen::Matrix2d::Identity();
+          ne.gd[off] += o.w * r;
         }
       }
       if (with_offsets)
         for (std::size_t k = 0; k < n; ++k) {
           if (offset_of[k] < 0) continue;
-          const int po = nb + 2 * offset_of[k];
+          const int po = offset_of[k];
           const double lambda = prior_scale / (frames[k].centre_sigma * frames[k].centre_sigma);
-          h.block<2, 2>(po, po) += lambda * Eigen::Matrix2d::Identity();
-          g.segment<2>(po) -= lambda * shift[k];
+          ne.d[po] += lambda * Eigen::Matrix2d::Identity();
+          ne.gd[po] -= lambda * shift[k];
         }
       // A track whose observations were all dropped leaves its block empty;
       // offsets are unused until enabled.
-      h.diagonal().tail(np - 3).array() += 1e-12;
-      if (!with_offsets) h.diagonal().tail(np - nb).array() += 1.0;
-      const Eigen::VectorXd dx = solveWithFrameOffsets(h, g, nb);
+      ne.a.diagonal().tail(nb - 3).array() += 1e-12;
+      for (Eigen::Matrix2d& m : ne.d) m.diagonal().array() += with_offsets ? 1e-12 : 1.0 + 1e-12;
+      const Eigen::VectorXd dx = solveWithFrameOffsets(ne);
       if (!dx.allFinite()) return fail("spin: the dot fit is degenerate (dots on one line?)");
       w += dx.head<3>();
       for (int j = 0; j < tracks; ++j)
@@ -374,7 +420,7 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
   out.w = w;
   if (!warm) {
     Eigen::MatrixXd a_inverse;
-    solveWithFrameOffsets(h, g, nb, &a_inverse);
+    solveWithFrameOffsets(ne, &a_inverse);
     out.cov = a_inverse.topLeftCorner<3, 3>() * s2;
   }
   out.shift = std::move(shift);
