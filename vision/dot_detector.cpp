@@ -273,11 +273,24 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   const int sq0 = std::max(0, static_cast<int>(std::floor(cu - rin)) - 3);
   const int sq1 = std::min(img.cols - 1, static_cast<int>(std::ceil(cu + rin)) + 3);
   const int sw = sq1 - sq0 + 1;
-  std::vector<std::int32_t> owner(static_cast<std::size_t>(sw) * rows, -1);
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    std::int32_t* o = owner.data() + static_cast<std::size_t>(runs[i].y - v0) * sw - sq0;
-    for (int x = runs[i].x0; x <= runs[i].x1; ++x) o[x] = group_of[i];
-  }
+  // The map is a buffer each thread keeps from call to call, all -1 between
+  // calls: the runs are written in, and taken out again on the way out,
+  // rather than the whole square filled every call.
+  thread_local std::vector<std::int32_t> owner_cells;
+  if (owner_cells.size() < static_cast<std::size_t>(sw) * rows)
+    owner_cells.resize(static_cast<std::size_t>(sw) * rows, -1);
+  const auto ownerRow = [&](int y) {
+    return owner_cells.data() + static_cast<std::size_t>(y - v0) * sw - sq0;
+  };
+  struct Clear {
+    const std::vector<Run>& runs;
+    decltype(ownerRow)& row;
+    ~Clear() {
+      for (const Run& run : runs) std::fill(row(run.y) + run.x0, row(run.y) + run.x1 + 1, -1);
+    }
+  } clear_on_return{runs, ownerRow};
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    std::fill(ownerRow(runs[i].y) + runs[i].x0, ownerRow(runs[i].y) + runs[i].x1 + 1, group_of[i]);
 
   // The paint's own level (a little above the background in the simulator,
   // often more on real spheres): the median of the dots' darkest pixels. The
@@ -331,7 +344,7 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     for (int y = std::max(v0, gr.y0 - gap - ring); y <= std::min(v1, gr.y1 + gap + ring); ++y) {
       const int iy = y - v0;
       const T* row = img.ptr<T>(y);
-      const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
+      const std::int32_t* o = ownerRow(y);
       for (int x = std::max(lo[iy], gr.x0 - gap - ring); x <= std::min(hi[iy], gr.x1 + gap + ring);
            ++x) {
         if (x >= gr.x0 - gap && x <= gr.x1 + gap && y >= gr.y0 - gap && y <= gr.y1 + gap) continue;
@@ -347,7 +360,7 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     for (int y = std::max(v0, gr.y0 - 2); y <= std::min(v1, gr.y1 + 2); ++y) {
       const int iy = y - v0;
       const T* row = img.ptr<T>(y);
-      const std::int32_t* o = owner.data() + static_cast<std::size_t>(iy) * sw - sq0;
+      const std::int32_t* o = ownerRow(y);
       for (int x = std::max(lo[iy], gr.x0 - 2); x <= std::min(hi[iy], gr.x1 + 2); ++x) {
         if (o[x] >= 0 && o[x] != static_cast<int>(g)) continue;
         const double b = bare(x, y);
