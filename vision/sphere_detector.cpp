@@ -160,17 +160,21 @@ Levels measureLevels(const Grid& grid, int max_value, int clip_value) {
   Levels l;
   const double med_bin = quantile(hist, 0.5);  // in bins, continuous
   l.bg = (med_bin - 0.5) * width;
-  // MAD from the histogram of |x - median|.
-  std::vector<int> dev(bins, 0);
-  for (int b = 0; b < bins; ++b) {
-    const int d = static_cast<int>(std::abs(b + 0.5 - med_bin));
-    dev[std::min(d, bins - 1)] += hist[b];
-  }
+  // MAD from the histogram of |x - median|, over the occupied bins only (a
+  // frame's samples span far fewer than the 4096).
+  int first = 0, last = bins - 1;
+  while (first < last && hist[first] == 0) ++first;
+  while (last > first && hist[last] == 0) --last;
+  const auto deviation = [&](int b) {
+    return std::min(static_cast<int>(std::abs(b + 0.5 - med_bin)), bins - 1);
+  };
+  std::vector<int> dev(std::max(deviation(first), deviation(last)) + 1, 0);
+  for (int b = first; b <= last; ++b) dev[deviation(b)] += hist[b];
   const double mad = quantile(dev, 0.5) * width;
   l.sigma = std::max(1.4826 * mad, 0.3 * width);
   // Brightest level: the 3rd largest sample (one or two hot pixels aside).
   int seen = 0;
-  for (int b = bins - 1; b >= 0; --b) {
+  for (int b = last; b >= 0; --b) {
     seen += hist[b];
     if (seen >= 3) {
       l.bright = (b + 0.5) * width;
