@@ -292,6 +292,17 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
   std::vector<char> use(obs.size(), 1);
   if (warm)
     for (std::size_t i = 0; i < obs.size(); ++i) use[i] = warm->used_obs[obs[i].frame][obs[i].dot];
+  // The rotation to each frame with observations, and its left Jacobian, at
+  // spin w: once per frame, not once per dot.
+  std::vector<Eigen::Matrix3d> rot(n), jl(n);
+  const auto rotateFrames = [&](const Vec3& spin, bool jacobians = true) {
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!frame_used[k]) continue;
+      const Vec3 phi = spin * (frames[k].t_s - t0);
+      rot[k] = expRot(phi);
+      if (jacobians) jl[k] = leftJacobian(phi);
+    }
+  };
   const int nb = 3 + 2 * tracks;
   NormalEquations ne(nb, offsets);
   for (const Observation& o : obs) {
@@ -323,17 +334,18 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
         basis[j].col(0) = e1;
         basis[j].col(1) = b.cross(e1);
       }
+      rotateFrames(w);
       for (std::size_t i = 0; i < obs.size(); ++i) {
         if (!use[i]) continue;
         const Observation& o = obs[i];
         const double tau = frames[o.frame].t_s - t0;
-        const Eigen::Matrix3d e = expRot(w * tau);
+        const Eigen::Matrix3d& e = rot[o.frame];
         const Vec3 m = e * body[o.track];
         const int off = with_offsets ? offset_of[o.frame] : -1;
         Eigen::Vector2d r = o.p.head<2>() - m.head<2>();
         if (off >= 0) r -= shift[o.frame];
         Eigen::Matrix<double, 2, 5> jac;
-        jac.leftCols<3>() = (-skew(m) * leftJacobian(w * tau) * tau).topRows<2>();
+        jac.leftCols<3>() = (-skew(m) * jl[o.frame] * tau).topRows<2>();
         jac.rightCols<2>() = (e * basis[o.track]).topRows<2>();
         const int pb = 3 + 2 * o.track;
         const Eigen::Matrix<double, 5, 5> jtj = o.w * jac.transpose() * jac;
@@ -379,9 +391,10 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
     std::vector<double> rn(obs.size(), 0), absr;
     double ss = 0, ss_unw = 0;
     used = 0;
+    rotateFrames(w, false);
     for (std::size_t i = 0; i < obs.size(); ++i) {
       const Observation& o = obs[i];
-      const Vec3 m = expRot(w * (frames[o.frame].t_s - t0)) * body[o.track];
+      const Vec3 m = rot[o.frame] * body[o.track];
       Eigen::Vector2d r = o.p.head<2>() - m.head<2>();
       if (with_offsets && offset_of[o.frame] >= 0) r -= shift[o.frame];
       rn[i] = std::sqrt(o.w) * r.norm();
