@@ -43,10 +43,19 @@ PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, double drift_m_s,
 ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   ShotDraw o;
   std::array<std::array<PlaneTrack, 2>, 2> d;
+  std::array<double, 2> rate_before{0, 0};  // each sphere's pre-impact depth-rate deviate
   for (int s = 0; s < 2; ++s)
-    for (int side = 0; side < 2; ++side)
+    for (int side = 0; side < 2; ++side) {
       d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], in.drift[s][side],
                              in.offset[s], rng, nominal);
+      if (nominal) continue;
+      std::normal_distribution<double> nd;
+      const double rate = nd(rng), offset = nd(rng);
+      const DepthCoupling& c = in.depth[s][side];
+      for (int k = 0; k < 2; ++k)
+        d[s][side].c[k][1] += c.per_rate[k] * rate + c.per_offset[k] * offset;
+      if (side == 0) rate_before[s] = rate;
+    }
   const double contact =
       nominal ? in.contact
               : in.contact + in.contact_sigma * std::normal_distribution<double>()(rng);
@@ -59,9 +68,11 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
     st.position_m[s] = d[s][0].pos(o.t_c);
     o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
     const double z = nominal ? 0.0 : std::normal_distribution<double>()(rng);
-    if (const auto& vz = in.vz_before[s])
-      o.v_before[s].z() = (*vz)[0] + (*vz)[1] * z;
-    else
+    if (const auto& vz = in.vz_before[s]) {
+      const double shared = std::clamp(in.vz_before_shared[s], 0.0, (*vz)[1]);
+      o.v_before[s].z() =
+          (*vz)[0] + shared * rate_before[s] + std::sqrt((*vz)[1] * (*vz)[1] - shared * shared) * z;
+    } else
       o.v_before[s].z() = in.vz_fraction * o.v_before[s].norm() * z;
     o.v_after[s] = Vec3(d[s][1].vel(o.t_c).x(), d[s][1].vel(o.t_c).y(), 0);
     o.w_before[s] = drawVec(in.spin[s][0], in.spin_cov[s][0], rng, nominal);

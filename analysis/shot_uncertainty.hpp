@@ -16,14 +16,27 @@
 
 namespace collide {
 
+/// How an error of a sphere's measured depth moves one trajectory fit's
+/// in-plane velocity: a centre placed on the wrong plane is off by
+/// -x dz / Z0 (x from the optical axis, z towards the camera), so the move
+/// has a direction, not a spread on both axes. m/s per standard deviation.
+struct DepthCoupling {
+  /// Per standard deviation of the depth's rate (v_z): along the position
+  /// from the optical axis, and along the velocity as the track bends.
+  Eigen::Vector2d per_rate = Eigen::Vector2d::Zero();
+  /// Per standard deviation of the depth at the collision: along the velocity.
+  Eigen::Vector2d per_offset = Eigen::Vector2d::Zero();
+};
+
 /// Everything measured about one shot, as the Monte Carlo draws it.
 struct ShotModel {
   std::array<std::array<const TrajectoryFit*, 2>, 2> fit{};  ///< [sphere][0 before, 1 after]
   std::array<std::array<double, 2>, 2>
       inflation{};  ///< of each fit's covariance (residual correlation)
-  std::array<std::array<double, 2>, 2> drift{};  ///< systematic velocity sigma, m/s
-  std::array<double, 2> offset{};                ///< systematic position sigma, m
-  std::array<std::array<Vec3, 2>, 2> spin;       ///< [sphere][side], rad/s
+  std::array<std::array<double, 2>, 2> drift{};       ///< systematic velocity sigma, m/s
+  std::array<std::array<DepthCoupling, 2>, 2> depth;  ///< [sphere][side]
+  std::array<double, 2> offset{};                     ///< systematic position sigma, m
+  std::array<std::array<Vec3, 2>, 2> spin;            ///< [sphere][side], rad/s
   std::array<std::array<Eigen::Matrix3d, 2>, 2> spin_cov;
   std::array<double, 2> diameter{}, mass{};
   double contact = 0;  ///< contact distance, m
@@ -44,6 +57,10 @@ struct ShotModel {
   /// Each sphere's measured v_z before impact (value, sigma; m/s), e.g. from
   /// its apparent size; unset: 0 with the prior vz_fraction.
   std::array<std::optional<std::array<double, 2>>, 2> vz_before;
+  /// The part of vz_before's sigma (m/s) drawn with the same deviate as the
+  /// pre-impact fit's depth.per_rate: one error of the depth's rate moves
+  /// both (at most vz_before's sigma; the rest is drawn on its own).
+  std::array<double, 2> vz_before_shared{};
 };
 
 /// One draw (or the nominal evaluation) of a shot.

@@ -89,8 +89,9 @@ std::optional<Measured> lineOfCentresZFromSize(const DepthFits& depth, double t_
 // Z0 sigma_r / (r D). The measured v_z before impact replaces the prior
 // out_of_plane_speed_fraction, the size-measured n_z the prior
 // line_of_centres_z_sigma; the depths' uncertainties (position on the wrong
-// plane: v |dz| / Z0, x |dv_z| / Z0 from the optical axis, and the track's
-// bending, below) join each fit's systematic velocity drift.
+// plane: v dz / Z0, x dv_z / Z0 from the optical axis, and the track's
+// bending, below) move each fit's velocity along those directions
+// (ShotModel::depth), the rate error together with v_z's.
 void useDepths(ShotModel& model, const DepthFits& depth, const std::optional<Measured>& nz_size,
                const CollisionFits& fits, const AnalysisSettings& set,
                const std::array<double, 2>& r_med) {
@@ -109,18 +110,20 @@ void useDepths(ShotModel& model, const DepthFits& depth, const std::optional<Mea
         const double sp = model.vz_fraction * f.velocityAt_m_s(f.tRef_s()).value.norm();
         const double w = sp > 0 ? sp * sp / (sp * sp + s_vz * s_vz) : 0.0;
         model.vz_before[s] = std::array<double, 2>{w * d->vz_m_s, std::sqrt(w) * s_vz};
+        model.vz_before_shared[s] = w * s_vz;  // the depth fit's own rate error, weighted
       }
       Eigen::Vector2d x(f.coefficients(0)[0], f.coefficients(1)[0]);
       Eigen::Vector2d v(f.coefficients(0)[1], f.coefficients(1)[1]);
       if (set.camera) x -= set.camera->centre_m.head<2>();
-      // A wrong v_z bends the back-projected track (x (t) dz (t) / Z0 has a
-      // t^2 term v dv_z / Z0 that a fit with gravity fixed takes into its
-      // velocity: about v dv_z T / Z0 at the track's end).
-      const double span = std::max(f.tLast_s() - f.tFirst_s(), 0.0);
-      model.drift[s][side] =
-          std::sqrt(std::pow(model.drift[s][side], 2) + std::pow(x.norm() * s_vz / z0, 2) +
-                    std::pow(v.norm() * s_vz * span / z0, 2) +
-                    std::pow(v.norm() * sc * d->dz0_sigma_m / z0, 2));
+      // A centre on the wrong plane is off by -x (t) dz (t) / Z0 (z towards
+      // the camera), with x (t) = x + v tau and dz (t) = dz + dv_z tau about
+      // the fit's reference instant: a velocity error -(x dv_z + v dz) / Z0,
+      // and a tau^2 term -v dv_z / Z0 that a fit with gravity fixed takes into
+      // its velocity as -v dv_z (tau_first + tau_last) / Z0 (the slope of tau^2
+      // over the track): the track bends.
+      const double bend = f.tFirst_s() + f.tLast_s() - 2 * f.tRef_s();
+      model.depth[s][side].per_rate = -(x + v * bend) * s_vz / z0;
+      model.depth[s][side].per_offset = -v * sc * d->dz0_sigma_m / z0;
     }
   if (nz_size) {
     const double r = 0.5 * (r_med[0] + r_med[1]);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 
 using namespace collide;
@@ -39,8 +40,10 @@ Truth collision(double angle_rad) {
 }
 
 // Samples sphere s on one side (20 frames), centre noise sigma_m, fitted with
-// known sigmas and gravity fixed.
-TrajectoryFit track(const Truth& t, int s, int side, double sigma_m, std::mt19937_64& rng) {
+// known sigmas and gravity fixed. `warp`, when given, moves each true centre
+// (time from the collision, centre) before the noise.
+TrajectoryFit track(const Truth& t, int s, int side, double sigma_m, std::mt19937_64& rng,
+                    const std::function<Vec3(double, const Vec3&)>& warp = {}) {
   std::normal_distribution<double> nd;
   const int n = 20;
   Eigen::VectorXd time(n), sig = Eigen::VectorXd::Constant(n, std::max(sigma_m, 1e-9));
@@ -49,7 +52,8 @@ TrajectoryFit track(const Truth& t, int s, int side, double sigma_m, std::mt1993
   for (int k = 0; k < n; ++k) {
     const double tau = side == 0 ? -(k + 0.3) * kDt : (k + 0.6) * kDt;
     time[k] = kTc + tau;
-    const Vec3 r = sp.position_m + sp.velocity_m_s * tau + 0.5 * kG * tau * tau;
+    Vec3 r = sp.position_m + sp.velocity_m_s * tau + 0.5 * kG * tau * tau;
+    if (warp) r = warp(tau, r);
     pos(k, 0) = r.x() + sigma_m * nd(rng);
     pos(k, 1) = r.y() + sigma_m * nd(rng);
   }
@@ -174,6 +178,88 @@ TEST(PropagateShot, ABiasedContactDistanceIsCoveredByItsStatedSigma) {
   EXPECT_GT(with, 0.7);
   EXPECT_LT(with, 1.4);
   EXPECT_GT(without, 3.0);
+}
+
+// A centre placed on the wrong plane is off by -x dz / Z0 (x from the optical
+// axis): a depth whose rate errs by dv_z moves a track's velocity along x and,
+// as the track bends, along the velocity, and nowhere else. Drawn along that
+// direction (ShotModel::depth), the velocity's per-axis pulls are near 1 on
+// both axes; the same size drawn on both axes alike (a scalar drift) leaves
+// the axis across that direction far too wide.
+TEST(PropagateShot, ADepthRateErrorIsCoveredAlongItsDirection) {
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> nd;
+  const Truth t = collision(0.5);
+  const double z0 = 0.5, sigma_vz = 0.03;   // camera distance (m), v_z sigma (m/s)
+  const Eigen::Vector2d axis(-0.05, 0.03);  // where the optical axis meets the plane, m
+  const int n = 40;
+  std::array<double, 2> along{0, 0}, alike{0, 0};  // per-axis pull sums of squares
+  for (int i = 0; i < n; ++i) {
+    const double dvz = sigma_vz * nd(rng);
+    std::mt19937_64 same(2000 + i);
+    MeasuredShot s = measured(t, 5e-7, same);
+    s.fits[0][0] = track(t, 0, 0, 5e-7, same, [&](double tau, const Vec3& r) {
+      const Eigen::Vector2d x = r.head<2>() - axis;
+      return Vec3(r.x() - x.x() * dvz * tau / z0, r.y() - x.y() * dvz * tau / z0, r.z());
+    });
+    bind(s);
+    const TrajectoryFit& f = s.fits[0][0];
+    const Eigen::Vector2d x = Eigen::Vector2d(f.coefficients(0)[0], f.coefficients(1)[0]) - axis;
+    const Eigen::Vector2d v(f.coefficients(0)[1], f.coefficients(1)[1]);
+    const double bend = f.tFirst_s() + f.tLast_s() - 2 * f.tRef_s();
+    const Eigen::Vector2d per_rate = -(x + v * bend) * sigma_vz / z0;
+    for (const bool directed : {true, false}) {
+      s.model.depth[0][0].per_rate = directed ? per_rate : Eigen::Vector2d::Zero();
+      s.model.drift[0][0] = directed ? 0.0 : per_rate.norm();
+      const ShotUncertainty u = propagateShot(s.model, 300, 700 + i);
+      ASSERT_TRUE(u.nominal.ok);
+      for (int k = 0; k < 2; ++k) {
+        const double pull =
+            (u.nominal.v_before[0][k] - t.before[0].velocity_m_s[k]) / u.v_before[0][k].sigma();
+        (directed ? along : alike)[k] += pull * pull;
+      }
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    along[k] = std::sqrt(along[k] / n), alike[k] = std::sqrt(alike[k] / n);
+    std::printf("axis %d: velocity pull RMS %.2f drawn along the direction, %.2f on both axes\n", k,
+                along[k], alike[k]);
+    EXPECT_GT(along[k], 0.7);
+    EXPECT_LT(along[k], 1.4);
+  }
+  // Here the direction is mostly along y: x's sigma on both axes is several
+  // times its error.
+  EXPECT_LT(alike[0], 0.4);
+}
+
+// One error of the depth's rate moves both the pre-impact v_z and the fit's
+// in-plane velocity: drawn with one deviate, they are correlated as far as
+// vz_before_shared says, and not at all without it.
+TEST(PropagateShot, VzAndItsInPlaneMoveShareOneDeviate) {
+  std::mt19937_64 rng(5);
+  const Truth t = collision(0.5);
+  MeasuredShot s = measured(t, 1e-7, rng);
+  bind(s);
+  s.model.depth[0][0].per_rate = Eigen::Vector2d(0.004, 0.0);
+  s.model.vz_before[0] = std::array<double, 2>{0.0, 0.02};
+  for (const double shared : {0.02, 0.0}) {
+    s.model.vz_before_shared[0] = shared;
+    std::mt19937_64 draws(6);
+    double sx = 0, sz = 0, sxx = 0, szz = 0, sxz = 0;
+    const int n = 2000;
+    for (int i = 0; i < n; ++i) {
+      const ShotDraw d = evaluateShot(s.model, draws, false);
+      const double x = d.v_before[0].x(), z = d.v_before[0].z();
+      sx += x, sz += z, sxx += x * x, szz += z * z, sxz += x * z;
+    }
+    const double cov = sxz / n - sx / n * sz / n;
+    const double corr = cov / std::sqrt((sxx / n - sx / n * sx / n) * (szz / n - sz / n * sz / n));
+    std::printf("vz_before_shared %.3f: correlation of v_x and v_z %.3f\n", shared, corr);
+    if (shared > 0)
+      EXPECT_GT(corr, 0.9);
+    else
+      EXPECT_LT(std::abs(corr), 0.1);
+  }
 }
 
 }  // namespace
