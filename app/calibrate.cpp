@@ -190,8 +190,10 @@ Result<std::string> profileWithCalibration(const std::string& text, const std::s
   const vision::CalibrationSigma& s = c.sigma;
   const PinholeCamera& l = c.camera;
   std::vector<std::pair<std::string, std::string>> e = {
-      {"image_px",
-       "[" + std::to_string(c.image_size.width) + ", " + std::to_string(c.image_size.height) + "]"},
+      // std::string("["): GCC 12 warns falsely (-Wrestrict) on a literal put
+      // before a temporary string.
+      {"image_px", std::string("[") + std::to_string(c.image_size.width) + ", " +
+                       std::to_string(c.image_size.height) + "]"},
       {"focal_px", exact(l.focal_px)},
       {"focal_px_sigma", exact(s.focal_px)},
       {"principal_px", array({l.principal_u_px, l.principal_v_px})},

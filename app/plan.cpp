@@ -305,8 +305,12 @@ Result<ShotPlan> planOnce(const hw::RigProfile& profile, const PlanRequest& requ
 }
 
 std::string vec3(const Vec3& v, const char* spec, double scale = 1.0) {
-  return "(" + num(spec, v.x() * scale) + ", " + num(spec, v.y() * scale) + ", " +
-         num(spec, v.z() * scale) + ")";
+  // Appended, not "(" + ...: GCC 12 warns falsely (-Wrestrict) on a literal
+  // put before a temporary string.
+  std::string out = "(";
+  out += num(spec, v.x() * scale) + ", " + num(spec, v.y() * scale) + ", ";
+  out += num(spec, v.z() * scale) + ")";
+  return out;
 }
 
 // Where and when the contact happens, after `since` (which valve opening).

@@ -415,7 +415,11 @@ void CameraSim::run() {
   // A frame starts at grid_origin + k period; k seeds its noise. The lamps'
   // flicker counts time from time_origin (see alignToTrigger).
   std::int64_t grid_origin = t_start, time_origin = 0;
-  std::optional<std::int64_t> aligned_to;  // the current burst's trigger, once aligned to
+  // The current burst's trigger once aligned to (a plain value with a
+  // sentinel: GCC 12 takes std::optional's compare for a read of an unset
+  // value, a false -Wmaybe-uninitialized).
+  constexpr std::int64_t kNotAligned = std::numeric_limits<std::int64_t>::min();
+  std::int64_t aligned_to = kNotAligned;
   std::uint64_t triggers = 0;
   auto noiseIndex = [&](std::int64_t start_ns) {
     return static_cast<std::uint64_t>((start_ns - grid_origin) / period + (std::int64_t{1} << 40));
@@ -454,7 +458,7 @@ void CameraSim::run() {
     if (std::shared_ptr<BurstRecorder> armed = recorder(); armed != current) {
       current = armed;
       post_delivered = 0;
-      aligned_to.reset();
+      aligned_to = kNotAligned;
       // fault: a silent camera delivers nothing for this burst.
       stalled = current && silence_ && !silence_->answer(true);
       // Frames exposed while nothing was armed were never kept: resume now.
@@ -464,8 +468,8 @@ void CameraSim::run() {
     std::int64_t sleep_until = std::numeric_limits<std::int64_t>::max();
     if (current && !stalled) {
       const std::optional<std::int64_t> trigger = current->triggerNs();
-      if (trigger && trigger != aligned_to) {
-        aligned_to = trigger;
+      if (trigger && *trigger != aligned_to) {
+        aligned_to = *trigger;
         alignToTrigger(*trigger, current->layout().pre_trigger_frames);
       }
       const std::int64_t ts = startOf(seq);

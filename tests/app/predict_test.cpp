@@ -189,7 +189,8 @@ const std::string kExample = COLLIDE_SOURCE_DIR "/docs/examples/predict-nylon.js
 }  // namespace
 
 TEST_F(PredictProgram, ExampleFileGivesValidJson) {
-  for (const ProgramRun& r : {run("'" + kExample + "'"), run("", kExample), run("-", kExample)}) {
+  for (const ProgramRun& r :
+       {run(std::string("'") + kExample + "'"), run("", kExample), run("-", kExample)}) {
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(r.err, "");
     const json out = json::parse(r.out);  // throws (test fails) if not JSON
@@ -247,7 +248,7 @@ TEST_F(PredictProgram, BadInputExitsTwoNamingTheField) {
        "spheres[1].wall"},
   };
   for (const Case& c : cases) {
-    const ProgramRun r = run("'" + write(c.name + ".json", c.text).string() + "'");
+    const ProgramRun r = run(std::string("'") + write(c.name + ".json", c.text).string() + "'");
     EXPECT_EQ(r.status, 2) << c.name;
     EXPECT_THAT(r.err, StartsWith("collide predict: ")) << c.name;
     EXPECT_THAT(r.err, HasSubstr(c.expected)) << c.name;
@@ -258,7 +259,7 @@ TEST_F(PredictProgram, BadInputExitsTwoNamingTheField) {
   const ProgramRun piped = run("", write("neg.json", cases[5].text));
   EXPECT_EQ(piped.status, 2);
   EXPECT_THAT(piped.err, HasSubstr("spheres[1].diameter_m"));
-  const ProgramRun missing = run("'" + (dir_ / "no-such.json").string() + "'");
+  const ProgramRun missing = run(std::string("'") + (dir_ / "no-such.json").string() + "'");
   EXPECT_EQ(missing.status, 2);
   EXPECT_THAT(missing.err, HasSubstr("no-such.json"));
 }

@@ -314,8 +314,9 @@ void expectCleanFolder(const std::string& folder) {
     auto it = files.find(row.file);
     ASSERT_NE(it, files.end()) << row.file;
     EXPECT_EQ(row.analysed, it->second.has_results) << folder << ": catalog row of " << row.file;
-    if (row.analysed && it->second.has_results)
+    if (row.analysed && it->second.has_results) {
       EXPECT_EQ(row.results.e, it->second.results.e) << folder << ": catalog row of " << row.file;
+    }
   }
   const Shell rebuild = sh(q(kCollide) + " catalog rebuild " + q(folder));
   EXPECT_EQ(rebuild.exit_code, 0) << rebuild.output;
