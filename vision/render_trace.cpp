@@ -54,7 +54,11 @@ CentreF centreFor(const Tracer& tr, const Instance& in) {
 
 // The arrays a loop reads and writes are distinct (RayBatch's members): tells
 // the vectoriser, which otherwise gives up checking that many pairs at run time.
-#if defined(__clang__)
+#if defined(__clang__) && (__has_feature(address_sanitizer) || __has_feature(thread_sanitizer))
+// Instrumented loads and stores do not vectorise: asking would only make
+// clang report every loop it could not.
+#define COLLIDE_INDEPENDENT_ITERATIONS
+#elif defined(__clang__)
 #define COLLIDE_INDEPENDENT_ITERATIONS _Pragma("clang loop vectorize(assume_safety)")
 #else
 #define COLLIDE_INDEPENDENT_ITERATIONS _Pragma("GCC ivdep")
