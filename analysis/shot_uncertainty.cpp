@@ -48,10 +48,10 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
     for (int side = 0; side < 2; ++side) {
       d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], in.drift[s][side],
                              in.offset[s], rng, nominal);
-      if (nominal) continue;
+      const DepthCoupling& c = in.depth[s][side];
+      if (nominal || (c.per_rate.isZero() && c.per_offset.isZero())) continue;  // no depth
       std::normal_distribution<double> nd;
       const double rate = nd(rng), offset = nd(rng);
-      const DepthCoupling& c = in.depth[s][side];
       for (int k = 0; k < 2; ++k)
         d[s][side].c[k][1] += c.per_rate[k] * rate + c.per_offset[k] * offset;
       if (side == 0) rate_before[s] = rate;

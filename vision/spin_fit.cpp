@@ -169,8 +169,8 @@ struct JointFit {
 // 2 x 2 block per offset (an offset touches only its own frame). A frame's
 // column pair of B is non-zero only in the spin's rows and in those of the
 // tracks seen in that frame (`rows`), so neither the zeros of D nor most of
-// B's are stored or multiplied: with 100 frames a side, a dense h would be
-// ten times the size of A and B, and the Schur product ten times the work.
+// B's are multiplied, and D's are not stored: with 100 frames a side and 30
+// tracks, a dense h would be four times the size of A and B.
 struct NormalEquations {
   int nb = 0;
   Eigen::MatrixXd a;                   ///< nb x nb
@@ -199,11 +199,11 @@ struct NormalEquations {
 };
 
 // Solves the normal equations: the offsets are eliminated (Schur complement
-// S = A - B D^-1 B^T, one frame at a time over its own rows; A's lower
-// triangle is all that is read), so the dense
-// solve is the size of A, not of A plus two per frame. Returns dx for the
-// nb parameters followed by two per offset. `a_inverse`, when given,
-// receives S^-1: the top-left nb x nb block of h^-1.
+// S = A - B D^-1 B^T, one frame at a time over its own rows; only S's lower
+// triangle is formed, all the LDLT reads), so the dense solve is the size of
+// A, not of A plus two per frame. Returns dx for the nb parameters followed
+// by two per offset. `a_inverse`, when given, receives S^-1: the top-left
+// nb x nb block of h^-1.
 Eigen::VectorXd solveWithFrameOffsets(const NormalEquations& ne,
                                       Eigen::MatrixXd* a_inverse = nullptr) {
   const int nb = ne.nb, offsets = ne.offsets();
