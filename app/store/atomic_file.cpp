@@ -168,7 +168,11 @@ AtomicFile::~AtomicFile() {
 int removeAbandonedTemps(const std::string& final_path) {
   namespace fs = std::filesystem;
   const fs::path final_fs(final_path);
-  const std::string prefix = "." + final_fs.filename().string() + ".tmp-";
+  // Appended: GCC 12 warns falsely (-Wrestrict) on a string put before a
+  // temporary one.
+  std::string prefix = ".";
+  prefix += final_fs.filename().string();
+  prefix += ".tmp-";
   std::error_code ec;
   const fs::path folder = final_fs.parent_path().empty() ? fs::path(".") : final_fs.parent_path();
   int removed = 0;
