@@ -251,7 +251,7 @@ double stddev(const std::vector<double>& x) {
 // v_z (t - t_contact) (see analyzeWallBurst). Before the impact v_z is the
 // prior's (vz_used 0); after it, the spins' when both are known, else the
 // same as before.
-struct DepthCoupling {
+struct WallDepthCoupling {
   Eigen::Vector2d dv_dvz_before = Eigen::Vector2d::Zero();
   Eigen::Vector2d dv_dvz = Eigen::Vector2d::Zero();  ///< after the impact
   double vz_used = 0;                                ///< after the impact
@@ -263,7 +263,7 @@ struct DepthCoupling {
 // Returns the spread of the post-impact v_z over the draws (m/s).
 double propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s,
                  const SpinSide& sb, const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma,
-                 const DepthCoupling& depth) {
+                 const WallDepthCoupling& depth) {
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
   const Eigen::Matrix3d Lb = sb.cov.llt().matrixL(), La = sa.cov.llt().matrixL();
@@ -454,7 +454,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   // Under a lens the unseen v_z before the impact (the prior's) moves the
   // pre-impact velocity, and the post-impact one while the spins do not
   // give their own v_z (then taken about that v_z, below).
-  DepthCoupling coupling;
+  WallDepthCoupling coupling;
   coupling.dv_dvz_before = depthCoupling(before, true, s.camera, R, *tc, 0.0, a.wall);
   bool after_at_depth = false;  // the post-impact centres at the spins' v_z
   // The out-of-plane velocity the impact gave (not seen in the image) from
