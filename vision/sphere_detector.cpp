@@ -19,16 +19,19 @@ struct Circle {
 };
 
 // The edge points as arrays, with a weight of 1 for each point in use and 0
-// for one left out: the fits' loops over them have no branches. (Their sums
-// are not vectorised: that would reorder them, which the compiler may not do
-// without -ffast-math.)
+// for one left out: the fits' loops over them have no branches.
 struct PointArrays {
+  // Padded to a whole number of kLanes with points of no weight far from any
+  // circle (so the lanes of the last block need no test).
+  static constexpr std::size_t kLanes = 4;
   std::vector<double> u, v, w;
-  explicit PointArrays(const std::vector<CirclePoint>& p)
-      : u(p.size()), v(p.size()), w(p.size(), 1.0) {
-    for (std::size_t i = 0; i < p.size(); ++i) u[i] = p[i].u, v[i] = p[i].v;
+  std::size_t n = 0;
+  explicit PointArrays(const std::vector<CirclePoint>& p) : n(p.size()) {
+    const std::size_t padded = (n + kLanes - 1) / kLanes * kLanes;
+    u.assign(padded, 1e9), v.assign(padded, 1e9), w.assign(padded, 0.0);
+    for (std::size_t i = 0; i < n; ++i) u[i] = p[i].u, v[i] = p[i].v, w[i] = 1.0;
   }
-  std::size_t size() const { return u.size(); }
+  std::size_t size() const { return n; }
 };
 
 // Kasa's algebraic fit: minimises sum (x^2 + y^2 + D x + E y + F)^2, in
@@ -62,25 +65,61 @@ bool kasaFit(const PointArrays& p, Circle& out) {
   return true;
 }
 
+// The Gauss-Newton sums of the geometric fit about circle c: J_i = -(dx/d,
+// dy/d, 1) and the residual d - r of each point, weighted. A point at the
+// centre (d = 0) has no direction and is left out. The sums run in four lanes
+// (point i in lane i % 4), added up in a fixed order at the end: the compiler
+// may then vectorise the loop (the square roots and divisions four at a time
+// with AVX2) without reordering any sum, so every build gives the same circle.
+struct GaussNewtonSums {
+  double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
+};
+// Four doubles as one value (GCC/Clang vector extension): AVX2 takes them in
+// one instruction, the baseline build in two.
+using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
+using LaneMask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
+// The same, read from a double array at any double's alignment.
+using LanesAt =
+    double __attribute__((vector_size(4 * sizeof(double)), aligned(alignof(double)), may_alias));
+static_assert(sizeof(Lanes) == PointArrays::kLanes * sizeof(double));
+// (Macros, not functions: a function taking or returning Lanes would have a
+// different calling convention in each build.)
+#define COLLIDE_LOAD_LANES(p) (static_cast<Lanes>(*reinterpret_cast<const LanesAt*>(p)))
+#define COLLIDE_TOTAL(a) (((a)[0] + (a)[1]) + ((a)[2] + (a)[3]))
+
+__attribute__((target_clones("avx2", "default"))) GaussNewtonSums gaussNewtonSums(
+    const double* __restrict pu, const double* __restrict pv, const double* __restrict pw,
+    std::size_t n_padded, double cu, double cv, double cr) {
+  Lanes sxx{}, sxy{}, syy{}, sx{}, sy{}, sn{}, rx{}, ry{}, r1{};
+  const Lanes one = Lanes{} + 1.0;
+  for (std::size_t i = 0; i < n_padded; i += PointArrays::kLanes) {
+    const Lanes dx = COLLIDE_LOAD_LANES(pu + i) - cu, dy = COLLIDE_LOAD_LANES(pv + i) - cv;
+    Lanes d = dx * dx + dy * dy;
+    for (std::size_t l = 0; l < PointArrays::kLanes; ++l) d[l] = std::sqrt(d[l]);
+    const LaneMask away = d > 0;  // all bits set where d > 0
+    const Lanes w = (Lanes)((LaneMask)COLLIDE_LOAD_LANES(pw + i) & away);
+    const Lanes inv = one / (Lanes)(((LaneMask)d & away) | ((LaneMask)one & ~away));
+    const Lanes ex = dx * inv, ey = dy * inv, r = d - cr;
+    const Lanes wex = w * ex, wey = w * ey;
+    sxx += wex * ex, sxy += wex * ey, syy += wey * ey;
+    sx += wex, sy += wey, sn += w;
+    rx += wex * r, ry += wey * r, r1 += w * r;
+  }
+  return {COLLIDE_TOTAL(sxx), COLLIDE_TOTAL(sxy), COLLIDE_TOTAL(syy),
+          COLLIDE_TOTAL(sx),  COLLIDE_TOTAL(sy),  COLLIDE_TOTAL(sn),
+          COLLIDE_TOTAL(rx),  COLLIDE_TOTAL(ry),  COLLIDE_TOTAL(r1)};
+}
+#undef COLLIDE_LOAD_LANES
+#undef COLLIDE_TOTAL
+
 // Gauss-Newton on the geometric distances; returns false if it diverges.
 bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out) {
-  const std::size_t n_points = p.size();
   for (int it = 0; it < 25; ++it) {
-    // Normal equations summed by hand: J_i = -(dx/d, dy/d, 1). A point at the
-    // centre (d = 0) has no direction and is left out.
-    double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
-    for (std::size_t i = 0; i < n_points; ++i) {
-      const double dx = p.u[i] - c.u, dy = p.v[i] - c.v;
-      const double d = std::sqrt(dx * dx + dy * dy);
-      const double w = d > 0 ? p.w[i] : 0.0, inv = d > 0 ? 1.0 / d : 0.0;
-      const double ex = dx * inv, ey = dy * inv, r = d - c.r;
-      const double wex = w * ex, wey = w * ey;
-      sxx += wex * ex, sxy += wex * ey, syy += wey * ey, sx += wex, sy += wey, n += w;
-      rx += wex * r, ry += wey * r, r1 += w * r;
-    }
+    const GaussNewtonSums z =
+        gaussNewtonSums(p.u.data(), p.v.data(), p.w.data(), p.u.size(), c.u, c.v, c.r);
     Eigen::Matrix3d jtj;
-    jtj << sxx, sxy, sx, sxy, syy, sy, sx, sy, n;
-    const Eigen::Vector3d jtr(-rx, -ry, -r1);
+    jtj << z.sxx, z.sxy, z.sx, z.sxy, z.syy, z.sy, z.sx, z.sy, z.n;
+    const Eigen::Vector3d jtr(-z.rx, -z.ry, -z.r1);
     const Eigen::Vector3d step = jtj.ldlt().solve(-jtr);
     if (!step.allFinite()) return false;
     c.u += step[0];
