@@ -14,6 +14,22 @@ namespace {
 
 // ---------------------------------------------------------------- circle fit
 
+// Four doubles as one value (GCC/Clang vector extension): AVX2 takes them in
+// one instruction, the baseline build in two.
+using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
+using LaneMask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
+// The same, read from a double array at any double's alignment.
+using LanesAt =
+    double __attribute__((vector_size(4 * sizeof(double)), aligned(alignof(double)), may_alias));
+// (Macros, not functions: a function taking or returning Lanes would have a
+// different calling convention in each build.)
+#define COLLIDE_LOAD_LANES(p) (static_cast<Lanes>(*reinterpret_cast<const LanesAt*>(p)))
+#define COLLIDE_TOTAL(a) (((a)[0] + (a)[1]) + ((a)[2] + (a)[3]))
+// Loops over lanes run four at a time in both the AVX2 and the baseline
+// build of these functions; the loader picks the one the processor runs.
+#define COLLIDE_LANES_CLONES __attribute__((target_clones("avx2", "default")))
+constexpr Lanes kLaneIndex = {0, 1, 2, 3};
+
 struct Circle {
   double u = 0, v = 0, r = 0;
 };
@@ -33,6 +49,7 @@ struct PointArrays {
   }
   std::size_t size() const { return n; }
 };
+static_assert(sizeof(Lanes) == PointArrays::kLanes * sizeof(double));
 
 // Kasa's algebraic fit: minimises sum (x^2 + y^2 + D x + E y + F)^2, in
 // coordinates centred on the points' mean so the normal equations stay well
@@ -74,22 +91,11 @@ bool kasaFit(const PointArrays& p, Circle& out) {
 struct GaussNewtonSums {
   double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
 };
-// Four doubles as one value (GCC/Clang vector extension): AVX2 takes them in
-// one instruction, the baseline build in two.
-using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
-using LaneMask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
-// The same, read from a double array at any double's alignment.
-using LanesAt =
-    double __attribute__((vector_size(4 * sizeof(double)), aligned(alignof(double)), may_alias));
-static_assert(sizeof(Lanes) == PointArrays::kLanes * sizeof(double));
-// (Macros, not functions: a function taking or returning Lanes would have a
-// different calling convention in each build.)
-#define COLLIDE_LOAD_LANES(p) (static_cast<Lanes>(*reinterpret_cast<const LanesAt*>(p)))
-#define COLLIDE_TOTAL(a) (((a)[0] + (a)[1]) + ((a)[2] + (a)[3]))
-
-__attribute__((target_clones("avx2", "default"))) GaussNewtonSums gaussNewtonSums(
-    const double* __restrict pu, const double* __restrict pv, const double* __restrict pw,
-    std::size_t n_padded, double cu, double cv, double cr) {
+COLLIDE_LANES_CLONES GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
+                                                     const double* __restrict pv,
+                                                     const double* __restrict pw,
+                                                     std::size_t n_padded, double cu, double cv,
+                                                     double cr) {
   Lanes sxx{}, sxy{}, syy{}, sx{}, sy{}, sn{}, rx{}, ry{}, r1{};
   const Lanes one = Lanes{} + 1.0;
   for (std::size_t i = 0; i < n_padded; i += PointArrays::kLanes) {
@@ -109,8 +115,6 @@ __attribute__((target_clones("avx2", "default"))) GaussNewtonSums gaussNewtonSum
           COLLIDE_TOTAL(sx),  COLLIDE_TOTAL(sy),  COLLIDE_TOTAL(sn),
           COLLIDE_TOTAL(rx),  COLLIDE_TOTAL(ry),  COLLIDE_TOTAL(r1)};
 }
-#undef COLLIDE_LOAD_LANES
-#undef COLLIDE_TOTAL
 
 // Gauss-Newton on the geometric distances; returns false if it diverges.
 bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out) {
@@ -156,7 +160,19 @@ Grid sampleGrid(const cv::Mat& img, int step) {
   g.w = (img.cols - g.off + step - 1) / step;
   g.h = (img.rows - g.off + step - 1) / step;
   g.v.resize(static_cast<std::size_t>(g.w) * g.h);
+  // A frame just written by the camera is in main memory, not in a cache, and
+  // each grid row reads every cache line of its image row: ask for the lines
+  // of the rows kAhead grid rows on while this one is read, so the loads
+  // overlap instead of waiting one row at a time.
+  constexpr int kAhead = 2;
+  const auto prefetchRow = [&](int gy) {
+    if (gy >= g.h) return;
+    const char* at = reinterpret_cast<const char*>(img.ptr<T>(gy * step + g.off));
+    for (std::size_t b = 0; b < img.cols * sizeof(T); b += 64) __builtin_prefetch(at + b);
+  };
+  for (int gy = 0; gy < kAhead; ++gy) prefetchRow(gy);
   for (int gy = 0; gy < g.h; ++gy) {
+    prefetchRow(gy + kAhead);
     const T* row = img.ptr<T>(gy * step + g.off) + g.off;
     std::uint16_t* out = g.v.data() + static_cast<std::size_t>(gy) * g.w;
     for (int gx = 0; gx < g.w; ++gx) out[gx] = row[gx * step];
@@ -523,12 +539,19 @@ void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
             ++st.border;
             continue;
           }
-          const T* src = data + line * step_line + start * step_along;
-          const std::ptrdiff_t dir = -side * step_along;
-          const std::size_t at = samples.size();
-          samples.resize(at + len);
-          float* buf = samples.data() + at;
-          for (int i = 0; i < len; ++i) buf[i] = static_cast<float>(src[i * dir]);
+          // Its memory asked for now, read below: the frame is not in a
+          // cache, and the loads of all profiles then overlap. A row's
+          // samples are in one or two cache lines; a column's cache lines
+          // serve the next columns too, so only its first column asks.
+          const char* first = reinterpret_cast<const char*>(data + line * step_line +
+                                                            std::min(start, end) * step_along);
+          if (axis == 0) {
+            __builtin_prefetch(first);
+            __builtin_prefetch(first + (len - 1) * sizeof(T));
+          } else if (line == l0 ||
+                     (line * sizeof(T)) / 64 != ((line - ctx.line_stride) * sizeof(T)) / 64) {
+            for (int i = 0; i < len; ++i) __builtin_prefetch(first + i * stride * sizeof(T));
+          }
           Profile p;
           p.line = line, p.side = side, p.axis = axis, p.start = start;
           p.g = half / c.r;
@@ -537,31 +560,78 @@ void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
         }
       }
   }
+  samples.resize(profiles.size() * len);
+  for (std::size_t k = 0; k < profiles.size(); ++k) {
+    const Profile& p = profiles[k];
+    const std::ptrdiff_t step_along = p.axis == 0 ? 1 : static_cast<std::ptrdiff_t>(stride);
+    const std::ptrdiff_t step_line = p.axis == 0 ? static_cast<std::ptrdiff_t>(stride) : 1;
+    const T* src = data + p.line * step_line + p.start * step_along;
+    const std::ptrdiff_t dir = -p.side * step_along;
+    float* buf = samples.data() + k * len;
+    for (int i = 0; i < len; ++i) buf[i] = static_cast<float>(src[i * dir]);
+  }
 }
 
 // The centred shape regressors of a profile's inside samples, their Gram
 // matrix and products with the samples, for depths measured from the edge at
 // pr.len0 from the window's end.
-void shapeMoments(const float* p, const EdgeContext& ctx, Profile& pr) {
-  const int s0 = pr.c + 2;
-  const double h = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
-  std::array<ShapeVec, 16> f;
-  ShapeVec fbar = ShapeVec::Zero();
-  for (int j = 1; j <= ctx.n_in; ++j) {
-    f[j - 1] = shapeBasis(depthAlong(pr.len0 + pr.in_off + j - 1, pr.g, h), ctx.quadratic);
-    fbar += f[j - 1];
-  }
-  fbar /= ctx.n_in;
+// (Vectorised below four samples at a time: depths of at most kMaxInside
+// inside samples.)
+constexpr int kMaxInside = 16;
+
+// The depths (depthAlong) of n inside samples at first + j pixels along the
+// line (j = 0 .. n - 1), four lanes of block k, and which lanes hold a sample.
+#define COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in)        \
+  const Lanes along = kLaneIndex + (4.0 * (k) + (first));              \
+  const LaneMask in = kLaneIndex + 4.0 * (k) < static_cast<double>(n); \
+  Lanes dd = (g)*along - (h)*along * along;                            \
+  dd = dd > 1e-6 ? dd : Lanes{} + 1e-6
+
+struct ShapeSums {
   double g00 = 0, g01 = 0, g02 = 0, g11 = 0, g12 = 0, g22 = 0, c0 = 0, c1 = 0, c2 = 0, yy = 0;
-  for (int j = 1; j <= ctx.n_in; ++j) {
-    const double a = f[j - 1](0) - fbar(0), b = f[j - 1](1) - fbar(1), c = f[j - 1](2) - fbar(2);
-    const double y = p[s0 + j - 1] - pr.mean_in;
+};
+
+// The centred regressors' sums of shapeMoments for the n samples y (their
+// mean y_mean), whose first lies `first` pixels inside the edge.
+COLLIDE_LANES_CLONES ShapeSums shapeSums(const float* y, double y_mean, int n, double first,
+                                         double g, double h, bool quadratic) {
+  constexpr int kBlocks = kMaxInside / 4;
+  Lanes fa[kBlocks], fb[kBlocks], fc[kBlocks], ys[kBlocks];
+  Lanes sa{}, sb{}, sc{};
+  const int blocks = (n + 3) / 4;
+  for (int k = 0; k < blocks; ++k) {
+    COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in);
+    Lanes root;
+    for (int l = 0; l < 4; ++l) {
+      root[l] = std::sqrt(dd[l]);
+      ys[k][l] = 4 * k + l < n ? y[4 * k + l] - y_mean : 0.0;
+    }
+    fa[k] = in ? dd : Lanes{};
+    fb[k] = in && quadratic ? dd * dd : Lanes{};
+    fc[k] = in ? root : Lanes{};
+    sa += fa[k], sb += fb[k], sc += fc[k];
+  }
+  const double ma = COLLIDE_TOTAL(sa) / n, mb = COLLIDE_TOTAL(sb) / n, mc = COLLIDE_TOTAL(sc) / n;
+  Lanes g00{}, g01{}, g02{}, g11{}, g12{}, g22{}, c0{}, c1{}, c2{}, yy{};
+  for (int k = 0; k < blocks; ++k) {
+    const LaneMask in = kLaneIndex + 4.0 * k < static_cast<double>(n);
+    const Lanes a = in ? fa[k] - ma : Lanes{}, b = in ? fb[k] - mb : Lanes{},
+                c = in ? fc[k] - mc : Lanes{}, y = ys[k];
     g00 += a * a, g01 += a * b, g02 += a * c, g11 += b * b, g12 += b * c, g22 += c * c;
     c0 += y * a, c1 += y * b, c2 += y * c, yy += y * y;
   }
-  pr.gram << g00, g01, g02, g01, g11, g12, g02, g12, g22;
-  pr.cross = ShapeVec(c0, c1, c2);
-  pr.yy = yy;
+  return {COLLIDE_TOTAL(g00), COLLIDE_TOTAL(g01), COLLIDE_TOTAL(g02), COLLIDE_TOTAL(g11),
+          COLLIDE_TOTAL(g12), COLLIDE_TOTAL(g22), COLLIDE_TOTAL(c0),  COLLIDE_TOTAL(c1),
+          COLLIDE_TOTAL(c2),  COLLIDE_TOTAL(yy)};
+}
+
+void shapeMoments(const float* p, const EdgeContext& ctx, Profile& pr) {
+  const double h = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
+  const ShapeSums z =
+      shapeSums(p + pr.c + 2, pr.mean_in, ctx.n_in, pr.len0 + pr.in_off, pr.g, h, ctx.quadratic);
+  pr.gram << z.g00, z.g01, z.g02, z.g01, z.g11, z.g12, z.g02, z.g12, z.g22;
+  pr.cross = ShapeVec(z.c0, z.c1, z.c2);
+  pr.yy = z.yy;
 }
 
 // Finds the edge's crossing on one profile against the profile's own levels
@@ -745,6 +815,30 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   return any_root;
 }
 
+// Sums over n inside samples, the first `first` pixels inside the edge, of
+// the shape's terms (depth, its square, its root) and of their derivatives by
+// the edge's position; the terms a zero coefficient leaves out are not summed.
+struct DepthSums {
+  double f0 = 0, f1 = 0, f2 = 0, d0 = 0, d1 = 0, d2 = 0;
+};
+COLLIDE_LANES_CLONES DepthSums depthSums(double first, int n, double g, double h, bool quad,
+                                         bool root) {
+  Lanes f0{}, f1{}, f2{}, d0{}, d1{}, d2{};
+  for (int k = 0; k < (n + 3) / 4; ++k) {
+    COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in);
+    const Lanes slope = g - 2 * h * along;
+    f0 += in ? dd : Lanes{}, d0 += in ? slope : Lanes{};
+    if (quad) f1 += in ? dd * dd : Lanes{}, d1 += in ? 2 * dd * slope : Lanes{};
+    if (root) {
+      Lanes sd;
+      for (int l = 0; l < 4; ++l) sd[l] = std::sqrt(dd[l]);
+      f2 += in ? sd : Lanes{}, d2 += in ? 0.5 * slope / sd : Lanes{};
+    }
+  }
+  return {COLLIDE_TOTAL(f0), COLLIDE_TOTAL(f1), COLLIDE_TOTAL(f2),
+          COLLIDE_TOTAL(d0), COLLIDE_TOTAL(d1), COLLIDE_TOTAL(d2)};
+}
+
 // The edge of one screened profile, in profile coordinates (sample i's centre
 // at i); NaN if unusable.
 double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeStats* st) {
@@ -763,19 +857,9 @@ double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, 
   const bool quad = ctx.quadratic && sh(1) != 0, root = sh(2) != 0;
   double len = pr.len0, level = 0;
   for (int it = 0, iterations = st ? 4 : 2; it < iterations; ++it) {
-    double f0 = 0, f1 = 0, f2 = 0, d0 = 0, d1 = 0, d2 = 0;
-    for (int j = 1; j <= ctx.n_in; ++j) {
-      const double along = len + pr.in_off + j - 1, dd = depthAlong(along, g, h);
-      const double slope = g - 2 * h * along;
-      f0 += dd, d0 += slope;
-      if (quad) f1 += dd * dd, d1 += 2 * dd * slope;
-      if (root) {
-        const double sd = std::sqrt(dd);
-        f2 += sd, d2 += 0.5 * slope / sd;
-      }
-    }
-    const ShapeVec fbar = ShapeVec(f0, f1, f2) / ctx.n_in;
-    const ShapeVec dfbar = ShapeVec(d0, d1, d2) / ctx.n_in;
+    const DepthSums z = depthSums(len + pr.in_off, ctx.n_in, g, h, quad, root);
+    const ShapeVec fbar = ShapeVec(z.f0, z.f1, z.f2) / ctx.n_in;
+    const ShapeVec dfbar = ShapeVec(z.d0, z.d1, z.d2) / ctx.n_in;
     level = pr.mean_in - pr.out - sh.dot(fbar);  // at the limb, above background
     const double l2 = len * len, l3 = l2 * len;
     const ShapeVec integral(
