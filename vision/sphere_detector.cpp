@@ -1085,6 +1085,7 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
                             : std::max(1, static_cast<int>(std::lround(c.r / 30.0)));
     // The limb brightness is read over up to 8 px inside, less on small spheres.
     local.n_in = std::clamp(static_cast<int>(c.r / 7.0), 3, 8);
+    static_assert(8 <= kMaxInside, "the depth sums hold at most kMaxInside inside samples");
     local.radius = c.r;
     local.quadratic = true;
     std::vector<CirclePoint> pts;
@@ -1325,5 +1326,10 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
   }
   return out;
 }
+
+#undef COLLIDE_LOAD_LANES
+#undef COLLIDE_TOTAL
+#undef COLLIDE_LANES_CLONES
+#undef COLLIDE_INSIDE_DEPTHS
 
 }  // namespace collide::vision
