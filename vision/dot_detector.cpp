@@ -8,6 +8,7 @@
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
+#include "vision/avx2_clones.hpp"
 #include "vision/morphology.hpp"
 
 namespace collide::vision {
@@ -119,12 +120,11 @@ bool fitBareQuadratic(const std::vector<BareSample>& s, FitScratch& k, Quadratic
 // in [0, n): the one per-pixel pass over the disc, so it is built for AVX2 as
 // well (four levels a compare) and the loader picks the build the processor
 // runs (GCC/Clang target_clones). The compare is the same in either build.
-#define COLLIDE_DARK_MASK(T)                                                              \
-  __attribute__((target_clones("avx2", "default"))) void darkMask(                        \
-      const T* __restrict row, const float* __restrict shade, double bg,                  \
-      unsigned char* __restrict mask, int n) {                                            \
-    for (int x = 0; x < n; ++x)                                                           \
-      mask[x] = static_cast<double>(row[x]) < 0.5 * (static_cast<double>(shade[x]) + bg); \
+#define COLLIDE_DARK_MASK(T)                                                                \
+  COLLIDE_AVX2_CLONES void darkMask(const T* __restrict row, const float* __restrict shade, \
+                                    double bg, unsigned char* __restrict mask, int n) {     \
+    for (int x = 0; x < n; ++x)                                                             \
+      mask[x] = static_cast<double>(row[x]) < 0.5 * (static_cast<double>(shade[x]) + bg);   \
   }
 COLLIDE_DARK_MASK(std::uint8_t)
 COLLIDE_DARK_MASK(std::uint16_t)

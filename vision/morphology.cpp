@@ -6,6 +6,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "vision/avx2_clones.hpp"
+
 namespace collide::vision {
 namespace {
 
@@ -39,10 +41,10 @@ struct Plane {
 // all of the closing's time is spent here, so these four are built twice, for
 // the baseline instruction set (SSE2: 8 samples a step) and for AVX2 (16),
 // and the loader picks the one the processor runs (GCC/Clang target_clones).
-#define COLLIDE_PAIRWISE(name, T, expr)                                         \
-  __attribute__((target_clones("avx2", "default"))) void name(                  \
-      const T* __restrict a, const T* __restrict b, T* __restrict out, int n) { \
-    for (int x = 0; x < n; ++x) out[x] = (expr);                                \
+#define COLLIDE_PAIRWISE(name, T, expr)                                                          \
+  COLLIDE_AVX2_CLONES void name(const T* __restrict a, const T* __restrict b, T* __restrict out, \
+                                int n) {                                                         \
+    for (int x = 0; x < n; ++x) out[x] = (expr);                                                 \
   }
 COLLIDE_PAIRWISE(pairMax8, std::uint8_t, a[x] > b[x] ? a[x] : b[x])
 COLLIDE_PAIRWISE(pairMin8, std::uint8_t, a[x] < b[x] ? a[x] : b[x])

@@ -7,6 +7,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "vision/avx2_clones.hpp"
 #include "vision/silhouette_fit.hpp"
 
 namespace collide::vision {
@@ -25,9 +26,6 @@ using LanesAt =
 // different calling convention in each build.)
 #define COLLIDE_LOAD_LANES(p) (static_cast<Lanes>(*reinterpret_cast<const LanesAt*>(p)))
 #define COLLIDE_TOTAL(a) (((a)[0] + (a)[1]) + ((a)[2] + (a)[3]))
-// Loops over lanes run four at a time in both the AVX2 and the baseline
-// build of these functions; the loader picks the one the processor runs.
-#define COLLIDE_LANES_CLONES __attribute__((target_clones("avx2", "default")))
 constexpr Lanes kLaneIndex = {0, 1, 2, 3};
 
 struct Circle {
@@ -91,11 +89,11 @@ bool kasaFit(const PointArrays& p, Circle& out) {
 struct GaussNewtonSums {
   double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
 };
-COLLIDE_LANES_CLONES GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
-                                                     const double* __restrict pv,
-                                                     const double* __restrict pw,
-                                                     std::size_t n_padded, double cu, double cv,
-                                                     double cr) {
+COLLIDE_AVX2_CLONES GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
+                                                    const double* __restrict pv,
+                                                    const double* __restrict pw,
+                                                    std::size_t n_padded, double cu, double cv,
+                                                    double cr) {
   Lanes sxx{}, sxy{}, syy{}, sx{}, sy{}, sn{}, rx{}, ry{}, r1{};
   const Lanes one = Lanes{} + 1.0;
   for (std::size_t i = 0; i < n_padded; i += PointArrays::kLanes) {
@@ -593,8 +591,8 @@ struct ShapeSums {
 
 // The centred regressors' sums of shapeMoments for the n samples y (their
 // mean y_mean), whose first lies `first` pixels inside the edge.
-COLLIDE_LANES_CLONES ShapeSums shapeSums(const float* y, double y_mean, int n, double first,
-                                         double g, double h, bool quadratic) {
+COLLIDE_AVX2_CLONES ShapeSums shapeSums(const float* y, double y_mean, int n, double first,
+                                        double g, double h, bool quadratic) {
   constexpr int kBlocks = kMaxInside / 4;
   Lanes fa[kBlocks], fb[kBlocks], fc[kBlocks], ys[kBlocks];
   Lanes sa{}, sb{}, sc{};
@@ -821,8 +819,8 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
 struct DepthSums {
   double f0 = 0, f1 = 0, f2 = 0, d0 = 0, d1 = 0, d2 = 0;
 };
-COLLIDE_LANES_CLONES DepthSums depthSums(double first, int n, double g, double h, bool quad,
-                                         bool root) {
+COLLIDE_AVX2_CLONES DepthSums depthSums(double first, int n, double g, double h, bool quad,
+                                        bool root) {
   Lanes f0{}, f1{}, f2{}, d0{}, d1{}, d2{};
   for (int k = 0; k < (n + 3) / 4; ++k) {
     COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in);
@@ -1329,7 +1327,6 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
 
 #undef COLLIDE_LOAD_LANES
 #undef COLLIDE_TOTAL
-#undef COLLIDE_LANES_CLONES
 #undef COLLIDE_INSIDE_DEPTHS
 
 }  // namespace collide::vision

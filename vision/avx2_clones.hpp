@@ -1,0 +1,14 @@
+#pragma once
+// COLLIDE_AVX2_CLONES before a function builds it twice, for AVX2 and for
+// the baseline instruction set, and the loader picks the one the processor
+// runs (GCC/Clang target_clones). For the hot per-pixel and per-sample loops
+// of the detectors; each clone does the same operations in the same order, so
+// both give the same numbers. On other processors the function is built once.
+// (The ray-cast renderer has its own, GCC-only, switch: COLLIDE_SIMD_CLONES in
+// vision/render_trace.hpp.)
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define COLLIDE_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define COLLIDE_AVX2_CLONES
+#endif
