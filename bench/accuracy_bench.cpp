@@ -33,6 +33,7 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "analysis/campaign.hpp"
@@ -191,6 +192,49 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
     }
 }
 
+// Where the analysis put the contact, against the truth. At grazing incidence
+// the relative motion is mostly along the tangent, so an error of the instant
+// turns the line of centres (and moves e) as much as the centres' own errors:
+// this line tells the two apart. The instants from the pre- and post-impact
+// fits and the combined one (us, on the truth's clock through the frames'
+// ids); then, from the pre- and the post-impact fits, the in-plane angle of
+// the line of centres (mrad, counter-clockwise from the true one) and the
+// centres' distance (um, from the true one) at the instant found and at the
+// true instant.
+void printContactDetail(const vision::ShotAnalysis& r, const hw::TruthRecord& t,
+                        const std::array<Sphere, 2>& tb) {
+  std::optional<double> offset;  // truth clock minus the analysis' clock
+  for (std::size_t k = 0; k < t.frame_id.size() && !offset; ++k)
+    for (const vision::FrameDetections& fd : r.frames)
+      if (fd.frame_id == t.frame_id[k]) {
+        offset = t.t_s[k] - fd.t_s;
+        break;
+      }
+  if (!offset) return;
+  const vision::CollisionProperties& c = r.collision;
+  const auto us = [&](double t_s) { return 1e6 * (t_s + *offset - t.t_collision_s); };
+  std::printf("  contact: instant err before %+.1f us, after %+.1f us, combined %+.1f +- %.1f us",
+              us(c.t_collision_before_s), us(c.t_collision_after_s), us(c.t_collision_s.value),
+              1e6 * c.t_collision_s.sigma);
+  const Vec3 n_true = tb[0].position_m - tb[1].position_m;
+  const std::array<std::pair<const char*, double>, 2> instants{
+      {{"found", c.t_collision_s.value}, {"true", t.t_collision_s - *offset}}};
+  for (int side = 0; side < 2; ++side) {
+    const auto& f0 = r.trajectory[0][side];
+    const auto& f1 = r.trajectory[1][side];
+    if (!f0 || !f1) continue;
+    for (const auto& [name, at] : instants) {
+      const Vec3 n = f0->positionAt_m(at).value - f1->positionAt_m(at).value;
+      const double turn = std::remainder(
+          std::atan2(n.y(), n.x()) - std::atan2(n_true.y(), n_true.x()), 2 * std::numbers::pi);
+      std::printf(" | %s fits at the %s instant: angle %+.2f mrad, distance %+.1f um",
+                  side ? "post" : "pre", name, 1e3 * turn,
+                  1e6 * (n.head<2>().norm() - n_true.head<2>().norm()));
+    }
+  }
+  std::printf("\n");
+}
+
 void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>& tb,
                      const std::array<Sphere, 2>& ta, int spheres) {
   for (int s = 0; s < spheres; ++s) {
@@ -335,6 +379,7 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
     for (const std::string& f : r.quality_flags) std::printf(" [%s]", f.c_str());
     std::printf("\n");
     if (g_verbose) printShotDetail(r, tb, ta, spheres);
+    if (g_verbose && spheres == 2) printContactDetail(r, *shot.truth, tb);
   }
 }
 
