@@ -225,8 +225,29 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
   return in;
 }
 
+// What the two collision instants may differ by without anything being wrong
+// (analysis/contact.hpp): the fits' errors and the centres' systematic drifts
+// (the Monte Carlo's spread of the difference, residual inflation included),
+// the contact distance's uncertainty (the detector's radius error, which
+// moves the two instants apart by dd (1/|v_n| + 1/|v_n'|)), and a contact of
+// finite duration (the post-impact instant later by up to it).
+InstantAgreement instantAgreement(const CollisionFits& fits, const ShotUncertainty& u,
+                                  const AnalysisSettings& set, double pixel_m) {
+  const double vb = fits.sigma_before * fits.sigma_before, va = fits.sigma_after * fits.sigma_after;
+  const double sd_ba = u.dt_ba.sigma();
+  InstantAgreementModel am;
+  am.fit_sigma_s = std::isfinite(sd_ba) ? sd_ba : std::sqrt(vb + va);
+  am.contact_distance_sigma_m = 2 * std::max(0.0, set.radius_systematic_px) * pixel_m;
+  const WaltonMeasurement& m = u.nominal.inverse.m;
+  am.vn_before_m_s = std::abs(m.before.v_n_m_s);
+  am.vn_after_m_s = std::abs(m.after.v_n_m_s);
+  am.contact_duration_s = set.contact_duration_s;
+  return compareInstants(fits.t_before, fits.t_after, am);
+}
+
 void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const CollisionFits& fits,
-                    const ShotSpins& spins, double vz_fraction) {
+                    const ShotSpins& spins, double vz_fraction, const AnalysisSettings& set,
+                    double pixel_m) {
   const ShotDraw& nominal = u.nominal;
   const WaltonMeasurement& m = nominal.inverse.m;
   CollisionProperties& c = out.collision;
@@ -238,11 +259,13 @@ void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const Collision
   c.vn_m_s = {m.before.v_n_m_s, u.vn.sigma()};
   c.vs_m_s = {m.before.v_s_m_s, u.vs.sigma()};
   c.vs_after_m_s = {nominal.inverse.vs_after, u.vs_after.sigma()};
-  // The two instants' disagreement beyond their own errors widens t_c's.
-  const double vb = fits.sigma_before * fits.sigma_before, va = fits.sigma_after * fits.sigma_after;
-  const double chi2 =
-      (fits.t_before - fits.t_after) * (fits.t_before - fits.t_after) / std::max(vb + va, 1e-30);
-  c.t_collision_s = {nominal.t_c, u.t_c.sigma() * std::max(1.0, std::sqrt(chi2))};
+  // The two instants' disagreement beyond what they may differ by (more than
+  // one sigma of it outside the allowed band) is an error of one of them that
+  // nothing here explains; the combined instant, between the two, may be off
+  // by about half of it: added to t_c's sigma.
+  const InstantAgreement ag = instantAgreement(fits, u, set, pixel_m);
+  const double unexplained_s = std::max(0.0, (ag.excess_sigmas - 1) * ag.sigma_s);
+  c.t_collision_s = {nominal.t_c, std::hypot(u.t_c.sigma(), 0.5 * unexplained_s)};
   c.line_of_centres_z = {nominal.inverse.n_z, u.n_z.sigma()};
   c.kinetic_energy_change_J = {nominal.inverse.kinetic_energy_change_J,
                                u.kinetic_energy_change.sigma()};
@@ -390,30 +413,17 @@ struct FlagInputs {
   int saturated = 0, third_blobs = 0;
 };
 
-// The two instants disagree beyond what the measurement and the model allow:
-// the fits' errors and the centres' systematic drifts (the Monte Carlo's
-// spread of the difference, residual inflation included), the contact
-// distance's uncertainty (the detector's radius error), and a contact of
-// finite duration (the post-impact instant later by up to it).
+// The two instants disagree beyond what the measurement and the model allow
+// (instantAgreement).
 void flagInstants(ShotAnalysis& out, const FlagInputs& q) {
-  const CollisionFits& fits = *q.fits;
-  const double vb = fits.sigma_before * fits.sigma_before, va = fits.sigma_after * fits.sigma_after;
-  const double sd_ba = q.u->dt_ba.sigma();
-  InstantAgreementModel am;
-  am.fit_sigma_s = std::isfinite(sd_ba) ? sd_ba : std::sqrt(vb + va);
-  am.contact_distance_sigma_m = 2 * std::max(0.0, q.settings->radius_systematic_px) * q.scale.px;
-  const WaltonMeasurement& m = q.u->nominal.inverse.m;
-  am.vn_before_m_s = std::abs(m.before.v_n_m_s);
-  am.vn_after_m_s = std::abs(m.after.v_n_m_s);
-  am.contact_duration_s = q.settings->contact_duration_s;
-  const InstantAgreement ag = compareInstants(fits.t_before, fits.t_after, am);
+  const InstantAgreement ag = instantAgreement(*q.fits, *q.u, *q.settings, q.scale.px);
   if (!ag.disagree) return;
   addFlag(out, "collision_instant_disagree");
   out.notes.push_back(
       "the post-impact fits put the contact " + fmt("%+.1f", ag.difference_s * 1e6) +
-      " us after the pre-impact ones, outside 0 to " + fmt("%.0f", am.contact_duration_s * 1e6) +
-      " us (the contact's duration) by " + fmt("%.1f", ag.excess_sigmas) + " sigma of " +
-      fmt("%.1f", ag.sigma_s * 1e6) + " us");
+      " us after the pre-impact ones, outside 0 to " +
+      fmt("%.0f", q.settings->contact_duration_s * 1e6) + " us (the contact's duration) by " +
+      fmt("%.1f", ag.excess_sigmas) + " sigma of " + fmt("%.1f", ag.sigma_s * 1e6) + " us");
 }
 
 // Angular momentum about the contact point (spinImpulseDisagreement): a
@@ -687,7 +697,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
     return fail(
         "the measured kinematics are not a collision (the spheres do not approach at "
         "the contact instant); check the tracks");
-  fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction);
+  fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, set, pass.scale.px);
   withoutUnmeasuredSpins(out.collision, spins);
   fillFrames(out, burst, data, spins);
 

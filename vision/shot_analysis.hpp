@@ -143,10 +143,14 @@ struct SphereKinematics {
 
 struct CollisionProperties {
   Measured e, beta, beta_from_impulse, f, gamma_deg;
-  Measured vn_m_s;         ///< normal contact velocity before, < 0 on approach
-  Measured vs_m_s;         ///< tangential contact speed before, >= 0
-  Measured vs_after_m_s;   ///< v_s' . t (signed along the pre-impact tangent)
-  Measured t_collision_s;  ///< from the first analysed frame
+  Measured vn_m_s;        ///< normal contact velocity before, < 0 on approach
+  Measured vs_m_s;        ///< tangential contact speed before, >= 0
+  Measured vs_after_m_s;  ///< v_s' . t (signed along the pre-impact tangent)
+  /// From the first analysed frame: the two instants combined (weighted to
+  /// cancel the contact distance's error). Sigma: the draws' spread, and half
+  /// of any disagreement of the two instants that is more than one sigma
+  /// outside what they may differ by (as collision_instant_disagree judges).
+  Measured t_collision_s;
   /// Total kinetic energy after minus before (translation + rotation, the
   /// masses of AnalysisSettings, I = m d^2 / 10), J; > 0 is unphysical.
   Measured kinetic_energy_change_J;

@@ -316,14 +316,19 @@ TEST(AnalyzeBurstFlags, CollisionInstantDisagreeOnlyWhenTheInstantsDisagree) {
   auto r = analyzeBurst(shot.burst, shot.settings);
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_FALSE(hasFlag(*r, "collision_instant_disagree"));
+  const double sigma_honest = r->collision.t_collision_s.sigma;
+  ASSERT_GT(sigma_honest, 0);
   // The post-impact frames 60 us late: the two instants 60 us apart, as a
-  // contact that lasts 60 us makes them. Not a disagreement.
+  // contact that lasts 60 us makes them. Not a disagreement, and the combined
+  // instant's sigma is not widened for it (it is many times that sigma).
   Burst b = shot.burst;
   retimeAfterImpact(b, 60000);
   r = analyzeBurst(b, shot.settings);
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_NEAR(r->collision.t_collision_after_s - r->collision.t_collision_before_s, 60e-6, 20e-6);
   EXPECT_FALSE(hasFlag(*r, "collision_instant_disagree"));
+  ASSERT_GT(60e-6, 5 * sigma_honest);
+  EXPECT_LT(r->collision.t_collision_s.sigma, 1.5 * sigma_honest);
   // 800 us late, or 400 us early: beyond any contact's duration and the
   // instants' uncertainties.
   for (const std::int64_t shift_ns : {800000, -400000}) {
@@ -334,6 +339,8 @@ TEST(AnalyzeBurstFlags, CollisionInstantDisagreeOnlyWhenTheInstantsDisagree) {
     EXPECT_NEAR(r->collision.t_collision_after_s - r->collision.t_collision_before_s,
                 shift_ns * 1e-9, 20e-6);
     EXPECT_TRUE(hasFlag(*r, "collision_instant_disagree")) << shift_ns;
+    // Then the combined instant is uncertain by a good part of their disagreement.
+    EXPECT_GT(r->collision.t_collision_s.sigma, 0.1 * std::abs(shift_ns) * 1e-9) << shift_ns;
   }
 }
 
