@@ -48,6 +48,7 @@ InstantAgreement compareInstants(double t_before_s, double t_after_s,
   const double outside = r.difference_s < lo   ? lo - r.difference_s
                          : r.difference_s > hi ? r.difference_s - hi
                                                : 0.0;
+  r.outside_s = outside;
   if (outside > 0)
     r.excess_sigmas = r.sigma_s > 0 ? outside / r.sigma_s : std::numeric_limits<double>::infinity();
   r.disagree = r.excess_sigmas > m.k_sigma;

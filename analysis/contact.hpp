@@ -69,7 +69,8 @@ struct InstantAgreement {
   double difference_s = 0;  ///< t_after - t_before
   double sigma_s = 0;       ///< combined standard uncertainty of the difference
   /// Distance of the difference from the allowed band [0, contact_duration],
-  /// in combined sigmas (0 inside the band).
+  /// s (0 inside the band), and in combined sigmas.
+  double outside_s = 0;
   double excess_sigmas = 0;
   bool disagree = false;  ///< excess_sigmas > k_sigma
 };

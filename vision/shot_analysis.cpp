@@ -264,7 +264,7 @@ void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const Collision
   // nothing here explains; the combined instant, between the two, may be off
   // by about half of it: added to t_c's sigma.
   const InstantAgreement ag = instantAgreement(fits, u, set, pixel_m);
-  const double unexplained_s = std::max(0.0, (ag.excess_sigmas - 1) * ag.sigma_s);
+  const double unexplained_s = std::max(0.0, ag.outside_s - ag.sigma_s);
   c.t_collision_s = {nominal.t_c, std::hypot(u.t_c.sigma(), 0.5 * unexplained_s)};
   c.line_of_centres_z = {nominal.inverse.n_z, u.n_z.sigma()};
   c.kinetic_energy_change_J = {nominal.inverse.kinetic_energy_change_J,

@@ -130,6 +130,7 @@ TEST(CompareInstants, InsideTheContactDurationIsAgreement) {
   const InstantAgreement a = compareInstants(1e-3, 1.08e-3, model());
   EXPECT_NEAR(a.difference_s, 80e-6, 1e-15);
   EXPECT_FALSE(a.disagree);
+  EXPECT_EQ(a.outside_s, 0);
   EXPECT_EQ(a.excess_sigmas, 0);
   // 15 us beyond the longest contact: 3 sigma, within 4.
   EXPECT_FALSE(compareInstants(0, 115e-6, model()).disagree);
@@ -138,10 +139,12 @@ TEST(CompareInstants, InsideTheContactDurationIsAgreement) {
 TEST(CompareInstants, BeyondTheBandByMoreThanFourSigmaDisagrees) {
   // 25 us past the band's upper edge: 5 sigma.
   InstantAgreement a = compareInstants(0, 125e-6, model());
+  EXPECT_NEAR(a.outside_s, 25e-6, 1e-15);
   EXPECT_NEAR(a.excess_sigmas, 5, 1e-9);
   EXPECT_TRUE(a.disagree);
   // The post-impact instant earlier than the pre-impact one: below the band.
   a = compareInstants(30e-6, 0, model());
+  EXPECT_NEAR(a.outside_s, 30e-6, 1e-15);
   EXPECT_NEAR(a.excess_sigmas, 6, 1e-9);
   EXPECT_TRUE(a.disagree);
   // 15 us early: 3 sigma, no.
