@@ -246,8 +246,7 @@ InstantAgreement instantAgreement(const CollisionFits& fits, const ShotUncertain
 }
 
 void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const CollisionFits& fits,
-                    const ShotSpins& spins, double vz_fraction, const AnalysisSettings& set,
-                    double pixel_m) {
+                    const ShotSpins& spins, double vz_fraction, const InstantAgreement& ag) {
   const ShotDraw& nominal = u.nominal;
   const WaltonMeasurement& m = nominal.inverse.m;
   CollisionProperties& c = out.collision;
@@ -263,7 +262,6 @@ void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const Collision
   // one sigma of it outside the allowed band) is an error of one of them that
   // nothing here explains; the combined instant, between the two, may be off
   // by about half of it: added to t_c's sigma.
-  const InstantAgreement ag = instantAgreement(fits, u, set, pixel_m);
   const double unexplained_s = std::max(0.0, ag.outside_s - ag.sigma_s);
   c.t_collision_s = {nominal.t_c, std::hypot(u.t_c.sigma(), 0.5 * unexplained_s)};
   c.line_of_centres_z = {nominal.inverse.n_z, u.n_z.sigma()};
@@ -406,6 +404,7 @@ struct FlagInputs {
   const BurstFrames* frames = nullptr;
   const CollisionFits* fits = nullptr;
   const ShotUncertainty* u = nullptr;
+  const InstantAgreement* instants = nullptr;  ///< the two collision instants judged
   std::array<double, 2> r_med{0, 0};
   PixelScale scale;
   Eigen::Vector2d gdir{0, 1};
@@ -416,7 +415,7 @@ struct FlagInputs {
 // The two instants disagree beyond what the measurement and the model allow
 // (instantAgreement).
 void flagInstants(ShotAnalysis& out, const FlagInputs& q) {
-  const InstantAgreement ag = instantAgreement(*q.fits, *q.u, *q.settings, q.scale.px);
+  const InstantAgreement& ag = *q.instants;
   if (!ag.disagree) return;
   addFlag(out, "collision_instant_disagree");
   out.notes.push_back(
@@ -697,7 +696,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
     return fail(
         "the measured kinematics are not a collision (the spheres do not approach at "
         "the contact instant); check the tracks");
-  fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, set, pass.scale.px);
+  const InstantAgreement instants = instantAgreement(pass.fits, u, set, pass.scale.px);
+  fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, instants);
   withoutUnmeasuredSpins(out.collision, spins);
   fillFrames(out, burst, data, spins);
 
@@ -708,6 +708,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   q.frames = &*frames;
   q.fits = &pass.fits;
   q.u = &u;
+  q.instants = &instants;
   q.r_med = r_med;
   q.scale = pass.scale;
   q.gdir = gdir;
