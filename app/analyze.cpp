@@ -37,6 +37,7 @@ void applyProfileToAnalysis(const hw::RigProfile& profile, vision::AnalysisSetti
   s.line_of_centres_z_sigma =
       std::sin(profile.analysis.line_of_centres_tilt_deg * std::numbers::pi / 180.0);
   s.out_of_plane_speed_fraction = profile.analysis.launch_out_of_plane_fraction;
+  s.unknown_spin_sigma_rad_s = profile.analysis.launch_spin_rad_s;
   s.contact_distance_sigma_px = profile.analysis.contact_distance_sigma_px;
   s.radius_systematic_px = profile.analysis.radius_systematic_px;
 }

@@ -524,6 +524,8 @@ Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
   COLLIDE_ASSIGN_OR_RETURN(a.launch_out_of_plane_fraction,
                            r.number("launch_out_of_plane_fraction", a.launch_out_of_plane_fraction,
                                     {.gt = 0.0, .le = 0.3}));
+  COLLIDE_ASSIGN_OR_RETURN(a.launch_spin_rad_s, r.number("launch_spin_rad_s", a.launch_spin_rad_s,
+                                                         {.gt = 0.0, .le = 1000.0}));
   COLLIDE_ASSIGN_OR_RETURN(
       a.contact_distance_sigma_px,
       r.number("contact_distance_sigma_px", a.contact_distance_sigma_px, {.ge = 0.0, .le = 5.0}));

@@ -156,6 +156,11 @@ struct AnalysisProfile {
   /// Each launch's velocity out of the image plane (standard deviation, as a
   /// fraction of its speed): the tubes' alignment with the plane.
   double launch_out_of_plane_fraction = 0.005;
+  /// The launchers' spin (standard deviation per axis, rad/s): the prior of a
+  /// spin no dot shows (a bare silhouette, dots out of view), taken as zero
+  /// with this spread. Measure it from dotted shots (the RMS of their spins'
+  /// components); the default is wide enough for any launch.
+  double launch_spin_rad_s = 50.0;
   /// How far apart, beyond the diameters, the measured centres of two
   /// touching spheres may lie (standard deviation, pixels): the detector's
   /// radius bias under this rig's light, e.g. a shaded limb under one-sided

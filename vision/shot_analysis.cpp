@@ -672,7 +672,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         out.sphere[s].vz_from_size_m_s[side] = Measured{d->vz_m_s, d->vz_sigma_m_s};
 
   // ---- dots and spins, per sphere and side
-  const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value, &scale);
+  const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value,
+                                       set.unknown_spin_sigma_rad_s, &scale);
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side)
       if (const auto& why = spins.side[s][side].unknown_reason) {

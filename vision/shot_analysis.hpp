@@ -23,6 +23,7 @@
 #include "analysis/walton.hpp"
 #include "vision/frame.hpp"
 #include "vision/sphere_detector.hpp"
+#include "vision/spin_fit.hpp"
 
 namespace collide::vision {
 
@@ -58,6 +59,13 @@ struct AnalysisSettings {
   /// known; otherwise taken as 0 in the values, it widens the uncertainties
   /// of v_s, beta and f.
   double out_of_plane_speed_fraction = 0.005;
+  /// Standard deviation of each component of a spin no dot shows, rad/s
+  /// (the rig profile's [analysis] launch_spin_rad_s: the spread of the spins
+  /// the launchers give). Such a spin is taken as zero and this widens the
+  /// uncertainties of gamma, beta and f; too wide a value makes them
+  /// pessimistic (a bare silhouette's gamma pulls were 0.2 at 50 rad/s with
+  /// launches spinning 10 rad/s per axis).
+  double unknown_spin_sigma_rad_s = kDefaultUnknownSpinSigma;
   /// Longest plausible contact duration, s. The pre-impact fits reach the
   /// contact distance when the spheres first touch, the post-impact fits when
   /// they part, so the post-impact instant may lag the pre-impact one by up to

@@ -27,7 +27,7 @@ void addLensSpinSystematic(Eigen::Matrix3d& cov, const Vec3& spin) {
 
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const CollisionFits& fits, const std::array<double, 2>& r_med, int max_value,
-                       const PixelScale* scale) {
+                       double unknown_spin_sigma, const PixelScale* scale) {
   ShotSpins out;
   out.dots.resize(data.size());
   // A frame's sphere on its track's radius: steadier than one frame's.
@@ -84,10 +84,10 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
       if (scale && scale->camera) addLensSpinSystematic(r.cov, r.spin);
       r.sigma = r.cov.diagonal().cwiseSqrt();
     } else {
-      // Unknown spin: zero, with a spread wide enough for any spin these
-      // launches give, so beta and f carry the ignorance in their sigmas.
+      // Unknown spin: zero, with the spread of the spins these launches give,
+      // so beta, f and gamma carry the ignorance in their sigmas.
       r.spin = Vec3::Zero();
-      r.cov = Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
+      r.cov = Eigen::Matrix3d::Identity() * (unknown_spin_sigma * unknown_spin_sigma);
       r.sigma = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
       r.unknown_reason = spin.error().message;
     }
@@ -102,12 +102,12 @@ std::vector<std::string> poorlyMeasuredSpins(const ShotSpins& spins) {
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       const SideSpin& sp = spins.side[s][side];
-      if (sp.unknown_reason || !(sp.sigma.maxCoeff() > kUnknownSpinSigma)) continue;
+      if (sp.unknown_reason || !(sp.sigma.maxCoeff() > kPoorlyMeasuredSpinSigma)) continue;
       notes.push_back("sphere " + std::to_string(s + 1) + ", " + (side == 0 ? "before" : "after") +
                       " the impact: the spin's sigma is " + fmt("%.0f", sp.sigma.maxCoeff()) +
-                      " rad/s (worse than the " + fmt("%.0f", kUnknownSpinSigma) +
-                      " rad/s given to an unmeasured spin): the dots were followed too "
-                      "briefly or matched badly; beta and gamma rest on it");
+                      " rad/s (above " + fmt("%.0f", kPoorlyMeasuredSpinSigma) +
+                      " rad/s, no better known than an unmeasured spin): the dots were followed "
+                      "too briefly or matched badly; beta and gamma rest on it");
     }
   return notes;
 }

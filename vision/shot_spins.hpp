@@ -11,15 +11,16 @@
 #include "vision/dot_detector.hpp"
 #include "vision/frame.hpp"
 #include "vision/shot_fits.hpp"
+#include "vision/spin_fit.hpp"
 
 namespace collide::vision {
 
 // The spin fits' scatter-based uncertainties fall short by about this factor
 // (slowly changing dot-centroid errors); calibrated on simulated shots.
 inline constexpr double kSpinSigmaScale = 1.25;
-// Standard deviation given to each component of a spin that could not be
-// measured (no dot followed), rad/s.
-inline constexpr double kUnknownSpinSigma = 50.0;
+// A measured spin whose sigma on some axis is above this (rad/s) is no better
+// known than an unmeasured one at the default prior: spin_poorly_measured.
+inline constexpr double kPoorlyMeasuredSpinSigma = 50.0;
 // Through a lens the spins carry an error common to all their dots: per axis
 // about 0.3 % of |omega| on simulated lab imaging, mostly a tilt of the axis
 // by a few tenths of a degree, with even light and without distortion too.
@@ -44,15 +45,16 @@ struct ShotSpins {
 };
 
 /// Finds the dots of each sphere in the frames its side fits used and fits
-/// the spins. An unknown spin is zero with kUnknownSpinSigma per axis. When
+/// the spins. An unknown spin is zero with `unknown_spin_sigma` (rad/s) per
+/// axis: the launchers' spin, as the rig profile states it. When
 /// `scale` carries the camera's lens, each dot is lifted onto its sphere
 /// through the lens (liftThroughLens) rather than orthographically.
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
                        const CollisionFits& fits, const std::array<double, 2>& r_med_px,
-                       int max_value, const PixelScale* scale = nullptr);
+                       int max_value, double unknown_spin_sigma, const PixelScale* scale = nullptr);
 
 /// The measured spins no better known than an unmeasured one: an axis' sigma
-/// above kUnknownSpinSigma (a dot matched badly or followed too briefly; the
+/// above kPoorlyMeasuredSpinSigma (a dot matched badly or followed too briefly; the
 /// sigmas then understate errors of hundreds of rad/s). One note per such
 /// spin, naming the sphere and the side; empty when there is none. Unknown
 /// spins are not counted (they carry their own no_spin_* flags). The shot's

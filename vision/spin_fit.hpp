@@ -38,6 +38,12 @@
 
 namespace collide::vision {
 
+/// Standard deviation given by default to each component of a spin that
+/// could not be measured (no dot followed), rad/s: wide enough for any spin
+/// the launchers give. The rig profile's [analysis] launch_spin_rad_s states
+/// the rig's own (AnalysisSettings::unknown_spin_sigma_rad_s).
+inline constexpr double kDefaultUnknownSpinSigma = 50.0;
+
 /// One frame's dots on one sphere.
 struct SpinFrame {
   double t_s = 0;

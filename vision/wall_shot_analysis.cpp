@@ -188,7 +188,7 @@ Eigen::Vector2d depthCoupling(const std::vector<Sample>& side, bool before,
 struct SpinSide {
   bool known = false;
   Vec3 spin = Vec3::Zero();
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Identity() * (kUnknownSpinSigma * kUnknownSpinSigma);
+  Eigen::Matrix3d cov;  ///< unknown: the launchers' spin spread squared per axis
   std::string why;
 };
 
@@ -196,7 +196,7 @@ struct SpinSide {
 // (as the two-sphere analysis does, vision/shot_spins.hpp); none: orthographic.
 SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_med_px,
                 const std::optional<PinholeCamera>& camera, double radius_m,
-                const std::function<double(double)>& depth_m = {}) {
+                double unknown_spin_sigma, const std::function<double(double)>& depth_m = {}) {
   const int max_value = maxValue(burst.format);
   std::vector<SpinFrame> frames;
   for (const Sample& smp : side) {
@@ -220,6 +220,7 @@ SpinSide spinOf(const Burst& burst, const std::vector<Sample>& side, double r_me
     frames.push_back(std::move(f));
   }
   SpinSide out;
+  out.cov = Eigen::Matrix3d::Identity() * (unknown_spin_sigma * unknown_spin_sigma);
   auto spin = fitSpin(frames);
   if (!spin) {
     out.why = spin.error().message;
@@ -425,8 +426,8 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   for (const Sample& smp : samples) radii.push_back(smp.m.circle.radius);
   std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
   const double r_med = radii[radii.size() / 2];
-  SpinSide sb = spinOf(burst, before, r_med, s.camera, R),
-           sa = spinOf(burst, after, r_med, s.camera, R);
+  SpinSide sb = spinOf(burst, before, r_med, s.camera, R, s.unknown_spin_sigma_rad_s),
+           sa = spinOf(burst, after, r_med, s.camera, R, s.unknown_spin_sigma_rad_s);
   for (SpinSide* side : {&sb, &sa})
     if (dark && !side->known) side->why = "backlit, no dots seen on the silhouette: " + side->why;
   a.spin_before_known = sb.known;
@@ -469,7 +470,9 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       // refitted, and v_z again from the spins.
       if (s.camera) {
         const auto depth = [vz = *vz, t0 = *tc](double t) { return vz * (t - t0); };
-        if (SpinSide at_depth = spinOf(burst, after, r_med, s.camera, R, depth); at_depth.known) {
+        if (SpinSide at_depth =
+                spinOf(burst, after, r_med, s.camera, R, s.unknown_spin_sigma_rad_s, depth);
+            at_depth.known) {
           sa = at_depth;
           a.sphere_after.spin_rad_s = sa.spin;
           a.spin_sigma_after = Vec3(sa.cov.diagonal().cwiseSqrt());

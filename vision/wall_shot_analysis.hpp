@@ -21,6 +21,7 @@
 #include "analysis/walton.hpp"
 #include "vision/frame.hpp"
 #include "vision/render_wall.hpp"
+#include "vision/spin_fit.hpp"
 
 namespace collide::vision {
 
@@ -43,6 +44,9 @@ struct WallAnalysisSettings {
   /// impact, as a fraction of its speed (launch misalignment): taken as 0 in
   /// the values, it widens the uncertainties (as AnalysisSettings' field).
   double out_of_plane_speed_fraction = 0.005;
+  /// Standard deviation of each component of a spin no dot shows, rad/s (as
+  /// AnalysisSettings' field).
+  double unknown_spin_sigma_rad_s = kDefaultUnknownSpinSigma;
   int monte_carlo_draws = 400;
   /// The lens the frames were taken through, when known (the rig profile's
   /// camera calibration, or a simulated camera's perspective): centres, the

@@ -36,6 +36,8 @@ TEST(AnalysisSettingsFor, TheProfilesStatedPriorsReachTheAnalysis) {
   const auto backlit = analysisSettingsFor(shotFiledWith("config/sim-backlit.toml"));
   EXPECT_DOUBLE_EQ(backlit.radius_systematic_px, 0.02);
   EXPECT_DOUBLE_EQ(backlit.out_of_plane_speed_fraction, 0.002);
+  // Its launchers' spin (0..30 rad/s, random axis): 10 rad/s per axis.
+  EXPECT_DOUBLE_EQ(backlit.unknown_spin_sigma_rad_s, 10.0);
   const auto plain = analysisSettingsFor(shotFiledWith("config/sim.toml"));
   EXPECT_DOUBLE_EQ(plain.radius_systematic_px, 0.1);
   EXPECT_DOUBLE_EQ(plain.contact_distance_sigma_px, 0.0);

@@ -36,6 +36,7 @@ TEST(AnalysisProfile, AbsentGivesTodaysPriors) {
   // sin(0.573 deg) = 0.0100: the z part of the line of centres the analysis assumed before.
   EXPECT_NEAR(std::sin(r->analysis.line_of_centres_tilt_deg * M_PI / 180), 0.0100, 1e-5);
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.005);
+  EXPECT_DOUBLE_EQ(r->analysis.launch_spin_rad_s, 50.0);
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.0);
   EXPECT_DOUBLE_EQ(r->analysis.radius_systematic_px, 0.1);
 }
@@ -43,8 +44,9 @@ TEST(AnalysisProfile, AbsentGivesTodaysPriors) {
 TEST(AnalysisProfile, StatedAlignmentIsRead) {
   const auto r = withAnalysis(
       "line_of_centres_tilt_deg = 3.0\nlaunch_out_of_plane_fraction = 0.03\n"
-      "contact_distance_sigma_px = 0.2\nradius_systematic_px = 0.02\n");
+      "contact_distance_sigma_px = 0.2\nradius_systematic_px = 0.02\nlaunch_spin_rad_s = 12.5\n");
   ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_DOUBLE_EQ(r->analysis.launch_spin_rad_s, 12.5);
   EXPECT_DOUBLE_EQ(r->analysis.line_of_centres_tilt_deg, 3.0);
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, 0.03);
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.2);
@@ -59,11 +61,22 @@ TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchScatter) {
   EXPECT_DOUBLE_EQ(r->analysis.launch_out_of_plane_fraction, r->simulation.direction_scatter_rad);
 }
 
+TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchSpin) {
+  // Its launchers spin the spheres at a size uniform in [a, b] about a random
+  // axis: each component's mean square is E[w^2] / 3 = (a^2 + ab + b^2) / 9.
+  const auto r = parseRigProfile(simProfileText(), "config/sim.toml");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const auto [a, b] = r->simulation.spin_at_exit_rad_s;
+  ASSERT_GT(b, 0.0);
+  EXPECT_NEAR(r->analysis.launch_spin_rad_s, std::sqrt((a * a + a * b + b * b) / 9), 0.05);
+}
+
 TEST(AnalysisProfile, ImpossibleOrUnknownValuesAreRefusedByName) {
   for (const char* bad : {"line_of_centres_tilt_deg = 0.0\n", "line_of_centres_tilt_deg = 45.0\n",
                           "launch_out_of_plane_fraction = -0.01\n",
                           "contact_distance_sigma_px = -0.1\n", "contact_distance_sigma_px = 9.0\n",
-                          "radius_systematic_px = -0.01\n", "radius_systematic_px = 3.0\n"}) {
+                          "radius_systematic_px = -0.01\n", "radius_systematic_px = 3.0\n",
+                          "launch_spin_rad_s = 0.0\n", "launch_spin_rad_s = 5000.0\n"}) {
     const auto r = withAnalysis(bad);
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_THAT(r.error().message, HasSubstr(std::string(bad).substr(0, 20))) << bad;

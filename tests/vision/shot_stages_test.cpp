@@ -51,8 +51,8 @@ struct Staged {
   PixelScale scale;
 };
 
-Staged detectAndTrack(std::uint64_t seed) {
-  Staged s{simulateShot(quick(seed)), {}, {}, {}};
+Staged detectAndTrack(const ShotSpec& spec) {
+  Staged s{simulateShot(spec), {}, {}, {}};
   auto bf = prepareFrames(s.shot.burst, 0);
   EXPECT_TRUE(bf.ok());
   s.frames = *bf;
@@ -65,6 +65,10 @@ Staged detectAndTrack(std::uint64_t seed) {
   s.r_med = trackRadii(s.frames.data);
   s.scale = {set.pixel_size_m, set.origin_u_px, set.origin_v_px};
   return s;
+}
+
+Staged detectAndTrack(std::uint64_t seed) {
+  return detectAndTrack(quick(seed));
 }
 
 TEST(TrackSpheres, EachTrackFollowsItsSphere) {
@@ -190,7 +194,7 @@ TEST(MeasureSpins, SpinsOfBothSidesMatchTheTruth) {
                            true, 0.0, s.frames.frame_dt);
   ASSERT_TRUE(fits.ok()) << fits.error().message;
   const ShotSpins spins =
-      measureSpins(s.shot.burst, s.frames.data, *fits, s.r_med, s.frames.max_value);
+      measureSpins(s.shot.burst, s.frames.data, *fits, s.r_med, s.frames.max_value, 50.0);
   ASSERT_EQ(spins.dots.size(), s.frames.data.size());
   for (int i = 0; i < 2; ++i)
     for (int side = 0; side < 2; ++side) {
@@ -202,18 +206,43 @@ TEST(MeasureSpins, SpinsOfBothSidesMatchTheTruth) {
     }
 }
 
+// Plain spheres show no dot: every spin is unknown, zero, with the spread the
+// caller states for the launchers' spins (the rig profile's launch_spin_rad_s).
+TEST(MeasureSpins, AnUnseenSpinIsZeroWithTheLaunchersSpread) {
+  ShotSpec spec = quick(47);
+  spec.dots = false;
+  const Staged s = detectAndTrack(spec);
+  const auto& set = s.shot.settings;
+  auto fits = fitCollision(s.frames.data, s.scale, set.diameter_m[0], kGravity_m_s2, true, 0.0,
+                           s.frames.frame_dt);
+  ASSERT_TRUE(fits.ok()) << fits.error().message;
+  for (const double spread : {12.0, 50.0}) {
+    const ShotSpins spins =
+        measureSpins(s.shot.burst, s.frames.data, *fits, s.r_med, s.frames.max_value, spread);
+    for (int i = 0; i < 2; ++i)
+      for (int side = 0; side < 2; ++side) {
+        const SideSpin& sp = spins.side[i][side];
+        EXPECT_TRUE(sp.unknown_reason.has_value()) << i << " " << side;
+        EXPECT_EQ(sp.spin, Vec3::Zero());
+        EXPECT_TRUE(sp.cov.isApprox(Eigen::Matrix3d::Identity() * spread * spread)) << sp.cov;
+        EXPECT_TRUE(sp.sigma.array().isNaN().all());
+      }
+    EXPECT_TRUE(poorlyMeasuredSpins(spins).empty());
+  }
+}
+
 // spin_poorly_measured fires when, and only when, a measured spin's sigma on
-// some axis is above the kUnknownSpinSigma an unmeasured spin is given.
-TEST(PoorlyMeasuredSpins, WhenAndOnlyWhenASigmaExceedsThatOfAnUnknownSpin) {
+// some axis is above kPoorlyMeasuredSpinSigma.
+TEST(PoorlyMeasuredSpins, WhenAndOnlyWhenASigmaExceedsTheLimit) {
   ShotSpins spins;
   for (auto& sphere : spins.side)
     for (SideSpin& sp : sphere) sp.sigma = Vec3(3, 22, 8);
   EXPECT_TRUE(poorlyMeasuredSpins(spins).empty());
   // At the line: not above it.
-  spins.side[1][1].sigma = Vec3(5, kUnknownSpinSigma, 5);
+  spins.side[1][1].sigma = Vec3(5, kPoorlyMeasuredSpinSigma, 5);
   EXPECT_TRUE(poorlyMeasuredSpins(spins).empty());
   // Above it on one axis of sphere 2 after the impact: one note, naming it.
-  spins.side[1][1].sigma = Vec3(5, kUnknownSpinSigma + 1, 5);
+  spins.side[1][1].sigma = Vec3(5, kPoorlyMeasuredSpinSigma + 1, 5);
   std::vector<std::string> notes = poorlyMeasuredSpins(spins);
   ASSERT_EQ(notes.size(), 1u);
   EXPECT_NE(notes[0].find("sphere 2, after"), std::string::npos) << notes[0];
