@@ -18,8 +18,8 @@ Vec3 drawVec(const Vec3& mean, const Eigen::Matrix3d& cov, std::mt19937_64& rng,
 
 }  // namespace
 
-PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, double drift_m_s, double offset_m,
-                     std::mt19937_64& rng, bool nominal) {
+PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vector2d& drift_m_s,
+                     double offset_m, std::mt19937_64& rng, bool nominal) {
   std::normal_distribution<double> nd;
   PlaneTrack d;
   d.t_ref = f.tRef_s();
@@ -34,20 +34,35 @@ PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, double drift_m_s,
     Eigen::VectorXd z(np);
     for (int i = 0; i < np; ++i) z[i] = nd(rng);
     d.c[k].head(np) += llt.matrixL() * z;
-    d.c[k][1] += drift_m_s * nd(rng);
+    d.c[k][1] += drift_m_s[k];
     d.c[k][0] += offset_m * nd(rng);
   }
   return d;
+}
+
+std::array<double, 2> drawDriftPair(double sigma_before, double sigma_after, std::mt19937_64& rng) {
+  std::normal_distribution<double> nd;
+  const double far_before = nd(rng), contact = nd(rng), far_after = nd(rng);
+  return {sigma_before * (contact - far_before) / std::numbers::sqrt2,
+          sigma_after * (far_after - contact) / std::numbers::sqrt2};
 }
 
 ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   ShotDraw o;
   std::array<std::array<PlaneTrack, 2>, 2> d;
   std::array<double, 2> rate_before{0, 0};  // each sphere's pre-impact depth-rate deviate
+  // The dots' drift of each sphere's two fits, drawn together (anti-correlated).
+  std::array<std::array<Eigen::Vector2d, 2>, 2> drift;
+  for (int s = 0; s < 2; ++s)
+    for (int k = 0; k < 2; ++k) {
+      const auto pair = nominal ? std::array<double, 2>{0, 0}
+                                : drawDriftPair(in.drift[s][0], in.drift[s][1], rng);
+      drift[s][0][k] = pair[0], drift[s][1][k] = pair[1];
+    }
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
-      d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], in.drift[s][side],
-                             in.offset[s], rng, nominal);
+      d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], drift[s][side], in.offset[s],
+                             rng, nominal);
       const DepthCoupling& c = in.depth[s][side];
       if (nominal || (c.per_rate.isZero() && c.per_offset.isZero())) continue;  // no depth
       std::normal_distribution<double> nd;

@@ -73,10 +73,22 @@ struct ShotDraw {
 };
 
 /// A trajectory fit's coefficients, drawn from their covariance (times
-/// `inflation`) plus a systematic velocity drift and position offset per
-/// axis; the fit's own coefficients when `nominal`.
-PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, double drift_m_s, double offset_m,
-                     std::mt19937_64& rng, bool nominal);
+/// `inflation`) plus a systematic position offset per axis, and shifted in
+/// velocity by `drift_m_s` (per axis, drawn by the caller: drawDriftPair);
+/// the fit's own coefficients when `nominal`.
+PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vector2d& drift_m_s,
+                     double offset_m, std::mt19937_64& rng, bool nominal);
+
+/// One draw, on one axis, of the systematic velocity errors a slow wander of
+/// the measured centre (the dots' pull on the outline) gives one sphere's
+/// pre- and post-impact fits, of standard deviations `sigma_before` and
+/// `sigma_after` (m/s). The wander is taken as independent at each track's
+/// far end and shared at the contact, where the two tracks meet: a fit's
+/// velocity error is the change of the wander over its span, so the two are
+/// anti-correlated (-1/2): s_b (g_c - g_0) / sqrt(2) and s_a (g_1 - g_c) /
+/// sqrt(2). Simulated backlit walls, where this term is most of the velocity
+/// sigma, show -0.4 (docs/benchmarks.md, session 30).
+std::array<double, 2> drawDriftPair(double sigma_before, double sigma_after, std::mt19937_64& rng);
 
 /// The shot from one draw of every input (or the nominal values): collision
 /// instant, velocities and spins there, Walton's inverse.

@@ -176,8 +176,10 @@ std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
   for (int side = 0; side < 2; ++side) {
     std::mt19937_64 unused;  // nominal tracks draw nothing
     const double t = side == 0 ? fits.t_before : fits.t_after;
-    const PlaneTrack a = drawTrack(fits.fit[0][side]->fit, 1, 0, 0, unused, true);
-    const PlaneTrack b = drawTrack(fits.fit[1][side]->fit, 1, 0, 0, unused, true);
+    const PlaneTrack a =
+        drawTrack(fits.fit[0][side]->fit, 1, Eigen::Vector2d::Zero(), 0, unused, true);
+    const PlaneTrack b =
+        drawTrack(fits.fit[1][side]->fit, 1, Eigen::Vector2d::Zero(), 0, unused, true);
     const Eigen::Vector2d dr = a.pos(t) - b.pos(t), dv = a.vel(t) - b.vel(t);
     if (dr.norm() > 0) vn[side] = std::abs(dr.dot(dv)) / dr.norm();
   }

@@ -8,6 +8,7 @@
 
 #include "analysis/residual_structure.hpp"
 #include "analysis/shot_inverse.hpp"
+#include "analysis/shot_uncertainty.hpp"
 #include "vision/dot_detector.hpp"
 #include "vision/shot_fits.hpp"
 #include "vision/shot_spins.hpp"
@@ -258,12 +259,25 @@ struct WallDepthCoupling {
   double vz_used = 0;                                ///< after the impact
 };
 
-// Monte Carlo: velocities from the fits' per-axis sigmas at contact, spins
-// from their covariances, the face turned and shifted by its sigmas; the
-// post-impact velocity follows the v_z each draw's spins give (`depth`).
-// Returns the spread of the post-impact v_z over the draws (m/s).
+// The in-plane velocities' uncertainties at contact, m/s: the fits' own per
+// axis (residual inflation included), and the dots' drift (the same on both
+// axes), drawn anti-correlated between the two sides (drawDriftPair).
+struct WallVelocitySigmas {
+  Eigen::Vector2d fit_before = Eigen::Vector2d::Zero(), fit_after = Eigen::Vector2d::Zero();
+  double drift_before = 0, drift_after = 0;
+  Vec3 before() const { return total(fit_before, drift_before); }
+  Vec3 after() const { return total(fit_after, drift_after); }
+  static Vec3 total(const Eigen::Vector2d& fit, double drift) {
+    return Vec3(std::hypot(fit.x(), drift), std::hypot(fit.y(), drift), 0.0);
+  }
+};
+
+// Monte Carlo: velocities from the fits' per-axis sigmas and the dots' drift
+// at contact, spins from their covariances, the face turned and shifted by its
+// sigmas; the post-impact velocity follows the v_z each draw's spins give
+// (`depth`). Returns the spread of the post-impact v_z over the draws (m/s).
 double propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s,
-                 const SpinSide& sb, const SpinSide& sa, const Vec3& vb_sigma, const Vec3& va_sigma,
+                 const SpinSide& sb, const SpinSide& sa, const WallVelocitySigmas& vs_in,
                  const WallDepthCoupling& depth) {
   std::mt19937_64 rng(12345);
   std::normal_distribution<double> unit(0.0, 1.0);
@@ -273,8 +287,9 @@ double propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s
   for (int k = 0; k < draws; ++k) {
     Sphere b = a.sphere_before, af = a.sphere_after;
     for (int ax = 0; ax < 2; ++ax) {
-      b.velocity_m_s(ax) += vb_sigma(ax) * unit(rng);
-      af.velocity_m_s(ax) += va_sigma(ax) * unit(rng);
+      const auto drift = drawDriftPair(vs_in.drift_before, vs_in.drift_after, rng);
+      b.velocity_m_s(ax) += vs_in.fit_before(ax) * unit(rng) + drift[0];
+      af.velocity_m_s(ax) += vs_in.fit_after(ax) * unit(rng) + drift[1];
     }
     // The unseen z velocity before the impact; after it, the same shift
     // (recomputed from the spins below when both are known).
@@ -504,18 +519,20 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   // As the two-sphere analysis: residuals correlated from frame to frame
   // (lag-1 inflation) and the dots' slow pull on the outline
   // (vision/shot_fits.hpp).
-  const auto velocitySigma = [&](const TrajectoryFit& f, double t) {
-    Vec3 sigma = f.velocityAt_m_s(t).sigma * std::sqrt(residualInflation(f));
-    if (sb.known || sa.known) {
-      const double drift = dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6, dark);
-      for (int ax = 0; ax < 2; ++ax) sigma(ax) = std::hypot(sigma(ax), drift);
-    }
-    return sigma;
+  const auto fitSigma = [&](const TrajectoryFit& f, double t) -> Eigen::Vector2d {
+    return f.velocityAt_m_s(t).sigma.head<2>() * std::sqrt(residualInflation(f));
   };
+  const auto driftSigma = [&](const TrajectoryFit& f) {
+    return sb.known || sa.known ? dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6, dark)
+                                : 0.0;
+  };
+  WallVelocitySigmas vsig;
+  vsig.fit_before = fitSigma(*fb, *tc), vsig.fit_after = fitSigma(*fa, *ts);
+  vsig.drift_before = driftSigma(*fb), vsig.drift_after = driftSigma(*fa);
   const double vz_sigma = s.out_of_plane_speed_fraction * b.velocity_m_s.norm();
-  const Vec3 fit_sigma_before = velocitySigma(*fb, *tc), fit_sigma_after = velocitySigma(*fa, *ts);
-  const double vz_after_sigma = propagate(a, px_m, s.monte_carlo_draws, vz_sigma, sb, sa,
-                                          fit_sigma_before, fit_sigma_after, coupling);
+  const Vec3 fit_sigma_before = vsig.before(), fit_sigma_after = vsig.after();
+  const double vz_after_sigma =
+      propagate(a, px_m, s.monte_carlo_draws, vz_sigma, sb, sa, vsig, coupling);
   // Reported: the fits' sigmas and what the v_z uncertainty adds through the lens.
   a.velocity_sigma_before = fit_sigma_before;
   a.velocity_sigma_after = fit_sigma_after;
