@@ -78,7 +78,8 @@ double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, dou
                  bool dark = false);
 
 /// The systematic velocity sigma that bias gives a track fitted over `fit`'s
-/// span (m/s): dotBias_m / span.
+/// span (m/s): dotBias_m / span. The Monte Carlos draw a sphere's two sides'
+/// together, anti-correlated (analysis/shot_uncertainty.hpp, drawDriftPair).
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
                          double exposure_s, bool dark = false);
 
