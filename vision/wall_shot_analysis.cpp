@@ -189,7 +189,8 @@ Eigen::Vector2d depthCoupling(const std::vector<Sample>& side, bool before,
 struct SpinSide {
   bool known = false;
   Vec3 spin = Vec3::Zero();
-  Eigen::Matrix3d cov;  ///< unknown: the launchers' spin spread squared per axis
+  /// Unknown: the launchers' spin spread squared per axis (spinOf sets it).
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   std::string why;
 };
 
