@@ -141,6 +141,14 @@ int runFit(const Options& given) {
     std::printf("bootstrap sigmas: mu %.4f, beta_0 %.4f (%d resamples)\n",
                 report->bootstrap->mu_sigma, report->bootstrap->beta0_sigma,
                 report->bootstrap->resamples_used);
+  if (const auto& ls = report->launch_spin)
+    std::printf(
+        "launchers' spin %.1f ± %.1f rad/s per axis (x %.1f, y %.1f, z %.1f; RMS of %d measured "
+        "pre-impact spins): the rig profile's [analysis] launch_spin_rad_s\n",
+        ls->per_axis_rad_s, ls->sigma_rad_s, ls->rms_rad_s.x(), ls->rms_rad_s.y(),
+        ls->rms_rad_s.z(), ls->spins);
+  else
+    std::printf("launchers' spin not measured: %s\n", report->launch_spin_error.c_str());
   std::cout << "wrote " << json_path << " and 5 plots (PNG, SVG) in " << out << "\n";
   return kExitOk;
 }

@@ -85,6 +85,24 @@ std::vector<CampaignShot> usableShots(const std::vector<CampaignEntry>& entries)
   return out;
 }
 
+std::vector<Estimate3> measuredLaunchSpins(const std::vector<CampaignEntry>& entries) {
+  static const std::vector<std::string> untrusted = {"no_spin_before", "spin_poorly_measured",
+                                                     "spin_impulse_disagree"};
+  std::vector<Estimate3> spins;
+  for (const auto& e : entries) {
+    if (!e.results || e.results->error) continue;
+    const auto& flags = e.results->quality_flags;
+    if (std::ranges::any_of(untrusted, [&](const std::string& f) {
+          return std::ranges::find(flags, f) != flags.end();
+        }))
+      continue;
+    for (const auto& sphere : e.results->sphere)
+      if (sphere.spin_before_rad_s.value.allFinite() && sphere.spin_before_rad_s.sigma.allFinite())
+        spins.push_back(sphere.spin_before_rad_s);
+  }
+  return spins;
+}
+
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
                                             int resamples, std::uint64_t seed, RobustLoss loss) {
   const auto shots = usableShots(entries);
@@ -92,7 +110,11 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
   options.robust.loss = loss;
   auto fit = fitCampaign(shots, options);
   if (!fit) return fit.error();
-  CampaignFitReport report{*fit, loss, {}, std::nullopt, ""};
+  CampaignFitReport report{*fit, loss, {}, std::nullopt, "", std::nullopt, ""};
+  if (auto spread = launchSpinSpread(measuredLaunchSpins(entries)))
+    report.launch_spin = *spread;
+  else
+    report.launch_spin_error = spread.error().message;
   std::size_t k = 0;  // index into the fitted shots
   for (const auto& e : entries) {
     if (!e.shot) continue;
@@ -322,6 +344,15 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
                       {"resamples_failed", b.resamples_failed}};
   } else {
     j["bootstrap"] = {{"error", report.bootstrap_error}};
+  }
+  if (report.launch_spin) {
+    const auto& ls = *report.launch_spin;
+    j["launch_spin"] = {
+        {"launch_spin_rad_s", {{"value", ls.per_axis_rad_s}, {"sigma", ls.sigma_rad_s}}},
+        {"rms_per_axis_rad_s", {ls.rms_rad_s.x(), ls.rms_rad_s.y(), ls.rms_rad_s.z()}},
+        {"spins", ls.spins}};
+  } else {
+    j["launch_spin"] = {{"error", report.launch_spin_error}};
   }
   json used = json::array(), left_out = json::array();
   std::size_t k = 0;  // index into the fitted shots (regime is per fitted shot)

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "analysis/campaign.hpp"
+#include "analysis/launch_spin.hpp"
 #include "analysis/result.hpp"
 #include "app/report/plot.hpp"
 #include "app/report/results_json.hpp"
@@ -61,7 +62,17 @@ struct CampaignFitReport {
   std::vector<DownWeightedShot> down_weighted;  ///< in entry order
   std::optional<FrictionBootstrap> bootstrap;   ///< cross-check of the sigmas
   std::string bootstrap_error;                  ///< why there is none
+  /// The launchers' spin spread from the pre-impact spins the dots showed
+  /// (launchSpinSpread): the rig profile's [analysis] launch_spin_rad_s.
+  std::optional<LaunchSpinSpread> launch_spin;
+  std::string launch_spin_error;  ///< why there is none
 };
+
+/// The pre-impact spins of both spheres of every analysed shot whose spins
+/// before the impact were measured and trusted (no "no_spin_before",
+/// "spin_poorly_measured" or "spin_impulse_disagree"), flagged shots of
+/// other kinds included: their spins before the impact are as good.
+std::vector<Estimate3> measuredLaunchSpins(const std::vector<CampaignEntry>& entries);
 /// Fits the usable shots (analysis/campaign.hpp fitCampaign, with `loss`)
 /// and bootstraps the friction fit (`resamples` >= 10, or 0 for none).
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,

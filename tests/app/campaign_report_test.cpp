@@ -22,6 +22,9 @@ namespace collide::app {
 namespace {
 
 constexpr double kMu = 0.176, kBeta0 = 0.44, kE = 0.97, kK = 0.4;
+// Launchers' spin: sqrt((a^2 + ab + b^2) / 9) per axis for a speed uniform in a..b.
+constexpr double kLaunchSpinMax = 30, kSpinNoise = 2;
+const double kLaunchSpinPerAxis = kLaunchSpinMax / 3;
 
 // docs/SPEC.md: beta = min(-1 - mu (1 + 1/K)(1 + e) v_n / v_s, beta_0).
 double waltonBeta(double v_n, double v_s) {
@@ -30,8 +33,12 @@ double waltonBeta(double v_n, double v_s) {
 
 // The results JSON of a shot at incidence psi (degrees, 0 = head-on) with
 // |v_c| = 2 m/s, with small Gaussian noise of the stated sigmas.
+// Each sphere's pre-impact spin is drawn as launchers spinning 0..kLaunchSpinMax
+// rad/s about a random axis give it (kLaunchSpinPerAxis per axis), measured
+// with kSpinNoise per axis, from a generator of its own (so the collision's
+// noise is drawn as before).
 // spins = false: a bare silhouette's results (no dots seen): beta, vs_after
-// and f null, flags no_spin_*.
+// and f null, spins 0 +- 50 rad/s, flags no_spin_*.
 std::string resultsAt(double psi_deg, std::mt19937& rng, std::vector<std::string> flags = {},
                       bool spins = true) {
   std::normal_distribution<double> noise(0.0, 1.0);
@@ -49,9 +56,19 @@ std::string resultsAt(double psi_deg, std::mt19937& rng, std::vector<std::string
   const double f = std::min(kMu, (1 + kBeta0) * (vs / -vn) / ((1 + 1 / kK) * (1 + kE)));
   c.f = {f, 0.005};
   c.gamma_deg = {180.0 - psi_deg, 0.1};
+  std::mt19937 spin_rng(static_cast<unsigned>(psi_deg * 1000));
+  std::uniform_real_distribution<double> speed(0.0, kLaunchSpinMax);
+  for (auto& sphere : a.sphere) {
+    Vec3 axis(noise(spin_rng), noise(spin_rng), noise(spin_rng));
+    sphere.spin_before_rad_s.value = speed(spin_rng) * axis.normalized();
+    for (int ax = 0; ax < 3; ++ax)
+      sphere.spin_before_rad_s.value(ax) += kSpinNoise * noise(spin_rng);
+    sphere.spin_before_rad_s.sigma = Vec3::Constant(kSpinNoise);
+  }
   if (!spins) {
     c.beta = c.vs_after_m_s = c.f = {std::nan(""), std::nan("")};
-    flags.insert(flags.end(), {"no_spin_before_1", "no_spin_after_1"});
+    for (auto& sphere : a.sphere) sphere.spin_before_rad_s = {Vec3::Zero(), Vec3::Constant(50)};
+    flags.insert(flags.end(), {"no_spin_before", "no_spin_after"});
   }
   a.quality_flags = std::move(flags);
   return resultsToJson(a);
@@ -74,6 +91,19 @@ void saveSweep(const std::string& dir, int n, double first_deg, double last_deg,
     auto shot = testing::makeShot(spec);
     shot.results_json =
         resultsAt(first_deg + (last_deg - first_deg) * i / (n - 1.0), rng, {}, spins);
+    ASSERT_TRUE(saveShot(dir, shot).ok());
+  }
+}
+
+// Saves one analysed shot per entry of `flags` (ids idFor(0..)), at
+// incidences 20, 30, ... degrees, each carrying those quality flags.
+void saveFlagged(const std::string& dir, const std::vector<std::vector<std::string>>& flags,
+                 std::mt19937& rng) {
+  for (std::size_t i = 0; i < flags.size(); ++i) {
+    testing::ShotSpec spec;
+    spec.id = idFor(static_cast<int>(i));
+    auto shot = testing::makeShot(spec);
+    shot.results_json = resultsAt(20.0 + 10 * i, rng, flags[i]);
     ASSERT_TRUE(saveShot(dir, shot).ok());
   }
 }
@@ -129,13 +159,7 @@ TEST(CampaignReport, ASpinThatBreaksAngularMomentumLeavesTheShotOut) {
   std::mt19937 rng(9);
   const std::vector<std::vector<std::string>> flags = {
       {"spin_impulse_disagree"}, {"extra_blobs_ignored"}, {}};
-  for (std::size_t i = 0; i < flags.size(); ++i) {
-    testing::ShotSpec spec;
-    spec.id = idFor(static_cast<int>(i));
-    auto shot = testing::makeShot(spec);
-    shot.results_json = resultsAt(20.0 + 10 * i, rng, flags[i]);
-    ASSERT_TRUE(saveShot(dir.path(), shot).ok());
-  }
+  ASSERT_NO_FATAL_FAILURE(saveFlagged(dir.path(), flags, rng));
   auto entries = loadCampaign(dir.path());
   ASSERT_TRUE(entries.ok()) << entries.error().message;
   ASSERT_EQ(entries->size(), 3u);
@@ -174,6 +198,51 @@ TEST_F(CampaignReportTest, FitRecoversTheMaterialTheShotsWereMadeFrom) {
   EXPECT_EQ(sliding, fr.sliding_count);
 }
 
+// The launchers' spin from the pre-impact spins the dots showed: every
+// analysed shot's two spheres (the shot flagged collision_instant_disagree
+// too: its spins before the impact are as good), within its sigma of the
+// spread the spins were drawn with; printed by `collide fit`.
+TEST_F(CampaignReportTest, MeasuresTheLaunchersSpinFromThePreImpactSpins) {
+  auto entries = loadCampaign(dir_.path());
+  ASSERT_TRUE(entries.ok());
+  EXPECT_EQ(measuredLaunchSpins(*entries).size(), 50u);
+  auto report = fitCampaignFolder(*entries, 0, 3);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  ASSERT_TRUE(report->launch_spin.has_value()) << report->launch_spin_error;
+  const LaunchSpinSpread& ls = *report->launch_spin;
+  EXPECT_EQ(ls.spins, 50);
+  EXPECT_GT(ls.sigma_rad_s, 0);
+  EXPECT_NEAR(ls.per_axis_rad_s, kLaunchSpinPerAxis, 3 * ls.sigma_rad_s);
+  const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+  EXPECT_DOUBLE_EQ(j["launch_spin"]["launch_spin_rad_s"]["value"].get<double>(), ls.per_axis_rad_s);
+  EXPECT_EQ(j["launch_spin"]["rms_per_axis_rad_s"].size(), 3u);
+  EXPECT_EQ(j["launch_spin"]["spins"].get<int>(), 50);
+
+  auto run = testing::runCollide("fit " + testing::q(dir_.path()) + " --bootstrap 0", dir_);
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_THAT(run.out, ::testing::HasSubstr("launchers' spin "));
+  EXPECT_THAT(run.out, ::testing::HasSubstr("RMS of 50 measured pre-impact spins"));
+  EXPECT_THAT(run.out, ::testing::HasSubstr("[analysis] launch_spin_rad_s"));
+}
+
+// Spins no dot showed (0 +- the prior), poorly measured ones and ones that
+// break angular momentum do not count.
+TEST(CampaignReport, UnseenOrUntrustedSpinsDoNotCountForTheLaunchers) {
+  testing::ScratchDir dir;
+  std::mt19937 rng(4);
+  const std::vector<std::vector<std::string>> flags = {
+      {"spin_poorly_measured"}, {"spin_impulse_disagree"}, {"extra_blobs_ignored"}, {}};
+  ASSERT_NO_FATAL_FAILURE(saveFlagged(dir.path(), flags, rng));
+  testing::ShotSpec bare;
+  bare.id = idFor(10);
+  auto shot = testing::makeShot(bare);
+  shot.results_json = resultsAt(60.0, rng, {}, /*spins=*/false);
+  ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+  auto entries = loadCampaign(dir.path(), /*include_flagged=*/true);
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  EXPECT_EQ(measuredLaunchSpins(*entries).size(), 4u);  // the last two dotted shots
+}
+
 // A campaign of bare backlit silhouettes has no spins: `collide fit` gives e
 // (and its speed law) from every shot, says why mu and beta_0 are not
 // fitted, and writes fit.json and the plots all the same.
@@ -206,6 +275,10 @@ TEST(CampaignReport, SilhouettesOnlyGiveEAndSayWhyNotFriction) {
   EXPECT_THAT(run.out, ::testing::HasSubstr("12 of 12 shots used"));
   EXPECT_THAT(run.out, ::testing::HasSubstr("mu, beta_0 not fitted: 12 of 12 shots have no beta"));
   EXPECT_THAT(run.out, ::testing::HasSubstr("e        0.9"));
+  EXPECT_THAT(run.out,
+              ::testing::HasSubstr("launchers' spin not measured: the launchers' spin needs at "
+                                   "least 3 measured pre-impact spins (got 0)"));
+  EXPECT_THAT(report->launch_spin_error, ::testing::HasSubstr("(got 0)"));
   EXPECT_TRUE(std::filesystem::exists(dir.file("fit/fit.json")));
   EXPECT_TRUE(std::filesystem::exists(dir.file("fit/e_vs_vn.png")));
 }
