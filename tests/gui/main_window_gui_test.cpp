@@ -404,6 +404,8 @@ TEST(MainWindowGui, RunASmallCampaign) {
   for (const auto& series : beta_plot.series)
     has_line = has_line || series.style == app::Series::Style::Line;
   EXPECT_TRUE(has_line) << view->summary().toStdString();
+  // The launchers' spin from the dotted shots, for the profile's prior.
+  EXPECT_TRUE(view->summary().contains("launchers' spin ")) << view->summary().toStdString();
   // The calibration dialog finds the measured exit speeds of the folder's
   // shots: each within 1 % of the speed the simulation launched at (the
   // horizontal velocity, which gravity leaves alone).
