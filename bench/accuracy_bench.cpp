@@ -30,6 +30,7 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -151,6 +152,9 @@ struct PresetResult {
   std::map<int, Stat> radius_bias_px, centre_bias_um;
   // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
   Stat pe_all, pb_all, pg_all;
+  // Wall shots: the plate face's direction on the collision plane as the
+  // analysis found it, against the profile's (rad), and that over its sigma.
+  Stat wall_angle, wall_angle_pull;
   std::vector<CampaignShot> points;  // unflagged, for the campaign fit
   std::optional<FrictionFit> friction;
   std::optional<RestitutionMean> restitution;
@@ -383,6 +387,22 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
   }
 }
 
+// The wall face's direction in a wall shot's results JSON ("wall" "normal",
+// "angle_sigma_deg") against the profile's plate.
+void addWallLineError(const std::string& results_json, const Wall& truth, PresetResult& out) {
+  const auto j = nlohmann::json::parse(results_json, nullptr, false);
+  if (j.is_discarded() || !j.contains("wall")) return;
+  const auto& w = j["wall"];
+  if (!w["normal"].is_array() || !w["angle_sigma_deg"].is_number()) return;
+  Vec3 n(w["normal"][0].get<double>(), w["normal"][1].get<double>(), w["normal"][2].get<double>());
+  const Vec3 nt = truth.normal.normalized();
+  if (n.dot(nt) < 0) n = -n;
+  const double angle = std::atan2(n.x() * nt.y() - n.y() * nt.x(), n.dot(nt));
+  const double sigma = w["angle_sigma_deg"].get<double>() * std::numbers::pi / 180;
+  out.wall_angle.add(angle);
+  if (sigma > 0) out.wall_angle_pull.add(angle / sigma);
+}
+
 // A sphere-on-wall shot: analysed as `collide analyze` analyses a wall rig's
 // shot (app::analyzeWallShot, read back from its results JSON), against the
 // truth's impact on the plate (Walton's infinite-mass limit).
@@ -410,6 +430,7 @@ void scoreWallShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double
     out.failures.push_back(name + ": " + results.error().message);
     return;
   }
+  addWallLineError(json->value(), *profile->wall, out);
   ++out.analysed;
   vision::ShotAnalysis r;
   r.collision = results->collision;
@@ -563,6 +584,11 @@ void printPreset(const PresetResult& r) {
         "worst %.3f deg | velocity before RMS %.3f %%\n",
         r.de_flat.rms(), r.de_flat.maxAbs(), r.dg_flat.rms(), r.dg_flat.maxAbs(),
         100 * r.dv_flat.rms());
+  if (!r.wall_angle.v.empty())
+    std::printf(
+        "   wall face's direction: error RMS %.3f worst %.3f mrad | pulls RMS %.2f worst %.1f\n",
+        1e3 * r.wall_angle.rms(), 1e3 * r.wall_angle.maxAbs(), r.wall_angle_pull.rms(),
+        r.wall_angle_pull.maxAbs());
   std::printf("   analysis %.1f ms per shot (worst %.1f ms, up to %d frames), %.0f frames/s\n",
               1e3 * r.analysis_s / std::max(1, r.fired), r.worst_shot_ms, r.max_frames,
               r.frames / std::max(1e-9, r.analysis_s));

@@ -373,6 +373,43 @@ std::optional<vision::WallLine> wallInImage(const RigProfile& p) {
   return line;
 }
 
+vision::WallBend wallBendInImage(const RigProfile& p, const vision::WallLine& line) {
+  vision::WallBend bend;
+  const auto lens = simulatedLens(p);
+  if (!p.wall || !lens || !*lens || !(*lens)->distorted()) return bend;
+  const PinholeCamera& cam = **lens;
+  Vec3 along = Vec3::UnitZ().cross(p.wall->normal);
+  if (!(along.norm() > 1e-9)) return bend;
+  along.normalize();
+  Vec3 centre = p.wall->point_m;
+  centre.z() = 0.0;
+  const Eigen::Vector2d n = line.normal.normalized(), t(-n.y(), n.x());
+  // The face's points every ~0.5 px of image, far enough either way to cross
+  // any frame the profile can set, as (position along the line, offset).
+  const double depth = cam.centre_m.z();
+  const double metres_per_px = depth / cam.focal_px;
+  const double reach_px = 1.2 * std::hypot(p.camera_config.width, p.camera_config.height);
+  std::vector<std::pair<double, double>> curve;
+  for (double k = -reach_px; k <= reach_px; k += 0.5) {
+    const Eigen::Vector2d q = cam.project(centre + k * metres_per_px * along);
+    if (!q.allFinite()) continue;
+    curve.emplace_back((q - line.point_px).dot(t), (q - line.point_px).dot(n));
+  }
+  std::sort(curve.begin(), curve.end());
+  if (curve.size() < 2) return bend;
+  bend.first_px = std::ceil(curve.front().first);
+  bend.step_px = 1.0;
+  std::size_t j = 0;
+  for (double s = bend.first_px; s <= curve.back().first; s += 1.0) {
+    while (j + 2 < curve.size() && curve[j + 1].first < s) ++j;
+    const auto& [s0, d0] = curve[j];
+    const auto& [s1, d1] = curve[j + 1];
+    const double f = s1 > s0 ? std::clamp((s - s0) / (s1 - s0), 0.0, 1.0) : 0.0;
+    bend.offset_px.push_back((1 - f) * d0 + f * d1);
+  }
+  return bend;
+}
+
 vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64_t sequence) const {
   return renderFrame(exposure_start_ns, sequence, 0);
 }
@@ -393,7 +430,8 @@ vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64
     look.level = world_->profile().wall_level;
     look.noise_grey = renderer_->settings().noise_grey;
     look.noise_seed = world_->profile().simulation.seed * 7919ULL + noise_index;
-    vision::drawWall(f.image, vision::maxValue(config_.format), *wall, look);
+    vision::drawWall(f.image, vision::maxValue(config_.format), *wall, look,
+                     wallBendInImage(world_->profile(), *wall));
   }
   return f;
 }

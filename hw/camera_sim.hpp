@@ -93,6 +93,10 @@ Result<vision::RenderSettings> simulatedRenderSettings(const RigProfile& profile
 /// lens when it has one, else the orthographic geometry; none without a wall
 /// or when the face is parallel to the image.
 std::optional<vision::WallLine> wallInImage(const RigProfile& profile);
+/// How the lens bends that face's image away from the straight `line`
+/// (wallInImage's): empty without a lens or with an undistorted one. A
+/// straight plate edge is a straight line only through an ideal pinhole.
+vision::WallBend wallBendInImage(const RigProfile& profile, const vision::WallLine& line);
 
 class CameraSim final : public Camera {
  public:

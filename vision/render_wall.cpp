@@ -28,14 +28,17 @@ double coverage(double d, const Eigen::Vector2d& n) {
 }
 
 template <typename T>
-void paint(cv::Mat& image, int max_value, const WallLine& wall, const WallLook& look) {
+void paint(cv::Mat& image, int max_value, const WallLine& wall, const WallLook& look,
+           const WallBend& bend) {
+  const Eigen::Vector2d along(-wall.normal.y(), wall.normal.x());
   std::mt19937_64 rng(look.noise_seed);
   std::normal_distribution<double> noise(0.0, look.noise_grey > 0 ? look.noise_grey : 1.0);
   const double level = look.level * max_value;
   for (int v = 0; v < image.rows; ++v) {
     T* row = image.ptr<T>(v);
     for (int u = 0; u < image.cols; ++u) {
-      const double d = wall.distancePx(u, v);
+      double d = wall.distancePx(u, v);
+      if (!bend.offset_px.empty()) d -= bend.at((Eigen::Vector2d(u, v) - wall.point_px).dot(along));
       if (d > 1.0 || d < -look.thickness_px - 1.0) continue;
       // On the plate side of the face and in front of the band's back edge.
       const double c =
@@ -50,14 +53,25 @@ void paint(cv::Mat& image, int max_value, const WallLine& wall, const WallLook& 
 
 }  // namespace
 
-void drawWall(cv::Mat& image, int max_value, const WallLine& wall, const WallLook& look) {
+double WallBend::at(double s) const {
+  if (offset_px.empty()) return 0.0;
+  const double x = (s - first_px) / step_px;
+  if (!(x > 0)) return offset_px.front();
+  const auto i = static_cast<std::size_t>(x);
+  if (i + 1 >= offset_px.size()) return offset_px.back();
+  const double f = x - static_cast<double>(i);
+  return (1 - f) * offset_px[i] + f * offset_px[i + 1];
+}
+
+void drawWall(cv::Mat& image, int max_value, const WallLine& wall, const WallLook& look,
+              const WallBend& bend) {
   if (!(wall.normal.norm() > 0)) throw std::invalid_argument("drawWall: zero normal");
   WallLine unit = wall;
   unit.normal.normalize();
   if (image.type() == CV_8UC1)
-    paint<std::uint8_t>(image, max_value, unit, look);
+    paint<std::uint8_t>(image, max_value, unit, look, bend);
   else if (image.type() == CV_16UC1)
-    paint<std::uint16_t>(image, max_value, unit, look);
+    paint<std::uint16_t>(image, max_value, unit, look, bend);
   else
     throw std::invalid_argument("drawWall: image must be CV_8UC1 or CV_16UC1");
 }

@@ -1,6 +1,7 @@
 #include "vision/wall_line.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -141,10 +142,121 @@ std::vector<Eigen::Vector2d> edgePoints(const cv::Mat& img, const WallLine& l) {
   return out;
 }
 
+// Total least squares line through points: their mean, the unit normal
+// (smallest spread; sign as `orient`), the squared residuals' sum and the
+// squared spread along the line.
+struct Tls {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero(), normal = Eigen::Vector2d::UnitY();
+  double ss = 0, spread = 0;
+};
+Tls fitTls(const std::vector<Eigen::Vector2d>& pts, const Eigen::Vector2d& orient) {
+  Tls t;
+  for (const auto& p : pts) t.mean += p;
+  t.mean /= static_cast<double>(pts.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const auto& p : pts) cov += (p - t.mean) * (p - t.mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
+  t.normal = es.eigenvectors().col(0);  // smallest spread: the normal
+  if (t.normal.dot(orient) < 0) t.normal = -t.normal;
+  const Eigen::Vector2d along(-t.normal.y(), t.normal.x());
+  for (const auto& p : pts) {
+    const double d = (p - t.mean).dot(t.normal), a = (p - t.mean).dot(along);
+    t.ss += d * d;
+    t.spread += a * a;
+  }
+  return t;
+}
+
+// The line's angle and offset (along the normal, at the full fit's mean)
+// refitted with each of kBlocks stretches of the edge left out in turn: their
+// jackknife sigmas, which see residuals that are correlated along the edge
+// over less than a stretch. Zero with too few points for the blocks.
+struct BlockJackknife {
+  double angle_sigma_rad = 0, offset_sigma_px = 0;
+};
+BlockJackknife blockJackknife(const std::vector<Eigen::Vector2d>& pts, const Tls& full) {
+  constexpr int kBlocks = 10;
+  BlockJackknife out;
+  if (pts.size() < 5 * kBlocks) return out;
+  const Eigen::Vector2d along(-full.normal.y(), full.normal.x());
+  std::vector<std::pair<double, std::size_t>> order;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    order.emplace_back((pts[i] - full.mean).dot(along), i);
+  std::sort(order.begin(), order.end());
+  std::array<double, kBlocks> angle{}, offset{};
+  double angle_mean = 0, offset_mean = 0;
+  for (int b = 0; b < kBlocks; ++b) {
+    const std::size_t lo = pts.size() * b / kBlocks, hi = pts.size() * (b + 1) / kBlocks;
+    std::vector<Eigen::Vector2d> rest;
+    for (std::size_t k = 0; k < order.size(); ++k)
+      if (k < lo || k >= hi) rest.push_back(pts[order[k].second]);
+    const Tls t = fitTls(rest, full.normal);
+    angle[b] = std::atan2(full.normal.x() * t.normal.y() - full.normal.y() * t.normal.x(),
+                          full.normal.dot(t.normal));
+    // Where this line crosses the full fit's normal through its mean.
+    offset[b] = (t.mean - full.mean).dot(t.normal) / std::max(1e-9, t.normal.dot(full.normal));
+    angle_mean += angle[b] / kBlocks;
+    offset_mean += offset[b] / kBlocks;
+  }
+  double va = 0, vo = 0;
+  for (int b = 0; b < kBlocks; ++b) {
+    va += (angle[b] - angle_mean) * (angle[b] - angle_mean);
+    vo += (offset[b] - offset_mean) * (offset[b] - offset_mean);
+  }
+  const double f = (kBlocks - 1.0) / kBlocks;
+  out.angle_sigma_rad = std::sqrt(f * va);
+  out.offset_sigma_px = std::sqrt(f * vo);
+  return out;
+}
+
+// Image pixels and ideal ones (the pinhole's, distortion removed: u = f x + cu
+// for normalised ideal x); the same pixels without a camera or distortion.
+class IdealPixels {
+ public:
+  explicit IdealPixels(const PinholeCamera* camera)
+      : cam_(camera && camera->distorted() ? camera : nullptr) {}
+  Eigen::Vector2d of(const Eigen::Vector2d& image_px) const {
+    if (!cam_) return image_px;
+    return cam_->focal_px * cam_->normalised(image_px.x(), image_px.y()) + principal();
+  }
+  Eigen::Vector2d image(const Eigen::Vector2d& ideal_px) const {
+    if (!cam_) return ideal_px;
+    return cam_->focal_px * cam_->distort((ideal_px - principal()) / cam_->focal_px) + principal();
+  }
+  // An image line (its point and direction there) in ideal pixels.
+  WallLine line(const WallLine& image_line) const {
+    if (!cam_) return image_line;
+    const Eigen::Vector2d t(-image_line.normal.y(), image_line.normal.x());
+    return fromPoints(of(image_line.point_px - t), of(image_line.point_px + t), image_line.normal);
+  }
+  // A straight line in ideal pixels as the image shows it at its point: the
+  // point's image and the tangent of the (bent) image line there.
+  WallLine imageLine(const Eigen::Vector2d& ideal_point,
+                     const Eigen::Vector2d& ideal_normal) const {
+    if (!cam_) return WallLine{ideal_point, ideal_normal};
+    const Eigen::Vector2d t(-ideal_normal.y(), ideal_normal.x());
+    WallLine l = fromPoints(image(ideal_point - t), image(ideal_point + t), ideal_normal);
+    l.point_px = image(ideal_point);
+    return l;
+  }
+
+ private:
+  Eigen::Vector2d principal() const { return {cam_->principal_u_px, cam_->principal_v_px}; }
+  static WallLine fromPoints(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                             const Eigen::Vector2d& orient) {
+    Eigen::Vector2d n(-(b - a).y(), (b - a).x());
+    n.normalize();
+    if (n.dot(orient) < 0) n = -n;
+    return WallLine{0.5 * (a + b), n};
+  }
+  const PinholeCamera* cam_;
+};
+
 }  // namespace
 
 Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess,
-                                 std::optional<Eigen::Vector2d> sphere_px) {
+                                 std::optional<Eigen::Vector2d> sphere_px,
+                                 const PinholeCamera* camera) {
   // With a guess, the median is needed only where the refinement's profiles
   // reach (8 px either side of a line that moves by a few px at most).
   const cv::Mat median = guess ? medianImage(burst, guess, 24.0) : medianImage(burst);
@@ -169,38 +281,34 @@ Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> gue
     return fail("no straight edge found for the wall: give its line (--wall-line u1,v1,u2,v2)");
   WallLine line = *guess;
   line.normal.normalize();
+  // Through a lens the edge is fitted where a straight plate edge is a
+  // straight line: in ideal (undistorted) pixels.
+  const IdealPixels ideal(camera);
   WallLineFit fit;
   for (int round = 0; round < 3; ++round) {
+    const WallLine ideal_line = ideal.line(line);
     std::vector<Eigen::Vector2d> pts = edgePoints(median, line);
     // Drop points far from the current line (the sphere's outline, clutter).
     std::vector<Eigen::Vector2d> kept;
-    for (const auto& p : pts)
-      if (std::abs(line.distancePx(p.x(), p.y())) < (round == 0 ? 3.0 : 1.0)) kept.push_back(p);
+    for (const auto& p : pts) {
+      const Eigen::Vector2d q = ideal.of(p);
+      if (std::abs(ideal_line.distancePx(q.x(), q.y())) < (round == 0 ? 3.0 : 1.0))
+        kept.push_back(q);
+    }
     if (kept.size() < 10)
       return fail("only " + std::to_string(kept.size()) +
                   " edge points along the wall line (10 needed): give the line with "
                   "--wall-line u1,v1,u2,v2");
-    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const auto& p : kept) mean += p;
-    mean /= kept.size();
-    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-    for (const auto& p : kept) cov += (p - mean) * (p - mean).transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
-    Eigen::Vector2d n = es.eigenvectors().col(0);  // smallest spread: the normal
-    if (n.dot(line.normal) < 0) n = -n;
-    line.point_px = mean;
-    line.normal = n;
-    double ss = 0, spread = 0;
-    for (const auto& p : kept) {
-      const double d = (p - mean).dot(n);
-      ss += d * d;
-      const double along = (p - mean).dot(Eigen::Vector2d(-n.y(), n.x()));
-      spread += along * along;
-    }
+    const Tls tls = fitTls(kept, ideal_line.normal);
+    line = ideal.imageLine(tls.mean, tls.normal);
     const double m = static_cast<double>(kept.size());
-    fit.residual_rms_px = std::sqrt(ss / std::max(1.0, m - 2));
-    fit.offset_sigma_px = fit.residual_rms_px / std::sqrt(m);
-    fit.angle_sigma_rad = fit.residual_rms_px / std::sqrt(spread);
+    fit.residual_rms_px = std::sqrt(tls.ss / std::max(1.0, m - 2));
+    // Independent residuals' sigmas, or the blocks' jackknife where the
+    // residuals wander along the edge together (a pixel-phase bias of the
+    // crossings), whichever is larger.
+    const BlockJackknife jk = blockJackknife(kept, tls);
+    fit.offset_sigma_px = std::max(fit.residual_rms_px / std::sqrt(m), jk.offset_sigma_px);
+    fit.angle_sigma_rad = std::max(fit.residual_rms_px / std::sqrt(tls.spread), jk.angle_sigma_rad);
     fit.points = static_cast<int>(kept.size());
   }
   fit.line = line;

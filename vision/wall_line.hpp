@@ -5,9 +5,11 @@
 // or a given line is the start; edge points are then measured to sub-pixel
 // accuracy along profiles across the line (the 50 % crossing between the
 // plate's level and the background's) and a straight line fitted to them by
-// total least squares, outliers dropped.
+// total least squares (in a lens' ideal pixels when one is given), outliers
+// dropped.
 #include <optional>
 
+#include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "vision/frame.hpp"
 #include "vision/render_wall.hpp"
@@ -25,8 +27,16 @@ struct WallLineFit {
 /// Without a guess, the strongest straight edge; of the edges parallel to it
 /// (a plate shows its face and its back), the one nearest `sphere_px` (a
 /// sphere centre: the face is the edge the sphere flies at) when given.
+/// With a `camera` whose lens bends straight lines, the edge points are
+/// fitted in its ideal (undistorted) pixels, where the face is straight; the
+/// line returned is then the image's tangent to the bent face at the points'
+/// mean, and the sigmas are in ideal pixels (the same to within the
+/// distortion's few per cent). The sigmas are those of independent residuals
+/// or, where larger, a jackknife over ten stretches of the edge (residuals
+/// that wander together along it).
 /// Errors: no good frames; no straight edge found; too few edge points (< 10).
 Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> guess = std::nullopt,
-                                 std::optional<Eigen::Vector2d> sphere_px = std::nullopt);
+                                 std::optional<Eigen::Vector2d> sphere_px = std::nullopt,
+                                 const PinholeCamera* camera = nullptr);
 
 }  // namespace collide::vision

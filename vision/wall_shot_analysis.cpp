@@ -368,9 +368,9 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     a.wall_angle_sigma_rad = s.wall_angle_sigma_rad;
     a.wall_offset_sigma_px = s.wall_offset_sigma_px;
   } else {
-    auto found =
-        findWallLine(burst, s.wall_line,
-                     Eigen::Vector2d(samples.front().m.circle.u, samples.front().m.circle.v));
+    auto found = findWallLine(
+        burst, s.wall_line, Eigen::Vector2d(samples.front().m.circle.u, samples.front().m.circle.v),
+        s.camera ? &*s.camera : nullptr);
     if (!found) return fail("wall: " + found.error().message);
     a.wall_line = found->line;
     a.wall_found_in_image = true;
