@@ -21,8 +21,9 @@
 // Per preset: RMS and worst errors of e, beta, gamma, velocities and spins
 // over the shots the analysis did not flag; the pulls (error / stated sigma)
 // over those and over every analysed shot; the fraction flagged and why; a
-// campaign fit (mu, beta_0) over the unflagged shots; the analysis time; and
-// issue 12's targets, pass or FAIL. A Markdown table closes the run.
+// campaign fit (mu, beta_0) over the unflagged shots; on wall presets, the
+// plate face's direction found against the profile's (error and pulls); the
+// analysis time; and issue 12's targets, pass or FAIL. A Markdown table closes the run.
 // Figures and the command used go in docs/benchmarks.md ("Accuracy").
 #include <algorithm>
 #include <chrono>
