@@ -149,6 +149,8 @@ int runFit(const Options& given) {
         ls->rms_rad_s.z(), ls->spins);
   else
     std::printf("launchers' spin not measured: %s\n", report->launch_spin_error.c_str());
+  if (!report->launch_spin_advice.empty())
+    std::printf("note: %s\n", report->launch_spin_advice.c_str());
   std::cout << "wrote " << json_path << " and 5 plots (PNG, SVG) in " << out << "\n";
   return kExitOk;
 }

@@ -396,10 +396,13 @@ CampaignView::Loaded loadFolder(const std::string& dir) {
       text += QObject::tr("; e(|v_n|): %1 preferred")
                   .arg(QString::fromStdString(restitutionLawName(report->fit.laws->preferred)));
     if (const auto& ls = report->launch_spin)
-      text += QObject::tr("; launchers' spin %1 rad/s per axis (from %2 spins; the profile's "
-                          "[analysis] launch_spin_rad_s)")
+      text += QObject::tr(
+                  "; launchers' spin %1 rad/s per axis (from %2 spins; the profile's "
+                  "[analysis] launch_spin_rad_s)")
                   .arg(withSigma(ls->per_axis_rad_s, ls->sigma_rad_s))
                   .arg(ls->spins);
+    if (!report->launch_spin_advice.empty())
+      text += QObject::tr(". Note: %1").arg(QString::fromStdString(report->launch_spin_advice));
   } else {
     text += QObject::tr("No fit yet: %1").arg(QString::fromStdString(report.error().message));
   }

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "app/store/shot_file.hpp"
+#include "hw/rig_profile.hpp"
 
 namespace collide::app {
 namespace fs = std::filesystem;
@@ -55,6 +58,8 @@ Result<std::vector<CampaignEntry>> loadCampaign(const std::string& dir, bool inc
 std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& files,
                                              bool include_flagged) {
   std::vector<CampaignEntry> entries;
+  // A campaign's shots mostly share one profile: parse each text once.
+  std::map<std::string, std::optional<double>> launch_spin_of;
   for (const auto& file : files) {
     CampaignEntry entry;
     entry.file = file;
@@ -65,6 +70,11 @@ std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& fil
       continue;
     }
     entry.id = shot->id;
+    auto [it, fresh] = launch_spin_of.try_emplace(shot->rig_profile_toml);
+    if (fresh)
+      if (auto profile = hw::parseRigProfile(shot->rig_profile_toml, entry.id))
+        it->second = profile->analysis.launch_spin_rad_s;
+    entry.profile_launch_spin_rad_s = it->second;
     if (shot->status == hw::ShotStatus::Failed) {
       entry.excluded_because = "failed shot: " + shot->failure_reason;
     } else if (shot->results_json.empty()) {
@@ -103,6 +113,39 @@ std::vector<Estimate3> measuredLaunchSpins(const std::vector<CampaignEntry>& ent
   return spins;
 }
 
+namespace {
+
+// The value the analysed shots' profiles state, when they agree.
+std::optional<double> statedLaunchSpin(const std::vector<CampaignEntry>& entries) {
+  std::optional<double> stated;
+  for (const auto& e : entries) {
+    if (!e.results || !e.profile_launch_spin_rad_s) continue;
+    if (stated && *stated != *e.profile_launch_spin_rad_s) return std::nullopt;
+    stated = e.profile_launch_spin_rad_s;
+  }
+  return stated;
+}
+
+std::string launchSpinAdvice(const CampaignFitReport& r) {
+  if (!r.launch_spin || !r.stated_launch_spin_rad_s) return "";
+  const double measured = r.launch_spin->per_axis_rad_s, sigma = r.launch_spin->sigma_rad_s;
+  const double stated = *r.stated_launch_spin_rad_s;
+  const double gap = stated - measured;
+  if (std::abs(gap) <= 3 * sigma || std::abs(gap) <= 0.2 * std::max(measured, stated)) return "";
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "the shots' rig profile states [analysis] launch_spin_rad_s = %.3g, the "
+                "launchers measure %.3g ± %.2g rad/s: set it to %.3g (%s)",
+                stated, measured, sigma, measured,
+                gap > 0 ? "a wider value makes the sigmas of gamma, beta and f of shots whose "
+                          "dots are not seen pessimistic"
+                        : "a narrower value makes the sigmas of gamma, beta and f of shots whose "
+                          "dots are not seen optimistic");
+  return buf;
+}
+
+}  // namespace
+
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
                                             int resamples, std::uint64_t seed, RobustLoss loss) {
   const auto shots = usableShots(entries);
@@ -115,6 +158,8 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
     report.launch_spin = *spread;
   else
     report.launch_spin_error = spread.error().message;
+  report.stated_launch_spin_rad_s = statedLaunchSpin(entries);
+  report.launch_spin_advice = launchSpinAdvice(report);
   std::size_t k = 0;  // index into the fitted shots
   for (const auto& e : entries) {
     if (!e.shot) continue;
@@ -351,6 +396,9 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
         {"launch_spin_rad_s", {{"value", ls.per_axis_rad_s}, {"sigma", ls.sigma_rad_s}}},
         {"rms_per_axis_rad_s", {ls.rms_rad_s.x(), ls.rms_rad_s.y(), ls.rms_rad_s.z()}},
         {"spins", ls.spins}};
+    if (report.stated_launch_spin_rad_s)
+      j["launch_spin"]["profile_states_rad_s"] = *report.stated_launch_spin_rad_s;
+    if (!report.launch_spin_advice.empty()) j["launch_spin"]["advice"] = report.launch_spin_advice;
   } else {
     j["launch_spin"] = {{"error", report.launch_spin_error}};
   }

@@ -25,6 +25,9 @@ struct CampaignEntry {
   /// The shot's quality flags that leave it out of the fits (excludingFlags()),
   /// also when --include-flagged kept it.
   std::vector<std::string> excluding_flags;
+  /// The shot's recorded rig profile's [analysis] launch_spin_rad_s (rad/s),
+  /// when the profile parses.
+  std::optional<double> profile_launch_spin_rad_s;
 };
 
 /// Quality flags that leave a shot out of the fits: its numbers are not to be
@@ -66,6 +69,11 @@ struct CampaignFitReport {
   /// (launchSpinSpread): the rig profile's [analysis] launch_spin_rad_s.
   std::optional<LaunchSpinSpread> launch_spin;
   std::string launch_spin_error;  ///< why there is none
+  /// What the shots' rig profiles state for it, when they all state one value.
+  std::optional<double> stated_launch_spin_rad_s;
+  /// Set when that stated value and the measured one disagree beyond the
+  /// measurement's 3 sigma and by more than 20 %: what to set it to, and why.
+  std::string launch_spin_advice;
 };
 
 /// The pre-impact spins of both spheres of every analysed shot whose spins

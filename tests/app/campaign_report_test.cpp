@@ -8,11 +8,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <random>
 #include <set>
+#include <sstream>
 
 #include "app/store/save.hpp"
 #include "cli_run.hpp"
@@ -223,6 +225,54 @@ TEST_F(CampaignReportTest, MeasuresTheLaunchersSpinFromThePreImpactSpins) {
   EXPECT_THAT(run.out, ::testing::HasSubstr("launchers' spin "));
   EXPECT_THAT(run.out, ::testing::HasSubstr("RMS of 50 measured pre-impact spins"));
   EXPECT_THAT(run.out, ::testing::HasSubstr("[analysis] launch_spin_rad_s"));
+}
+
+// The shots' recorded profile states the prior; when it is far from what the
+// launchers measure (config/sim.toml with 50 rad/s where the spins are drawn
+// with 10), `collide fit` says what to set; near it (10), nothing.
+TEST(CampaignReport, SaysWhenTheProfilesLaunchSpinIsFarFromTheMeasuredOne) {
+  std::ifstream in(std::string(COLLIDE_SOURCE_DIR) + "/config/sim.toml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string sim = text.str();
+  const auto line = sim.find("launch_spin_rad_s = 6.7");
+  ASSERT_NE(line, std::string::npos);
+  for (const char* stated : {"50.0", "10.0"}) {
+    testing::ScratchDir dir;
+    std::string profile = sim;
+    profile.replace(line, std::string("launch_spin_rad_s = 6.7").size(),
+                    std::string("launch_spin_rad_s = ") + stated);
+    std::mt19937 rng(8);
+    for (int i = 0; i < 30; ++i) {
+      testing::ShotSpec spec;
+      spec.id = idFor(i);
+      auto shot = testing::makeShot(spec);
+      shot.rig_profile_toml = profile;
+      shot.results_json = resultsAt(10.0 + 2.3 * i, rng);
+      ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+    }
+    auto entries = loadCampaign(dir.path());
+    ASSERT_TRUE(entries.ok()) << entries.error().message;
+    auto report = fitCampaignFolder(*entries, 0, 3);
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    ASSERT_TRUE(report->stated_launch_spin_rad_s.has_value());
+    EXPECT_DOUBLE_EQ(*report->stated_launch_spin_rad_s, std::stod(stated));
+    const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+    EXPECT_DOUBLE_EQ(j["launch_spin"]["profile_states_rad_s"].get<double>(), std::stod(stated));
+    auto run = testing::runCollide("fit " + testing::q(dir.path()) + " --bootstrap 0", dir);
+    EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+    if (std::string(stated) == "50.0") {
+      EXPECT_THAT(report->launch_spin_advice, ::testing::HasSubstr("states [analysis] "
+                                                                   "launch_spin_rad_s = 50"));
+      EXPECT_THAT(report->launch_spin_advice, ::testing::HasSubstr("pessimistic"));
+      EXPECT_THAT(run.out, ::testing::HasSubstr("note: the shots' rig profile states"));
+      EXPECT_TRUE(j["launch_spin"].contains("advice"));
+    } else {
+      EXPECT_EQ(report->launch_spin_advice, "") << report->launch_spin_advice;
+      EXPECT_THAT(run.out, ::testing::Not(::testing::HasSubstr("note: the shots' rig profile")));
+      EXPECT_FALSE(j["launch_spin"].contains("advice"));
+    }
+  }
 }
 
 // Spins no dot showed (0 +- the prior), poorly measured ones and ones that
