@@ -22,7 +22,7 @@ struct LaunchSpinSpread {
   Vec3 rms_rad_s = Vec3::Zero();
   /// The three axes pooled, rad/s: the value for launch_spin_rad_s.
   double per_axis_rad_s = 0;
-  /// Its standard error, rad/s (from the scatter of the squared components).
+  /// Its standard error, rad/s (from the scatter of the spins' squared sizes).
   double sigma_rad_s = 0;
   int spins = 0;  ///< spins used
 };

@@ -132,11 +132,15 @@ std::string launchSpinAdvice(const CampaignFitReport& r) {
   const double stated = *r.stated_launch_spin_rad_s;
   const double gap = stated - measured;
   if (std::abs(gap) <= 3 * sigma || std::abs(gap) <= 0.2 * std::max(measured, stated)) return "";
+  // A spread the noise hides entirely measures 0: the field wants a value
+  // above 0 (and at most 1000), and the data cannot tell below its sigma.
+  const double suggest = std::min(1000.0, std::max(measured, sigma));
+  if (!(suggest > 0)) return "";
   char buf[400];
   std::snprintf(buf, sizeof buf,
                 "the shots' rig profile states [analysis] launch_spin_rad_s = %.3g, the "
                 "launchers measure %.3g ± %.2g rad/s: set it to %.3g (%s)",
-                stated, measured, sigma, measured,
+                stated, measured, sigma, suggest,
                 gap > 0 ? "a wider value makes the sigmas of gamma, beta and f of shots whose "
                           "dots are not seen pessimistic"
                         : "a narrower value makes the sigmas of gamma, beta and f of shots whose "
