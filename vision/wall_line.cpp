@@ -303,13 +303,16 @@ Result<WallLineFit> findWallLine(const Burst& burst, std::optional<WallLine> gue
     line = ideal.imageLine(tls.mean, tls.normal);
     const double m = static_cast<double>(kept.size());
     fit.residual_rms_px = std::sqrt(tls.ss / std::max(1.0, m - 2));
+    fit.offset_sigma_px = fit.residual_rms_px / std::sqrt(m);
+    fit.angle_sigma_rad = fit.residual_rms_px / std::sqrt(tls.spread);
+    fit.points = static_cast<int>(kept.size());
+    if (round < 2) continue;
     // Independent residuals' sigmas, or the blocks' jackknife where the
     // residuals wander along the edge together (a pixel-phase bias of the
-    // crossings), whichever is larger.
+    // crossings), whichever is larger: on the final points only.
     const BlockJackknife jk = blockJackknife(kept, tls);
-    fit.offset_sigma_px = std::max(fit.residual_rms_px / std::sqrt(m), jk.offset_sigma_px);
-    fit.angle_sigma_rad = std::max(fit.residual_rms_px / std::sqrt(tls.spread), jk.angle_sigma_rad);
-    fit.points = static_cast<int>(kept.size());
+    fit.offset_sigma_px = std::max(fit.offset_sigma_px, jk.offset_sigma_px);
+    fit.angle_sigma_rad = std::max(fit.angle_sigma_rad, jk.angle_sigma_rad);
   }
   fit.line = line;
   return fit;
