@@ -17,6 +17,12 @@ double contactTime(const PlaneTrack& a, const PlaneTrack& b, double dist_m, doub
   return t;
 }
 
+double inPlaneContactDistance(double contact_m, double nz_mean, double nz_sigma) {
+  const double m = std::isfinite(nz_mean) ? nz_mean : 0.0;
+  const double s = std::isfinite(nz_sigma) ? nz_sigma : 0.0;
+  return contact_m * std::sqrt(std::max(0.0, 1.0 - m * m - s * s));
+}
+
 double beforeInstantWeight(double sigma_before_s, double sigma_after_s) {
   const double vb = sigma_before_s * sigma_before_s, va = sigma_after_s * sigma_after_s;
   return (std::isfinite(vb) && std::isfinite(va) && vb + va > 0) ? va / (va + vb) : 0.5;

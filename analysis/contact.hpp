@@ -29,6 +29,16 @@ struct PlaneTrack {
 /// from t0_s (the exact root of the nominal fits; draws lie close to it).
 double contactTime(const PlaneTrack& a, const PlaneTrack& b, double dist_m, double t0_s);
 
+/// Where the centres' images are when the spheres touch: the fits follow the
+/// centres in the image plane, where two touching spheres whose line of
+/// centres leaves the plane by n_z (its z part) are d sqrt(1 - n_z^2) apart,
+/// not d. With n_z known as N(nz_mean, nz_sigma^2), the distance at which the
+/// image-plane fits touch is taken at the expected n_z^2 (nz_mean^2 +
+/// nz_sigma^2). Left at d, the pre-impact instant comes early by d n_z^2 /
+/// (2 |v_n|) and the post-impact one late by as much over |v_n'| (a 3-degree
+/// tilt of 2.54 cm spheres: 35 um, 35 us at 1 m/s).
+double inPlaneContactDistance(double contact_m, double nz_mean, double nz_sigma);
+
 /// Weight of the pre-impact instant in the combined collision instant:
 /// inverse variances, var_a / (var_a + var_b); 0.5 when either is unknown.
 double beforeInstantWeight(double sigma_before_s, double sigma_after_s);

@@ -591,6 +591,32 @@ struct InversePass {
   ShotUncertainty u;
   std::optional<Measured> nz_size;
 };
+// The fits follow the centres' images, which touch at the contact distance's
+// in-plane part (analysis/contact.hpp): both instants found again there, with
+// n_z as the model knows it before the inverse (the sizes and the rig's
+// prior), and the contact distance's sigma widened by what n_z's own
+// uncertainty leaves in it (d |n_z| sigma, and d sigma^2 / sqrt 2 about 0).
+void touchInPlane(InversePass& p, const InverseInputs& in) {
+  const double m = p.model.nz_mean, s = p.model.nz_sigma;
+  const double d = inPlaneContactDistance(in.contact, m, s);
+  if (!(d < in.contact)) return;
+  const auto cb =
+      collisionInstant(p.fits.fit[0][0]->fit, p.fits.fit[1][0]->fit, d, CollisionSide::kBefore);
+  const auto ca =
+      collisionInstant(p.fits.fit[0][1]->fit, p.fits.fit[1][1]->fit, d, CollisionSide::kAfter);
+  if (!cb || !ca) return;
+  p.fits.t_before = cb->t_s, p.fits.sigma_before = cb->sigma_s;
+  p.fits.t_after = ca->t_s, p.fits.sigma_after = ca->sigma_s;
+  p.model.contact = d;
+  p.model.contact_sigma = std::hypot(p.model.contact_sigma, in.contact * std::abs(m) * s,
+                                     in.contact * s * s / std::numbers::sqrt2);
+  const std::array<double, 2> vn = normalSpeedsAtInstants(p.fits);
+  p.model.w_before = beforeInstantWeight(p.fits.sigma_before, p.fits.sigma_after,
+                                         p.model.contact_sigma, vn[0], vn[1]);
+  p.model.t_before = p.fits.t_before;
+  p.model.t_after = p.fits.t_after;
+}
+
 InversePass inversePass(const InverseInputs& in, CollisionFits fits, DepthFits depth,
                         PixelScale scale) {
   InversePass p{std::move(fits), std::move(depth), std::move(scale), {}, {}, {}};
@@ -598,6 +624,7 @@ InversePass inversePass(const InverseInputs& in, CollisionFits fits, DepthFits d
   const double t_c0 = p.model.w_before * p.fits.t_before + (1 - p.model.w_before) * p.fits.t_after;
   p.nz_size = lineOfCentresZFromSize(p.depth, p.fits.t_split, t_c0, in.contact);
   useDepths(p.model, p.depth, p.nz_size, p.fits, in.set, in.r_med);
+  touchInPlane(p, in);
   p.u = propagateShot(p.model);
   return p;
 }

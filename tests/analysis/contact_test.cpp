@@ -37,6 +37,42 @@ TEST(ContactTime, ObliqueApproach) {
   EXPECT_NEAR(contactTime(a, b, d, 0.66), t, 1e-12);
 }
 
+// Two spheres on straight lines in 3D whose line of centres at contact
+// leaves the image plane by n_z: the image-plane tracks reach the in-plane
+// contact distance at the true instant, and the full diameter early.
+TEST(InPlaneContactDistance, TiltedContactIsFoundAtTheTrueInstant) {
+  const double d = 0.0254, nz = 0.05, t_contact = 0.01;
+  const Eigen::Vector3d n(std::sqrt(1 - nz * nz) * std::cos(0.3),
+                          std::sqrt(1 - nz * nz) * std::sin(0.3), nz);
+  // Sphere 1 moves obliquely towards sphere 2, at rest at the origin, and
+  // touches it at t_contact.
+  const Eigen::Vector3d v(-1.2, 0.4, -0.03);
+  const Eigen::Vector3d p1 = d * n - v * t_contact;  // sphere 1 at t = 0
+  PlaneTrack a, b;
+  a.c[0] = Eigen::Vector3d(p1.x(), v.x(), 0);
+  a.c[1] = Eigen::Vector3d(p1.y(), v.y(), 0);
+  b.c[0] = b.c[1] = Eigen::Vector3d::Zero();
+  const double in_plane = inPlaneContactDistance(d, nz, 0);
+  EXPECT_NEAR(in_plane, d * std::hypot(n.x(), n.y()), 1e-15);
+  EXPECT_NEAR(contactTime(a, b, in_plane, 0.0), t_contact, 1e-10);
+  // The whole diameter: the image-plane centres are that far apart before
+  // the spheres touch.
+  EXPECT_LT(contactTime(a, b, d, 0.0), t_contact - 1e-6);
+}
+
+TEST(InPlaneContactDistance, IsTheExpectationOverAnUncertainTilt) {
+  // Over n_z ~ N(0.03, 0.02^2) the mean of d sqrt(1 - n_z^2), by quadrature.
+  const double d = 0.02, m = 0.03, s = 0.02;
+  double sum = 0, wsum = 0;
+  for (double x = -8; x <= 8; x += 1e-3) {
+    const double w = std::exp(-0.5 * x * x), nz = m + s * x;
+    sum += w * d * std::sqrt(1 - nz * nz), wsum += w;
+  }
+  EXPECT_NEAR(inPlaneContactDistance(d, m, s), sum / wsum, 1e-3 * d * (m * m + s * s));
+  // Known to lie in the plane: the whole distance.
+  EXPECT_EQ(inPlaneContactDistance(d, 0, 0), d);
+}
+
 TEST(BeforeInstantWeight, InverseVariances) {
   EXPECT_DOUBLE_EQ(beforeInstantWeight(1e-6, 2e-6), 0.8);  // 4 / (4 + 1)
   EXPECT_DOUBLE_EQ(beforeInstantWeight(3e-6, 3e-6), 0.5);
