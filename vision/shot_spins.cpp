@@ -22,7 +22,8 @@ Vec3 liftThroughLens(const PinholeCamera& camera, const Vec3& centre_m, double r
 
 void addLensSpinSystematic(Eigen::Matrix3d& cov, const Vec3& spin) {
   const double sys = kLensSpinRelativeSigma * spin.norm();
-  cov.diagonal().array() += sys * sys;
+  cov(0, 0) += sys * sys;
+  cov(1, 1) += sys * sys;
 }
 
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,

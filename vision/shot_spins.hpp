@@ -21,15 +21,20 @@ inline constexpr double kSpinSigmaScale = 1.25;
 // A measured spin whose sigma on some axis is above this (rad/s) is no better
 // known than an unmeasured one at the default prior: spin_poorly_measured.
 inline constexpr double kPoorlyMeasuredSpinSigma = 50.0;
-// Through a lens the spins carry an error common to all their dots: per axis
-// about 0.3 % of |omega| on simulated lab imaging, mostly a tilt of the axis
-// by a few tenths of a degree, with even light and without distortion too.
-// Its cause is not found (not the spheres' depth, the distortion, the dots'
-// size or the light: docs/benchmarks.md, session 11); it is stated instead.
+// Through a lens the spins carry an error common to all their dots: about
+// 0.3 % of |omega| on simulated lab imaging, mostly a tilt of the axis by a
+// few tenths of a degree, with even light and without distortion too. Its
+// cause is not found (not the spheres' depth, the distortion, the dots' size
+// or the light: docs/benchmarks.md, session 11); it is stated instead. It
+// lies in the spin's parts about the image plane's axes (x, y), which come
+// from the dots lifted onto the sphere through the lens; the part about the
+// camera's axis (z) is read from the dots' turning in the image and does not
+// carry it (session 32: on lab and wall-lab imaging, z errors within the
+// fit's own sigma, x and y beyond it).
 inline constexpr double kLensSpinRelativeSigma = 0.003;
 
-/// Adds kLensSpinRelativeSigma |spin| per axis to a spin's covariance
-/// measured through a lens.
+/// Adds (kLensSpinRelativeSigma |spin|)^2 to the x and y variances of a
+/// spin's covariance measured through a lens (z: the camera's axis).
 void addLensSpinSystematic(Eigen::Matrix3d& cov, const Vec3& spin);
 
 struct SideSpin {

@@ -9,6 +9,7 @@
 #include "analysis/camera_model.hpp"
 #include "vision/dot_detector.hpp"
 #include "vision/shot_spins.hpp"
+#include "vision/spin_fit.hpp"
 
 namespace collide::vision {
 namespace {
@@ -60,6 +61,52 @@ TEST(LiftThroughLens, ARayThatMissesGoesToTheClosestPoint) {
   const Vec3 v = liftThroughLens(cam, centre, 0.0127, 319.5 + 200, 239.5);
   EXPECT_NEAR(v.norm(), 1.0, 1e-12);
   EXPECT_GT(v.x(), 0.9);
+}
+
+// The dots of a sphere turning about `axis` at 40 rad/s, seen orthographically
+// and lifted with a radius off by `scale` (x and y over a radius 1 % too
+// small when scale = 1.01): the kind of error a lens' lifting makes.
+Vec3 spinFromMisScaledLift(const Vec3& axis, double scale) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> nd;
+  std::vector<Vec3> body;
+  for (int i = 0; i < 12; ++i) body.push_back(Vec3(nd(rng), nd(rng), nd(rng)).normalized());
+  const Vec3 w = axis.normalized() * 40.0;
+  std::vector<SpinFrame> frames;
+  for (int k = 0; k < 10; ++k) {
+    SpinFrame f;
+    f.t_s = 5e-4 * k;
+    const Eigen::Matrix3d rot = Eigen::AngleAxisd(40.0 * f.t_s, w.normalized()).toRotationMatrix();
+    for (const Vec3& b : body) {
+      const Vec3 p = rot * b;
+      if (p.z() < 0.3) continue;
+      const double x = scale * p.x(), y = scale * p.y();
+      f.dots.push_back(Vec3(x, y, std::sqrt(1 - x * x - y * y)));
+    }
+    frames.push_back(f);
+  }
+  const auto fit = fitSpin(frames);
+  EXPECT_TRUE(static_cast<bool>(fit)) << (fit ? "" : fit.error().message);
+  return fit ? Vec3(fit->spin_rad_s - w) : Vec3::Constant(1e9);
+}
+
+// Why addLensSpinSystematic widens only x and y: an error of the lifting
+// leaves a turn about the camera's axis as it is (the lifted dots still turn
+// rigidly about z) and moves a turn about an axis in the image plane.
+TEST(LensSpinSystematic, ALiftingErrorMovesOnlyTheSpinAboutImagePlaneAxes) {
+  EXPECT_LT(spinFromMisScaledLift(Vec3::UnitZ(), 1.01).norm(), 1e-6 * 40);
+  EXPECT_GT(spinFromMisScaledLift(Vec3::UnitX(), 1.01).norm(), 1e-3 * 40);
+  EXPECT_GT(spinFromMisScaledLift(Vec3(1, 1, 0), 1.01).norm(), 1e-3 * 40);
+  // Lifted right, neither moves.
+  EXPECT_LT(spinFromMisScaledLift(Vec3::UnitX(), 1.0).norm(), 1e-6 * 40);
+
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Identity() * 1e-4;
+  const Vec3 spin(30, -40, 0);  // |spin| = 50 rad/s
+  addLensSpinSystematic(cov, spin);
+  const double sys = kLensSpinRelativeSigma * 50;
+  EXPECT_NEAR(cov(0, 0), 1e-4 + sys * sys, 1e-12);
+  EXPECT_NEAR(cov(1, 1), 1e-4 + sys * sys, 1e-12);
+  EXPECT_EQ(cov(2, 2), 1e-4);
 }
 
 }  // namespace
