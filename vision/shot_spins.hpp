@@ -29,8 +29,8 @@ inline constexpr double kPoorlyMeasuredSpinSigma = 50.0;
 // lies in the spin's parts about the image plane's axes (x, y), which come
 // from the dots lifted onto the sphere through the lens; the part about the
 // camera's axis (z) is read from the dots' turning in the image and does not
-// carry it (session 32: on lab and wall-lab imaging, z errors within the
-// fit's own sigma, x and y beyond it).
+// carry it (session 32: on lab and wall-lab imaging the z errors lie within
+// the fit's own sigma; on the lab the x and y errors go beyond it).
 inline constexpr double kLensSpinRelativeSigma = 0.003;
 
 /// Adds (kLensSpinRelativeSigma |spin|)^2 to the x and y variances of a
