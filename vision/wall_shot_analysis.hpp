@@ -48,6 +48,12 @@ struct WallAnalysisSettings {
   /// AnalysisSettings' field).
   double unknown_spin_sigma_rad_s = kDefaultUnknownSpinSigma;
   int monte_carlo_draws = 400;
+  /// Under a lens: how much the sphere's detected outline changes over a
+  /// track because the lit part of its limb is seen from a changing angle,
+  /// px (the rig profile's [analysis] radius_systematic_px, as
+  /// AnalysisSettings' field). The centre moves by as much: with the dots'
+  /// drift, it widens each side's velocity by this over the track's span.
+  double radius_systematic_px = 0.1;
   /// The lens the frames were taken through, when known (the rig profile's
   /// camera calibration, or a simulated camera's perspective): centres, the
   /// face line and the dots are then taken through it onto the collision
