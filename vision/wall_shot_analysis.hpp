@@ -75,10 +75,11 @@ struct WallShotAnalysis {
   bool spin_before_known = false, spin_after_known = false;
   Vec3 spin_sigma_before = Vec3::Zero(), spin_sigma_after = Vec3::Zero();
   /// Velocity sigmas at contact and at separation: the fits' sigmas with the
-  /// residuals' lag-1 inflation and the dots' drift (x, y), widened under a
-  /// lens by what the out-of-plane velocity's uncertainty moves them (a
-  /// centre x off the optical axis placed on the wrong plane moves
-  /// x dv_z / Z0 too fast or slow); z: the out-of-plane prior before the
+  /// residuals' lag-1 inflation and the dots' drift (x, y; under a lens also
+  /// the lamp's, radius_systematic_px over the track), widened under a lens
+  /// by what the out-of-plane velocity's uncertainty moves them (a centre x
+  /// off the optical axis placed on the wrong plane moves x dv_z / Z0 too
+  /// fast or slow); z: the out-of-plane prior before the
   /// impact, the spread the spins leave after it. The propagation draws the
   /// same shares (v_z and the in-plane velocities together).
   Vec3 velocity_sigma_before = Vec3::Zero(), velocity_sigma_after = Vec3::Zero();
