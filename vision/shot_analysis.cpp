@@ -186,6 +186,16 @@ std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
   return vn;
 }
 
+// Collision instant: both estimates, combined by their uncertainties (with
+// the contact distance's, which moves them in opposite directions).
+void useInstants(ShotModel& in, const CollisionFits& fits) {
+  const std::array<double, 2> vn = normalSpeedsAtInstants(fits);
+  in.w_before =
+      beforeInstantWeight(fits.sigma_before, fits.sigma_after, in.contact_sigma, vn[0], vn[1]);
+  in.t_before = fits.t_before;
+  in.t_after = fits.t_after;
+}
+
 // The Monte Carlo's inputs: fits, their inflation and systematics, spins, the priors.
 ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, const ShotSpins& spins,
                     const std::array<double, 2>& r_med, double px, double exposure_s, bool dark) {
@@ -217,13 +227,7 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.offset[s] = std::max(in.offset[s], bias_m);
     }
   }
-  // Collision instant: both estimates, combined by their uncertainties
-  // (with the contact distance's, which moves them in opposite directions).
-  const std::array<double, 2> vn = normalSpeedsAtInstants(fits);
-  in.w_before =
-      beforeInstantWeight(fits.sigma_before, fits.sigma_after, in.contact_sigma, vn[0], vn[1]);
-  in.t_before = fits.t_before;
-  in.t_after = fits.t_after;
+  useInstants(in, fits);
   return in;
 }
 
@@ -599,22 +603,11 @@ struct InversePass {
 void touchInPlane(InversePass& p, const InverseInputs& in) {
   const double m = p.model.nz_mean, s = p.model.nz_sigma;
   const double d = inPlaneContactDistance(in.contact, m, s);
-  if (!(d < in.contact)) return;
-  const auto cb =
-      collisionInstant(p.fits.fit[0][0]->fit, p.fits.fit[1][0]->fit, d, CollisionSide::kBefore);
-  const auto ca =
-      collisionInstant(p.fits.fit[0][1]->fit, p.fits.fit[1][1]->fit, d, CollisionSide::kAfter);
-  if (!cb || !ca) return;
-  p.fits.t_before = cb->t_s, p.fits.sigma_before = cb->sigma_s;
-  p.fits.t_after = ca->t_s, p.fits.sigma_after = ca->sigma_s;
+  if (!(d < in.contact) || !findInstants(p.fits, d)) return;
   p.model.contact = d;
   p.model.contact_sigma = std::hypot(p.model.contact_sigma, in.contact * std::abs(m) * s,
                                      in.contact * s * s / std::numbers::sqrt2);
-  const std::array<double, 2> vn = normalSpeedsAtInstants(p.fits);
-  p.model.w_before = beforeInstantWeight(p.fits.sigma_before, p.fits.sigma_after,
-                                         p.model.contact_sigma, vn[0], vn[1]);
-  p.model.t_before = p.fits.t_before;
-  p.model.t_after = p.fits.t_after;
+  useInstants(p.model, p.fits);
 }
 
 InversePass inversePass(const InverseInputs& in, CollisionFits fits, DepthFits depth,

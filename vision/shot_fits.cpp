@@ -65,6 +65,17 @@ Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> fra
   return fail("unreachable");
 }
 
+Status findInstants(CollisionFits& fits, double contact_m) {
+  const auto cb =
+      collisionInstant(fits.fit[0][0]->fit, fits.fit[1][0]->fit, contact_m, CollisionSide::kBefore);
+  const auto ca =
+      collisionInstant(fits.fit[0][1]->fit, fits.fit[1][1]->fit, contact_m, CollisionSide::kAfter);
+  if (!cb || !ca) return fail(cb ? ca.error().message : cb.error().message);
+  fits.t_before = cb->t_s, fits.sigma_before = cb->sigma_s;
+  fits.t_after = ca->t_s, fits.sigma_after = ca->sigma_s;
+  return Ok{};
+}
+
 Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& sc,
                                    double contact, const Vec3& gravity, bool fix_gravity,
                                    double exposure_s, double frame_dt) {
@@ -104,16 +115,10 @@ Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const Pix
                       " the collision: " + f.error().message);
         out.fit[s][side] = std::move(f).value();
       }
-    auto cb =
-        collisionInstant(out.fit[0][0]->fit, out.fit[1][0]->fit, contact, CollisionSide::kBefore);
-    auto ca =
-        collisionInstant(out.fit[0][1]->fit, out.fit[1][1]->fit, contact, CollisionSide::kAfter);
-    if (!cb || !ca)
-      return fail("no collision found: " + (cb ? ca.error().message : cb.error().message) +
-                  " (closest approach " + fmt("%.1f", d_min) + " px between centres, contact at " +
+    if (Status st = findInstants(out, contact); !st)
+      return fail("no collision found: " + st.error().message + " (closest approach " +
+                  fmt("%.1f", d_min) + " px between centres, contact at " +
                   fmt("%.1f", contact / sc.px) + " px)");
-    out.t_before = cb->t_s, out.sigma_before = cb->sigma_s;
-    out.t_after = ca->t_s, out.sigma_after = ca->sigma_s;
     if (pass == 1) break;
     // The closest frame joins the side it was exposed on, unless its exposure
     // straddles the impact (then it shows a mix of both motions).

@@ -98,6 +98,11 @@ struct CollisionFits {
   double sigma_before = 0, sigma_after = 0;                  ///< their fit uncertainties, s
 };
 
+/// Both collision instants of `fits` (collisionInstant: from the pre-impact
+/// fits and from the post-impact ones) where the centres are `contact_m`
+/// apart, with their sigmas; on failure the fits are left as they were.
+Status findInstants(CollisionFits& fits, double contact_m);
+
 /// Splits the tracks at the closest approach, fits each side, finds the
 /// contact instants; the closest frame then joins the side it was exposed on
 /// unless its exposure straddles the impact, and the fits are redone.
