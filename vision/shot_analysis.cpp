@@ -215,16 +215,22 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.spin[s][side] = spins.side[s][side].spin;
       in.spin_cov[s][side] = spins.side[s][side].cov;
     }
-  // The dots' slow pull on the outline (vision/shot_fits.hpp).
+  // The dots' slow pull on the outline and, under a lens, the lamp's
+  // (vision/shot_fits.hpp).
   for (int s = 0; s < 2; ++s) {
     const auto& sides = spins.side[s];
-    if (sides[0].unknown_reason && sides[1].unknown_reason) continue;  // no dots seen
+    const bool dots_seen = !(sides[0].unknown_reason && sides[1].unknown_reason);
     for (int side = 0; side < 2; ++side) {
       const TrajectoryFit& f = fits.fit[s][side]->fit;
-      const double bias_m = dotBias_m(f, r_med[s], px, exposure_s, dark);
-      const double span = f.tLast_s() - f.tFirst_s();
-      in.drift[s][side] = span > 0 ? bias_m / span : 0.0;
-      in.offset[s] = std::max(in.offset[s], bias_m);
+      double dots = 0;
+      if (dots_seen) {
+        const double bias_m = dotBias_m(f, r_med[s], px, exposure_s, dark);
+        const double span = f.tLast_s() - f.tFirst_s();
+        dots = span > 0 ? bias_m / span : 0.0;
+        in.offset[s] = std::max(in.offset[s], bias_m);
+      }
+      in.drift[s][side] =
+          centreDriftSigma_m_s(f, dots, set.camera.has_value(), set.radius_systematic_px, px);
     }
   }
   useInstants(in, fits);

@@ -78,7 +78,10 @@ struct AnalysisSettings {
   /// contact distance by 2 x this many pixels: the pre-impact instant earlier,
   /// the post-impact one later (or the reverse). It is also taken as how much
   /// the radius bias may change along a track (v_z from the size: Z0 sigma /
-  /// (r T)) and differ between the two spheres (n_z from the sizes). The rig
+  /// (r T)) and differ between the two spheres (n_z from the sizes), and,
+  /// with a lens, as how far the centre drifts over each track (the lit limb
+  /// seen from a changing angle): that over the track's span is in each fit's
+  /// velocity sigma (centreDriftSigma_m_s, vision/shot_fits.hpp). The rig
   /// profile's [analysis] radius_systematic_px.
   double radius_systematic_px = 0.1;
   /// Standard deviation of the measured centres' distance at contact beyond

@@ -25,6 +25,14 @@ double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixe
   return span > 0 ? dotBias_m(fit, radius_px, pixel_m, exposure_s, dark) / span : 0.0;
 }
 
+double centreDriftSigma_m_s(const TrajectoryFit& fit, double dots_m_s, bool through_lens,
+                            double radius_systematic_px, double pixel_m) {
+  const double span = fit.tLast_s() - fit.tFirst_s();
+  const double lamp =
+      through_lens && span > 0 ? std::max(0.0, radius_systematic_px) * pixel_m / span : 0.0;
+  return std::hypot(dots_m_s, lamp);
+}
+
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,
                         const PixelScale& sc, const Vec3& gravity, bool fix_gravity, double t_ref) {
   for (int round = 0; round < 2; ++round) {

@@ -83,6 +83,16 @@ double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, dou
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,
                          double exposure_s, bool dark = false);
 
+/// A track's systematic velocity sigma (m/s): the dots' pull `dots_m_s`
+/// (dotDriftSigma_m_s, 0 where no dot was seen) and, `through_lens`, the
+/// lamp's. Under a lens the lit part of the limb is seen from a changing
+/// angle as the sphere crosses the field, which moves the detected centre by
+/// up to `radius_systematic_px` over a track (docs/benchmarks.md, session
+/// 32): that over the track's span. The two are independent and add in
+/// quadrature; the Monte Carlos draw the sum as they draw the dots' drift.
+double centreDriftSigma_m_s(const TrajectoryFit& fit, double dots_m_s, bool through_lens,
+                            double radius_systematic_px, double pixel_m);
+
 /// Fits one sphere's centres over `frames` (metres, world axes), dropping
 /// frames that lie far off the fit (more than 5 robust sigmas) once.
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,

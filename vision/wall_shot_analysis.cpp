@@ -523,18 +523,13 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   const auto fitSigma = [&](const TrajectoryFit& f, double t) -> Eigen::Vector2d {
     return f.velocityAt_m_s(t).sigma.head<2>() * std::sqrt(residualInflation(f));
   };
-  // The dots' slow pull on the outline and, under a lens, the lamp's: the
-  // lit part of the limb seen from a changing angle moves the detected
-  // centre by up to radius_systematic_px over a track (docs/benchmarks.md,
-  // session 32). Both are shared where the tracks meet at the face.
+  // The dots' slow pull on the outline and, under a lens, the lamp's
+  // (vision/shot_fits.hpp). Both are shared where the tracks meet at the face.
   const auto driftSigma = [&](const TrajectoryFit& f) {
     const double dots = sb.known || sa.known
                             ? dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6, dark)
                             : 0.0;
-    const double span = f.tLast_s() - f.tFirst_s();
-    const double lamp =
-        s.camera && span > 0 ? std::max(0.0, s.radius_systematic_px) * px_m / span : 0.0;
-    return std::hypot(dots, lamp);
+    return centreDriftSigma_m_s(f, dots, s.camera.has_value(), s.radius_systematic_px, px_m);
   };
   WallVelocitySigmas vsig;
   vsig.fit_before = fitSigma(*fb, *tc), vsig.fit_after = fitSigma(*fa, *ts);
