@@ -1,6 +1,7 @@
 #pragma once
 // The simulated truth at the contact, shared by the benchmarks that score a
-// shot against it (accuracy_bench, plan_bench).
+// shot against it (accuracy_bench, plan_bench) and by the tests that do
+// (tests/app/lab_lens_sim_test.cpp).
 #include <array>
 
 #include "analysis/flight.hpp"
