@@ -13,9 +13,7 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <regex>
-#include <sstream>
 #include <vector>
 
 #include "app/analyze.hpp"
@@ -23,16 +21,14 @@
 #include "app/rig_setup.hpp"
 #include "bench/truth_at_contact.hpp"
 #include "hw/rig_profile.hpp"
+#include "shot_fixtures.hpp"
 #include "vision/shot_analysis.hpp"
 
 namespace collide::app {
 namespace {
 
 hw::RigProfile labInThePlane() {
-  std::ifstream in(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string text = ss.str();
+  std::string text = testing::readAll(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml");
   for (const char* key : {"contact_tilt_deg", "out_of_plane_drift"}) {
     const std::regex line(std::string("\n") + key + R"(\s*=\s*[0-9.eE+-]+)");
     EXPECT_TRUE(std::regex_search(text, line)) << key << " is no longer in sim-lab.toml";
