@@ -76,4 +76,29 @@ Vec3 PinholeCamera::sphereCentre(double u_px, double v_px, double radius_m,
   return {centre_m.x() + axis.x() * depth, centre_m.y() - axis.y() * depth, plane_z_m};
 }
 
+Eigen::Matrix2d PinholeCamera::outlineShape(double u_px, double v_px) const {
+  const Eigen::Vector2d xy = normalised(u_px, v_px);
+  const double r2 = xy.squaredNorm();
+  if (!xy.allFinite() || !(r2 > 1e-24)) return Eigen::Matrix2d::Identity();
+  // The ellipse in ideal normalised coordinates: 1 / cos(theta) along e.
+  const Eigen::Vector2d e = xy / std::sqrt(r2);
+  const Eigen::Matrix2d stretch =
+      Eigen::Matrix2d::Identity() + (std::sqrt(1 + r2) - 1) * e * e.transpose();
+  // The distortion's derivative there (central differences), over its
+  // tangential scale, the radial factor: the identity without distortion.
+  const double h = 1e-6;
+  Eigen::Matrix2d jac;
+  jac.col(0) =
+      (distort(xy + Eigen::Vector2d(h, 0)) - distort(xy - Eigen::Vector2d(h, 0))) / (2 * h);
+  jac.col(1) =
+      (distort(xy + Eigen::Vector2d(0, h)) - distort(xy - Eigen::Vector2d(0, h))) / (2 * h);
+  const double radial = 1.0 + k1 * r2 + k2 * r2 * r2;
+  const Eigen::Matrix2d map = jac * stretch / radial;
+  // A circle's image under `map` is the ellipse of the symmetric (map map')^(1/2).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(map * map.transpose());
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues().minCoeff() > 0))
+    return Eigen::Matrix2d::Identity();
+  return eig.operatorSqrt();
+}
+
 }  // namespace collide

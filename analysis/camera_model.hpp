@@ -42,6 +42,18 @@ struct PinholeCamera {
   /// from the optical axis, sin alpha = radius / distance), and its centre is
   /// their mean, outward of tan(theta).
   Vec3 sphereCentre(double u_px, double v_px, double radius_m, double plane_z_m = 0.0) const;
+
+  /// The shape of a sphere's outline seen near pixel (u, v), to first order:
+  /// the symmetric map P (pixels to pixels) that takes a circle about (u, v)
+  /// onto it. theta off the optical axis a sphere is seen as an ellipse
+  /// 1 / cos(theta) longer away from the principal point, and the lens'
+  /// distortion stretches that by its own local derivative (barrel distortion
+  /// shortens it radially). P is scaled so that the outline's axis across
+  /// that direction is 1 on an undistorted lens (P's eigenvalues are then
+  /// 1 / cos(theta) and 1); the identity on the optical axis. The sphere
+  /// detector fits its edge points in the circle P^-1 makes of them, and the
+  /// silhouette fit writes its model there.
+  Eigen::Matrix2d outlineShape(double u_px, double v_px) const;
 };
 
 }  // namespace collide

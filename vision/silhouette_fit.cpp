@@ -22,28 +22,27 @@ struct Pixel {
 
 // Where the model is written: the start centre (u0, v0), about which the
 // background plane is, and M, the symmetric map that makes the outline a
-// circle: the identity, or under a pinhole lens, a shrink by cos(theta) along
-// the direction away from the principal point (a sphere theta off the
-// optical axis is seen as an ellipse 1 / cos(theta) longer that way).
+// circle: the identity, or under a pinhole lens the inverse of the outline's
+// shape there (PinholeCamera::outlineShape: a sphere theta off the optical
+// axis is seen as an ellipse 1 / cos(theta) longer away from the principal
+// point, the distortion's derivative on top). to_mean: the mean of the
+// outline's semi-axes over its radius in M's circle, what the profiles'
+// circle fit reports.
 struct Outline {
   double u0 = 0, v0 = 0;
   double m00 = 1, m01 = 0, m11 = 1;
-  double cos_theta = 1;
+  double to_mean = 1;
 };
 
 Outline outlineAt(double u, double v, const std::optional<PinholeCamera>& camera) {
   Outline o;
   o.u0 = u, o.v0 = v;
   if (!camera) return o;
-  const Eigen::Vector2d xy = camera->normalised(u, v);
-  const Eigen::Vector2d d(u - camera->principal_u_px, v - camera->principal_v_px);
-  if (!xy.allFinite() || !(d.norm() > 1e-9)) return o;
-  o.cos_theta = 1 / std::sqrt(1 + xy.squaredNorm());
-  const Eigen::Vector2d e = d.normalized();
-  const double shrink = 1 - o.cos_theta;  // M = I - (1 - cos theta) e e'
-  o.m00 = 1 - shrink * e.x() * e.x();
-  o.m01 = -shrink * e.x() * e.y();
-  o.m11 = 1 - shrink * e.y() * e.y();
+  const Eigen::Matrix2d shape = camera->outlineShape(u, v);
+  const Eigen::Matrix2d m = shape.inverse();
+  if (!m.allFinite()) return o;
+  o.m00 = m(0, 0), o.m01 = 0.5 * (m(0, 1) + m(1, 0)), o.m11 = m(1, 1);
+  o.to_mean = 0.5 * shape.trace();
   return o;
 }
 
@@ -274,7 +273,7 @@ std::optional<SilhouetteFit> fitSilhouette(const cv::Mat& image, const CircleFit
   if (px.size() < 4 * kParams) return std::nullopt;
   const Outline o = outlineAt(start.u, start.v, settings.camera);
   // The profiles' circle fit reports the mean of the ellipse's semi-axes.
-  const double to_mean = 0.5 * (1 + 1 / std::max(o.cos_theta, 0.5));
+  const double to_mean = o.to_mean;
   // Start: the given circle, levels from the pixels well outside and inside.
   double out_sum = 0, in_sum = 0;
   int out_n = 0, in_n = 0;

@@ -1001,6 +1001,39 @@ Grid negativeGrid(Grid g, int max_value) {
   return g;
 }
 
+// The circle of the edge points, fitted where the outline is one: under a
+// pinhole lens a sphere off the optical axis is an ellipse (up to ~1 % longer
+// radially at the edge of a 50 mm lens' field, +-0.4 px on a 60 px sphere),
+// which a circle fit would take for a pattern of outliers along the outline
+// (the robust fit's search for dents would then drop a third of it and move
+// the centre by tenths of a pixel). The points are mapped by the inverse of
+// the outline's shape about the coarse centre (PinholeCamera::outlineShape),
+// fitted, and the circle mapped back: its centre the ellipse's, its radius the
+// mean of the ellipse's semi-axes, as a circle fit reports on a whole ellipse.
+Result<CircleFit> fitOutline(std::vector<CirclePoint>& pts, const Circle& about,
+                             const std::optional<PinholeCamera>& camera) {
+  if (!camera) return fitCircle(pts, 3.5, 0.05, true);
+  const Eigen::Matrix2d shape = camera->outlineShape(about.u, about.v);
+  const Eigen::Matrix2d to_circle = shape.inverse();
+  if (!to_circle.allFinite()) return fitCircle(pts, 3.5, 0.05, true);
+  for (CirclePoint& p : pts) {
+    const Eigen::Vector2d q = to_circle * Eigen::Vector2d(p.u - about.u, p.v - about.v);
+    p = {about.u + q.x(), about.v + q.y()};
+  }
+  Result<CircleFit> fit = fitCircle(pts, 3.5, 0.05, true);
+  if (!fit) return fit;
+  CircleFit& f = *fit;
+  const Eigen::Vector2d centre =
+      Eigen::Vector2d(about.u, about.v) + shape * Eigen::Vector2d(f.u - about.u, f.v - about.v);
+  const double su = f.sigma_u, sv = f.sigma_v, mean_axis = 0.5 * shape.trace();
+  f.u = centre.x(), f.v = centre.y();
+  f.sigma_u = std::hypot(shape(0, 0) * su, shape(0, 1) * sv);
+  f.sigma_v = std::hypot(shape(1, 0) * su, shape(1, 1) * sv);
+  f.radius *= mean_axis;
+  f.sigma_radius *= mean_axis;
+  return fit;
+}
+
 // `top_clips`: full scale is where the sensor clipped (false for a backlit
 // frame's negative: there full scale is black, no light, the silhouette's
 // true level, and the profiles into it are whole).
@@ -1089,7 +1122,7 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
     std::vector<CirclePoint> pts;
     EdgeStats st;
     edgePoints<T>(img, c, local, pts, st);
-    Result<CircleFit> fit = fitCircle(pts, 3.5, 0.05, true);
+    Result<CircleFit> fit = fitOutline(pts, c, set.camera);
     if (!fit || fit->points < 12) {
       ++out.blobs_ignored;
       out.notes.push_back("a blob near (" + std::to_string(static_cast<int>(c.u)) + ", " +

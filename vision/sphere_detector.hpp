@@ -28,7 +28,11 @@
 // cancels. Profiles that meet a dot, the other sphere, a highlight clipped
 // at full scale or the frame border are rejected. (4) An algebraic circle fit
 // then a geometric (Gauss-Newton) one with iterative outlier rejection; the
-// covariance gives each sphere's uncertainty. (5) Small spheres (radius up to
+// covariance gives each sphere's uncertainty. With settings().camera the
+// points are first mapped by the inverse of the outline's shape
+// (PinholeCamera::outlineShape: off the optical axis a sphere is an ellipse
+// up to ~1 % longer radially), so the fit sees a circle, and the circle is
+// mapped back: the ellipse's centre, the mean of its semi-axes. (5) Small spheres (radius up to
 // settings().silhouette_fit_max_radius_px, 30 px) are measured again by
 // fitting every pixel around their outline with the image of a matte sphere
 // under one lamp on a planar background (vision/silhouette_fit.hpp), started
@@ -110,8 +114,9 @@ struct SphereDetectorSettings {
   /// (vision/silhouette_fit.hpp): on small spheres the edge profiles have too
   /// few samples inside the limb to place a shaded edge. 0: never.
   double silhouette_fit_max_radius_px = 30.0;
-  /// The camera's pinhole, when known, for that fit: off-axis spheres are
-  /// ellipses under perspective (vision/silhouette_fit.hpp).
+  /// The camera's pinhole, when known: off-axis spheres are ellipses under
+  /// perspective, and both the edge points' fit (step 4) and the small
+  /// spheres' whole-image fit (vision/silhouette_fit.hpp) fit them as such.
   std::optional<PinholeCamera> camera;
 };
 

@@ -34,7 +34,10 @@ struct Sample {
 // (within 30 %), outlines cut by the frame's edge left out.
 std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings& s, double px_m,
                                  bool& dark, std::vector<std::string>& notes) {
-  const SphereDetector detector;
+  // Through a lens the outline is fitted as the ellipse it is (fitOutline).
+  SphereDetectorSettings ds;
+  ds.camera = s.camera;
+  const SphereDetector detector(ds);
   // Unknown scale (footage): any round blob, the largest in each frame.
   const double r_px = s.pixel_size_m > 0 ? 0.5 * s.diameter_m / s.pixel_size_m : 0.0;
   const int max_value = maxValue(burst.format);

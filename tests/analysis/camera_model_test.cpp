@@ -8,6 +8,8 @@
 
 #include <cmath>
 
+#include "tests/analysis/cone_outline.hpp"
+
 namespace collide {
 namespace {
 
@@ -81,6 +83,40 @@ TEST(CameraModel, SphereCentreFromItsPerspectiveSilhouette) {
       EXPECT_GT((naive - centre).norm(), 5e-6);
     }
   }
+}
+
+// The outline's shape against the tangent cone's section (truth from the
+// geometry, not from outlineShape): off the axis by theta a sphere of angular
+// radius alpha is an ellipse whose semi-axes along and across the radial
+// direction have the ratio below; outlineShape's eigenvalues are 1 / cos(theta)
+// along (to first order in alpha) and 1 across, along the radial direction.
+// Barrel distortion shortens the radial axis by its derivative's excess over
+// its tangential scale, (1 + 3 k1 r^2) / (1 + k1 r^2) for k1 alone.
+TEST(CameraModel, OutlineShapeIsTheSilhouettesEllipse) {
+  PinholeCamera c = labCamera();
+  c.k1 = c.k2 = c.p1 = c.p2 = 0;
+  EXPECT_TRUE(c.outlineShape(c.principal_u_px, c.principal_v_px).isIdentity(1e-12));
+  const double radius = 0.0127, depth = c.centre_m.z();
+  for (const Vec3& centre : {Vec3(0.07, 0.05, 0), Vec3(-0.09, 0.01, 0), Vec3(0.0, -0.07, 0)}) {
+    const testing::ConeOutline cone = testing::coneOutline(centre.head<2>().norm(), depth, radius);
+    const Eigen::Vector2d seen = c.project(centre);
+    const Eigen::Matrix2d shape = c.outlineShape(seen.x(), seen.y());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(shape);
+    EXPECT_NEAR(eig.eigenvalues()(0), 1.0, 1e-9) << centre.transpose();
+    EXPECT_NEAR(eig.eigenvalues()(1), cone.along / cone.across, 2e-4) << centre.transpose();
+    // The long axis points away from the principal point (image v is down).
+    const Eigen::Vector2d radial = Eigen::Vector2d(centre.x(), -centre.y()).normalized();
+    EXPECT_NEAR(std::abs(eig.eigenvectors().col(1).dot(radial)), 1.0, 1e-9);
+  }
+  PinholeCamera barrel = c;
+  barrel.k1 = -0.08;
+  const Eigen::Vector2d seen = barrel.project(Vec3(0.07, 0.05, 0));
+  const Eigen::Vector2d xy = barrel.normalised(seen.x(), seen.y());
+  const double r2 = xy.squaredNorm();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(barrel.outlineShape(seen.x(), seen.y()));
+  EXPECT_NEAR(eig.eigenvalues()(1),
+              std::sqrt(1 + r2) * (1 + 3 * barrel.k1 * r2) / (1 + barrel.k1 * r2), 1e-6);
+  EXPECT_NEAR(eig.eigenvalues()(0), 1.0, 1e-6);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <random>
 #include <vector>
 
+#include "tests/analysis/cone_outline.hpp"
 #include "vision/render.hpp"
 
 namespace collide::vision {
@@ -157,14 +158,11 @@ TEST(SilhouetteFit, UnderPerspectiveTheEllipseIsFittedGivenTheCamera) {
   SphereView view;
   view.radius_m = radius_m;
   view.centre_m = centre;
-  // The outline from the tangent cone: theta off the axis, half-angle alpha.
-  const double depth = 0.53, off = std::hypot(centre.x(), centre.y());
-  const double theta = std::atan(off / depth), alpha = std::asin(radius_m / std::hypot(off, depth));
-  const double along = 0.5 * cam.focal_px * (std::tan(theta + alpha) - std::tan(theta - alpha));
-  const double across =
-      cam.focal_px * std::sin(alpha) /
-      std::sqrt(std::cos(theta) * std::cos(theta) - std::sin(alpha) * std::sin(alpha));
-  const double mean_radius = 0.5 * (along + across);
+  // The outline from the tangent cone.
+  const double depth = 0.53;
+  const double mean_radius =
+      cam.focal_px *
+      testing::coneOutline(std::hypot(centre.x(), centre.y()), depth, radius_m).meanAxis();
   const Eigen::Vector2d seen = cam.project(centre);
   for (int k = 0; k < 4; ++k) {
     const double az = std::numbers::pi / 2 * k + 0.3;
