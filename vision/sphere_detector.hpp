@@ -32,12 +32,13 @@
 // points are first mapped by the inverse of the outline's shape
 // (PinholeCamera::outlineShape: off the optical axis a sphere is an ellipse
 // up to ~1 % longer radially), so the fit sees a circle, and the circle is
-// mapped back: the ellipse's centre, the mean of its semi-axes. (5) Small spheres (radius up to
-// settings().silhouette_fit_max_radius_px, 30 px) are measured again by
-// fitting every pixel around their outline with the image of a matte sphere
-// under one lamp on a planar background (vision/silhouette_fit.hpp), started
-// from the circle of (4), which stays if that fit fails: with 3-5 samples
-// inside the limb the profiles' shading shapes flip with the noise.
+// mapped back: the ellipse's centre, the mean of its semi-axes. (5) Small
+// spheres (radius up to settings().silhouette_fit_max_radius_px, 30 px) are
+// measured again by fitting every pixel around their outline with the image
+// of a matte sphere under one lamp on a planar background
+// (vision/silhouette_fit.hpp), started from the circle of (4), which stays if
+// that fit fails: with 3-5 samples inside the limb the profiles' shading
+// shapes flip with the noise.
 //
 // Backlit frames (dark silhouettes on a bright field, settings().polarity)
 // are measured as their negative; their levels (background, rim) are
