@@ -669,9 +669,17 @@ TEST_F(GigeLoopback, ACameraLostDuringAShotFailsItSayingWhyAndKeepsTheFrames) {
   Sequencer sequencer(*rig);
   std::thread puller;
   const Shot shot = sequencer.fire(ShotRequest::atSpeeds(2.0, 2.0), [&](const StepStamp& step) {
-    if (step.name == "fired")  // frames are flowing into the burst: pull the plug
-      puller = std::thread([this] {
-        std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    // Frames are flowing into the burst: pull the plug once a quarter of it
+    // has come in, well past frame 0 (the predicted contact, about 7 frames
+    // after arming here) and far from its end. Counted, not timed: 150 ms
+    // after "fired" once held no post-trigger frame on a loaded machine
+    // (the sanitizer pass).
+    if (step.name == "fired")
+      puller = std::thread([this, &rig] {
+        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+        while (rig->camera->burstArrivals() < 5 + 100 / 4 &&
+               std::chrono::steady_clock::now() < give_up)
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
         fake_->kill();
       });
   });
