@@ -4,10 +4,13 @@
 #include <chrono>
 #include <vector>
 
+#include "hw/clock.hpp"
+
 namespace collide::hw {
 
 BurstRecorder::BurstRecorder(BurstLayout layout)
     : layout_(layout),
+      armed_ns_(monotonicNowNs()),
       ring_(static_cast<std::size_t>(std::max(0, layout.pre_trigger_frames) +
                                      std::max(1, layout.post_trigger_frames))) {
   layout_.pre_trigger_frames = std::max(0, layout_.pre_trigger_frames);

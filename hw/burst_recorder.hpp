@@ -34,6 +34,9 @@ class BurstRecorder {
   explicit BurstRecorder(BurstLayout layout);
 
   const BurstLayout& layout() const { return layout_; }
+  /// When the burst was armed (CLOCK_MONOTONIC ns): the ring takes frames
+  /// exposed from then on, however late the acquisition thread notices.
+  std::int64_t armedNs() const { return armed_ns_; }
 
   // ---- acquisition thread -------------------------------------------------
   /// Whether a frame whose exposure starts at `exposure_start_ns` could end up
@@ -91,6 +94,7 @@ class BurstRecorder {
   }
 
   BurstLayout layout_;
+  std::int64_t armed_ns_ = 0;
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   // pre + post slots: after the trigger every frame of the window fits, and

@@ -499,8 +499,10 @@ void CameraSim::run() {
       aligned_to = kNotAligned;
       // fault: a silent camera delivers nothing for this burst.
       stalled = current && silence_ && !silence_->answer(true);
-      // Frames exposed while nothing was armed were never kept: resume now.
-      if (current) seq = std::max(seq, firstFrom(monotonicNowNs()));
+      // Frames exposed while nothing was armed were never kept: resume from
+      // the arming (not from now: on a loaded machine this thread may notice
+      // it late, and the ring of a real camera fills from the arming on).
+      if (current) seq = std::max(seq, firstFrom(current->armedNs()));
     }
 
     std::int64_t sleep_until = std::numeric_limits<std::int64_t>::max();
