@@ -338,21 +338,26 @@ double propagate(WallShotAnalysis& a, double px_m, int draws, double z_sigma_m_s
   return stddev(vz_after);
 }
 
-}  // namespace
+// ---- the stages of analyzeWallBurst -----------------------------------------
 
-Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysisSettings& s) {
+// The settings the analysis cannot start without.
+Status checkSettings(const WallAnalysisSettings& s) {
   if (!(s.pixel_size_m >= 0)) return fail("pixel_size_m: must be >= 0 (0: from the sphere)");
   if (!(s.fps > 0)) return fail("fps: the frame rate must be > 0");
   if (!(s.diameter_m > 0) || !(s.mass_kg > 0))
     return fail("diameter_m and mass_kg: must be > 0 (the sphere's)");
   if (s.wall_line && !(s.wall_line->normal.norm() > 0))
     return fail("wall line: the two points must differ (give --wall-line u1,v1,u2,v2)");
-  WallShotAnalysis a;
-  a.pixel_size_m = s.pixel_size_m;
-  bool dark = false;
+  return Ok{};
+}
+
+// The sphere in each frame, at the scale the analysis works in: the
+// settings' pixel size or, without one (footage), the sphere's median radius
+// against its diameter. Sets a.pixel_size_m; `dark`: a backlit silhouette.
+Result<std::vector<Sample>> detectAtScale(const Burst& burst, const WallAnalysisSettings& s,
+                                          bool& dark, WallShotAnalysis& a) {
   double px_m = s.pixel_size_m;
   if (!(px_m > 0)) {
-    // The scale from the sphere itself: its median radius and diameter_m.
     std::vector<Sample> raw = detectSphere(burst, s, 1.0, dark, a.notes);
     std::vector<double> r;
     for (const Sample& smp : raw) r.push_back(smp.m.circle.radius);
@@ -362,10 +367,17 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     a.notes.clear();
   }
   a.pixel_size_m = px_m;
-  const std::vector<Sample> samples = detectSphere(burst, s, px_m, dark, a.notes);
+  std::vector<Sample> samples = detectSphere(burst, s, px_m, dark, a.notes);
   if (samples.size() < 8)
     return fail("the sphere was found in only " + std::to_string(samples.size()) +
                 " frames (8 needed): check the diameter, pixel size and lighting");
+  return samples;
+}
+
+// The face: the line given, or the one found in the frames (near the given
+// one, which is flagged when the frames put it elsewhere), then in the world.
+Status placeWall(const Burst& burst, const WallAnalysisSettings& s,
+                 const std::vector<Sample>& samples, WallShotAnalysis& a) {
   if (s.wall_line && !s.refine_wall_line) {
     a.wall_line = *s.wall_line;
     a.wall_angle_sigma_rad = s.wall_angle_sigma_rad;
@@ -390,9 +402,21 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
       }
     }
   }
-  a.wall = worldWall(s, px_m, a.wall_line, samples.front().centre_m);
-  const double R = 0.5 * s.diameter_m;
-  // The impact lies next to the sample nearest the face.
+  a.wall = worldWall(s, a.pixel_size_m, a.wall_line, samples.front().centre_m);
+  return Ok{};
+}
+
+// The flight on each side of the impact: its samples, its fit, and the
+// instant its outline meets the face (contact before, separation after).
+struct WallSides {
+  std::vector<Sample> before, after;
+  TrajectoryFit fit_before, fit_after;
+  double t_contact_s = 0, t_separation_s = 0;
+};
+
+// The samples split at the one nearest the face, which joins the side whose
+// extrapolation it agrees with; each side fitted, and where it meets the face.
+Result<WallSides> fitSides(const std::vector<Sample>& samples, double R, WallShotAnalysis& a) {
   std::size_t k = 0;
   for (std::size_t i = 0; i < samples.size(); ++i)
     if ((samples[i].centre_m - a.wall.point_m).dot(a.wall.normal) <
@@ -409,26 +433,23 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   auto fa = fitSide(after, after.front().t_s);
   if (!fb) return fail("pre-impact fit: " + fb.error().message);
   if (!fa) return fail("post-impact fit: " + fa.error().message);
-  // The nearest sample joins the side whose extrapolation it agrees with.
-  {
-    const Sample& n = samples[k];
-    const double db = (fb->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
-    const double da = (fa->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
-    if (db <= da) {
-      before.push_back(n);
-      fb = fitSide(before, n.t_s);
-    } else {
-      after.insert(after.begin(), n);
-      fa = fitSide(after, n.t_s);
-    }
-    if (!fb || !fa) return fail("refit with the frame nearest the wall failed");
+  const Sample& n = samples[k];
+  const double db = (fb->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
+  const double da = (fa->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
+  if (db <= da) {
+    before.push_back(n);
+    fb = fitSide(before, n.t_s);
+  } else {
+    after.insert(after.begin(), n);
+    fa = fitSide(after, n.t_s);
   }
+  if (!fb || !fa) return fail("refit with the frame nearest the wall failed");
   a.frames_used_before = static_cast<int>(before.size());
   a.frames_used_after = static_cast<int>(after.size());
   if (before.size() < 5) a.quality_flags.push_back("few_frames_before");
   if (after.size() < 5) a.quality_flags.push_back("few_frames_after");
   const auto tc = faceInstant(*fb, a.wall, R, true);
-  auto ts = faceInstant(*fa, a.wall, R, false);
+  const auto ts = faceInstant(*fa, a.wall, R, false);
   if (!tc || !ts)
     return fail(
         "the fitted flight never reaches the wall line one radius from it: check the "
@@ -437,18 +458,30 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   a.t_separation_s = *ts;
   a.before = *fb;
   a.after = *fa;
+  return WallSides{std::move(before), std::move(after), std::move(*fb), std::move(*fa), *tc, *ts};
+}
 
-  // Spins from the dots: on a backlit sphere too, as the two-sphere analysis
-  // does (room light on its face shows them); a bare silhouette shows none,
-  // and the reason says so.
+// The spins on each side, from the dots: on a backlit sphere too, as the
+// two-sphere analysis does (room light on its face shows them); a bare
+// silhouette shows none, and the reason says so.
+struct WallSpins {
+  SpinSide before, after;
+  double r_med_px = 0;  // the sphere's median radius over the frames
+};
+
+WallSpins measureSpins(const Burst& burst, const WallAnalysisSettings& s,
+                       const std::vector<Sample>& samples, const WallSides& sides, double R,
+                       bool dark, WallShotAnalysis& a) {
+  WallSpins w;
   std::vector<double> radii;
   for (const Sample& smp : samples) radii.push_back(smp.m.circle.radius);
   std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
-  const double r_med = radii[radii.size() / 2];
-  SpinSide sb = spinOf(burst, before, r_med, s.camera, R, s.unknown_spin_sigma_rad_s),
-           sa = spinOf(burst, after, r_med, s.camera, R, s.unknown_spin_sigma_rad_s);
-  for (SpinSide* side : {&sb, &sa})
+  w.r_med_px = radii[radii.size() / 2];
+  w.before = spinOf(burst, sides.before, w.r_med_px, s.camera, R, s.unknown_spin_sigma_rad_s);
+  w.after = spinOf(burst, sides.after, w.r_med_px, s.camera, R, s.unknown_spin_sigma_rad_s);
+  for (SpinSide* side : {&w.before, &w.after})
     if (dark && !side->known) side->why = "backlit, no dots seen on the silhouette: " + side->why;
+  const SpinSide &sb = w.before, &sa = w.after;
   a.spin_before_known = sb.known;
   a.spin_after_known = sa.known;
   a.spin_sigma_before = sb.known ? Vec3(sb.cov.diagonal().cwiseSqrt()) : Vec3::Constant(kNaN);
@@ -461,86 +494,100 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
     a.quality_flags.push_back("no_spin_after");
     a.notes.push_back("spin after the impact unknown (" + sa.why + "): beta not measured");
   }
+  return w;
+}
 
+// The sphere at contact (before) and at separation (after), and the
+// out-of-plane velocity the impact gave, which the image does not show, from
+// the spin change (appendix B; needs both spins). Under a lens that v_z moves
+// the sphere off the plane z = 0 after the impact, and a centre taken on the
+// wrong plane moves too fast or too slow by dz / Z0 (2 mm at 0.53 m: 0.4 %),
+// its dots meet their rays at the wrong points: the post-impact centres and
+// dots are taken again at their depth, refitted, and v_z found again from the
+// spins. Returns how an error of each side's v_z moves its in-plane velocity.
+WallDepthCoupling kinematicsAtTheFace(const Burst& burst, const WallAnalysisSettings& s,
+                                      WallSides& sides, WallSpins& spins, double R,
+                                      WallShotAnalysis& a) {
+  const double tc = sides.t_contact_s;
   Sphere& b = a.sphere_before;
   b.mass_kg = s.mass_kg;
   b.diameter_m = s.diameter_m;
-  b.position_m = fb->positionAt_m(*tc).value;
-  b.velocity_m_s = fb->velocityAt_m_s(*tc).value;
-  b.spin_rad_s = sb.spin;
+  b.position_m = sides.fit_before.positionAt_m(tc).value;
+  b.velocity_m_s = sides.fit_before.velocityAt_m_s(tc).value;
+  b.spin_rad_s = spins.before.spin;
   a.sphere_after = b;
-  a.sphere_after.velocity_m_s = fa->velocityAt_m_s(*ts).value;
-  a.sphere_after.spin_rad_s = sa.spin;
+  a.sphere_after.velocity_m_s = sides.fit_after.velocityAt_m_s(sides.t_separation_s).value;
+  a.sphere_after.spin_rad_s = spins.after.spin;
   // Under a lens the unseen v_z before the impact (the prior's) moves the
   // pre-impact velocity, and the post-impact one while the spins do not
   // give their own v_z (then taken about that v_z, below).
   WallDepthCoupling coupling;
-  coupling.dv_dvz_before = depthCoupling(before, true, s.camera, R, *tc, 0.0, a.wall);
+  coupling.dv_dvz_before = depthCoupling(sides.before, true, s.camera, R, tc, 0.0, a.wall);
   bool after_at_depth = false;  // the post-impact centres at the spins' v_z
-  // The out-of-plane velocity the impact gave (not seen in the image) from
-  // the spin change (appendix B): needs both spins.
-  if (sb.known && sa.known) {
-    if (auto vz = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall)) {
-      a.sphere_after.velocity_m_s.z() = *vz;
-      // Under a lens that v_z moves the sphere off the plane z = 0 after the
-      // impact, and a centre taken on the wrong plane moves too fast or too
-      // slow by dz / Z0 (2 mm at 0.53 m: 0.4 %), its dots meet their rays at
-      // the wrong points: the post-impact centres and dots at their depth,
-      // refitted, and v_z again from the spins.
-      if (s.camera) {
-        const auto depth = [vz = *vz, t0 = *tc](double t) { return vz * (t - t0); };
-        if (SpinSide at_depth =
-                spinOf(burst, after, r_med, s.camera, R, s.unknown_spin_sigma_rad_s, depth);
-            at_depth.known) {
-          sa = at_depth;
-          a.sphere_after.spin_rad_s = sa.spin;
-          a.spin_sigma_after = Vec3(sa.cov.diagonal().cwiseSqrt());
-        }
-        auto refit = refitAtDepth(after, false, *s.camera, R, *tc, *vz, a.wall);
-        if (refit) {
-          // How much the spins' error in v_z moves the post-impact velocity
-          // (propagate()).
-          coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, *vz, a.wall);
-          coupling.vz_used = *vz;
-          after_at_depth = true;
-          a.after = refit->fit;
-          a.t_separation_s = refit->t_face_s;
-          a.sphere_after.velocity_m_s = refit->velocity;
-          ts = refit->t_face_s;
-          fa = std::move(refit->fit);
-          if (auto vz2 = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
-            a.sphere_after.velocity_m_s.z() = *vz2;
-        }
+  std::optional<double> vz;
+  if (spins.before.known && spins.after.known)
+    if (auto found = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall)) vz = *found;
+  if (vz) {
+    a.sphere_after.velocity_m_s.z() = *vz;
+    if (s.camera) {
+      const auto depth = [vz = *vz, t0 = tc](double t) { return vz * (t - t0); };
+      if (SpinSide at_depth = spinOf(burst, sides.after, spins.r_med_px, s.camera, R,
+                                     s.unknown_spin_sigma_rad_s, depth);
+          at_depth.known) {
+        spins.after = at_depth;
+        a.sphere_after.spin_rad_s = spins.after.spin;
+        a.spin_sigma_after = Vec3(spins.after.cov.diagonal().cwiseSqrt());
+      }
+      if (auto refit = refitAtDepth(sides.after, false, *s.camera, R, tc, *vz, a.wall)) {
+        // How much the spins' error in v_z moves the post-impact velocity
+        // (propagate()).
+        coupling.dv_dvz = depthCoupling(sides.after, false, s.camera, R, tc, *vz, a.wall);
+        coupling.vz_used = *vz;
+        after_at_depth = true;
+        a.after = refit->fit;
+        a.t_separation_s = refit->t_face_s;
+        a.sphere_after.velocity_m_s = refit->velocity;
+        sides.t_separation_s = refit->t_face_s;
+        sides.fit_after = std::move(refit->fit);
+        if (auto vz2 = wallOutOfPlaneVelocity(b, a.sphere_after, a.wall))
+          a.sphere_after.velocity_m_s.z() = *vz2;
       }
     }
   }
   // Otherwise the post-impact centres stay on the plane z = 0, and the
   // coupling is taken about v_z = 0 (the prior's, as before the impact).
-  if (!after_at_depth) coupling.dv_dvz = depthCoupling(after, false, s.camera, R, *tc, 0.0, a.wall);
-  auto m = measureWallCollision(b, a.sphere_after, a.wall);
-  if (!m) return fail("wall inverse: " + m.error().message);
-  a.measured = *m;
-  // As the two-sphere analysis: residuals correlated from frame to frame
-  // (lag-1 inflation) and the dots' slow pull on the outline
-  // (vision/shot_fits.hpp).
+  if (!after_at_depth)
+    coupling.dv_dvz = depthCoupling(sides.after, false, s.camera, R, tc, 0.0, a.wall);
+  return coupling;
+}
+
+// The uncertainties: the velocities' (the fits', as the two-sphere analysis:
+// residuals correlated from frame to frame, lag-1 inflation; the dots' slow
+// pull on the outline and, under a lens, the lamp's, vision/shot_fits.hpp,
+// shared where the tracks meet at the face) and, through propagate(), e,
+// beta, gamma and f's.
+void addSigmas(const Burst& burst, const WallAnalysisSettings& s, const WallSides& sides,
+               const WallSpins& spins, const WallDepthCoupling& coupling, bool dark,
+               WallShotAnalysis& a) {
+  const double px_m = a.pixel_size_m;
   const auto fitSigma = [&](const TrajectoryFit& f, double t) -> Eigen::Vector2d {
     return f.velocityAt_m_s(t).sigma.head<2>() * std::sqrt(residualInflation(f));
   };
-  // The dots' slow pull on the outline and, under a lens, the lamp's
-  // (vision/shot_fits.hpp). Both are shared where the tracks meet at the face.
   const auto driftSigma = [&](const TrajectoryFit& f) {
-    const double dots = sb.known || sa.known
-                            ? dotDriftSigma_m_s(f, r_med, px_m, burst.exposure_us * 1e-6, dark)
-                            : 0.0;
+    const double dots =
+        spins.before.known || spins.after.known
+            ? dotDriftSigma_m_s(f, spins.r_med_px, px_m, burst.exposure_us * 1e-6, dark)
+            : 0.0;
     return centreDriftSigma_m_s(f, dots, s.camera.has_value(), s.radius_systematic_px, px_m);
   };
   WallVelocitySigmas vsig;
-  vsig.fit_before = fitSigma(*fb, *tc), vsig.fit_after = fitSigma(*fa, *ts);
-  vsig.drift_before = driftSigma(*fb), vsig.drift_after = driftSigma(*fa);
-  const double vz_sigma = s.out_of_plane_speed_fraction * b.velocity_m_s.norm();
+  vsig.fit_before = fitSigma(sides.fit_before, sides.t_contact_s);
+  vsig.fit_after = fitSigma(sides.fit_after, sides.t_separation_s);
+  vsig.drift_before = driftSigma(sides.fit_before), vsig.drift_after = driftSigma(sides.fit_after);
+  const double vz_sigma = s.out_of_plane_speed_fraction * a.sphere_before.velocity_m_s.norm();
   const Vec3 fit_sigma_before = vsig.before(), fit_sigma_after = vsig.after();
   const double vz_after_sigma =
-      propagate(a, px_m, s.monte_carlo_draws, vz_sigma, sb, sa, vsig, coupling);
+      propagate(a, px_m, s.monte_carlo_draws, vz_sigma, spins.before, spins.after, vsig, coupling);
   // Reported: the fits' sigmas and what the v_z uncertainty adds through the lens.
   a.velocity_sigma_before = fit_sigma_before;
   a.velocity_sigma_after = fit_sigma_after;
@@ -552,20 +599,43 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   }
   a.velocity_sigma_before.z() = vz_sigma;
   a.velocity_sigma_after.z() = vz_after_sigma;
-  // A spin not measured gives no beta or f: reported as unavailable, not guessed.
-  if (!sb.known || !sa.known) {
+}
+
+// A spin not measured gives no beta or f: reported as unavailable, not
+// guessed. Then the angular momentum about the contact point (nothing
+// compared without beta).
+void checkTheSpins(const WallSpins& spins, WallShotAnalysis& a) {
+  if (!spins.before.known || !spins.after.known) {
     a.measured.beta = kNaN;
     a.beta_sigma = kNaN;
   }
-  if (!sb.known) {
-    a.measured.beta_from_impulse = kNaN;
-  }
-  // Angular momentum about the contact point (nothing compared without beta).
+  if (!spins.before.known) a.measured.beta_from_impulse = kNaN;
   if (auto why = spinImpulseDisagreement(a.measured.beta, a.measured.beta_from_impulse,
                                          a.beta_spin_minus_impulse_sigma)) {
     a.quality_flags.push_back("spin_impulse_disagree");
     a.notes.push_back(*why);
   }
+}
+
+}  // namespace
+
+Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysisSettings& s) {
+  if (Status ok = checkSettings(s); !ok) return ok.error();
+  WallShotAnalysis a;
+  bool dark = false;
+  auto samples = detectAtScale(burst, s, dark, a);
+  if (!samples) return samples.error();
+  if (Status ok = placeWall(burst, s, *samples, a); !ok) return ok.error();
+  const double R = 0.5 * s.diameter_m;
+  auto sides = fitSides(*samples, R, a);
+  if (!sides) return sides.error();
+  WallSpins spins = measureSpins(burst, s, *samples, *sides, R, dark, a);
+  const WallDepthCoupling coupling = kinematicsAtTheFace(burst, s, *sides, spins, R, a);
+  auto m = measureWallCollision(a.sphere_before, a.sphere_after, a.wall);
+  if (!m) return fail("wall inverse: " + m.error().message);
+  a.measured = *m;
+  addSigmas(burst, s, *sides, spins, coupling, dark, a);
+  checkTheSpins(spins, a);
   return a;
 }
 

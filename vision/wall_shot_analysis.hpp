@@ -93,7 +93,11 @@ struct WallShotAnalysis {
   std::vector<std::string> notes;
 };
 
-/// Analyses one wall burst. Errors (saying what to do): no frame with the
+/// Analyses one wall burst, in stages: the sphere in each frame at the
+/// working scale; the face (given or found); the flight on each side fitted
+/// and where it meets the face; the spins from the dots; the sphere at the
+/// face with the post-impact v_z from the spin change; Walton's inverse; the
+/// uncertainties by Monte Carlo. Errors (saying what to do): no frame with the
 /// sphere, fewer than 4 usable frames on a side of the impact, the sphere
 /// never nearing the face line, settings out of range.
 Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysisSettings& settings);
