@@ -7,6 +7,7 @@
 #include <cstring>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "vision/avx2_clones.hpp"
 #include "vision/morphology.hpp"
@@ -176,83 +177,93 @@ std::vector<Run> darkRuns(const cv::Mat& img, const cv::Mat& level, double bg, i
   return runs;
 }
 
+// ------------------------------------------------------------- the stages
+
+// The disc analysed for dots: the sphere's outline less a margin at the limb
+// (where dots are foreshortened to slivers), as a chord per row clipped to
+// the frame, and the square around it that the bare level covers.
+struct Disc {
+  double cu = 0, cv = 0, r = 0, rin = 0;
+  double bg = 0;              // the dark reference the dots are measured against
+  int v0 = 0, v1 = 0;         // its rows
+  int bx0 = 0, bx1 = 0;       // the columns of the square around it
+  std::vector<int> lo, hi;    // each row's chord, from row v0
+  std::vector<char> clipped;  // the chord cut by the frame's edge
+  int rows() const { return v1 - v0 + 1; }
+};
+
+// False when the sphere is too small or too dim for dots, or out of the frame.
+bool analysedDisc(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set, Disc& d) {
+  d.cu = s.circle.u, d.cv = s.circle.v, d.r = s.circle.radius;
+  // The dark reference: the backdrop, or black for a silhouette on a bright
+  // field (backlit: the sphere darker than its background; its dots darker
+  // still).
+  d.bg = s.rim_level > s.background ? s.background : 0.0;
+  if (!(d.r > 3) || !(s.rim_level > d.bg)) return false;
+  const double margin = set.rim_margin_px > 0 ? set.rim_margin_px : std::max(2.5, 0.03 * d.r + 1.5);
+  d.rin = d.r - margin;
+  if (!(d.rin > 2)) return false;
+  d.v0 = std::max(0, static_cast<int>(std::ceil(d.cv - d.rin)));
+  d.v1 = std::min(img.rows - 1, static_cast<int>(std::floor(d.cv + d.rin)));
+  if (d.v0 > d.v1) return false;
+  const int rows = d.rows();
+  d.lo.resize(rows), d.hi.resize(rows), d.clipped.resize(rows);
+  for (int y = d.v0; y <= d.v1; ++y) {
+    const double dy = y - d.cv;
+    const double h = std::sqrt(std::max(0.0, d.rin * d.rin - dy * dy));
+    const int a = static_cast<int>(std::ceil(d.cu - h)), b = static_cast<int>(std::floor(d.cu + h));
+    d.lo[y - d.v0] = std::max(0, a);
+    d.hi[y - d.v0] = std::min(img.cols - 1, b);
+    d.clipped[y - d.v0] = a < 0 || b > img.cols - 1 || y == 0 || y == img.rows - 1;
+  }
+  d.bx0 = std::max(0, static_cast<int>(std::floor(d.cu - d.rin)) - 3);
+  d.bx1 = std::min(img.cols - 1, static_cast<int>(std::ceil(d.cu + d.rin)) + 3);
+  return d.bx0 <= d.bx1;
+}
+
+// The bare sphere's brightness B around every pixel of the disc's square: a
+// grey-level closing (dilation then erosion) with a square wider than a dot
+// (separable: fast) fills the dark dots in from their surroundings and keeps
+// the shading, however one-sided the lamp or wherever a highlight is; a
+// light blur takes the noise's upward bias off. A dot is then dark RELATIVE
+// to its own surroundings, so dots on the shaded side (barely above the
+// backdrop) are found as well as on the lit side.
 template <class T>
-DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
-  DotFrame out;
-  const double cu = s.circle.u, cv = s.circle.v, r = s.circle.radius;
-  // The dark reference dots are measured against: the backdrop, or black for
-  // a silhouette on a bright field (backlit: the sphere darker than its
-  // background; its dots darker still).
-  const double bg = s.rim_level > s.background ? s.background : 0.0, rim = s.rim_level;
-  if (!(r > 3) || !(rim > bg)) return out;
-  const double margin = set.rim_margin_px > 0 ? set.rim_margin_px : std::max(2.5, 0.03 * r + 1.5);
-  const double rin = r - margin;
-  if (!(rin > 2)) return out;
-  const int v0 = std::max(0, static_cast<int>(std::ceil(cv - rin)));
-  const int v1 = std::min(img.rows - 1, static_cast<int>(std::floor(cv + rin)));
-  if (v0 > v1) return out;
-
-  // Chord of the analysed disc in each row, clipped to the frame.
-  const int rows = v1 - v0 + 1;
-  std::vector<int> lo(rows), hi(rows);
-  std::vector<char> clipped(rows);
-  for (int y = v0; y <= v1; ++y) {
-    const double dy = y - cv;
-    const double h = std::sqrt(std::max(0.0, rin * rin - dy * dy));
-    const int a = static_cast<int>(std::ceil(cu - h)), b = static_cast<int>(std::floor(cu + h));
-    lo[y - v0] = std::max(0, a);
-    hi[y - v0] = std::min(img.cols - 1, b);
-    clipped[y - v0] = a < 0 || b > img.cols - 1 || y == 0 || y == img.rows - 1;
+cv::Mat bareLevel(const cv::Mat& img, const Disc& d) {
+  // The closing runs on the frame's own integers (max and min commute with
+  // the conversion, so it equals the closing of the converted levels); the
+  // blur on floats.
+  const cv::Mat roi = img(cv::Range(d.v0, d.v1 + 1), cv::Range(d.bx0, d.bx1 + 1));
+  cv::Mat closed, level;
+  closeWithSquare(roi, std::max(2, static_cast<int>(std::lround(0.17 * d.r))), closed);
+  closed.convertTo(level, CV_32F);
+  cv::GaussianBlur(level, level, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+  // The closing rides on the noise's maxima: take the noise's spread in
+  // the sphere off (the median of closing - image over bare pixels).
+  std::vector<float> diff;
+  for (int y = 0; y < roi.rows; y += 3) {
+    const T* a = roi.ptr<T>(y);
+    const float* b = level.ptr<float>(y);
+    for (int x = std::max(0, d.lo[y] - d.bx0); x <= std::min(roi.cols - 1, d.hi[y] - d.bx0); x += 3)
+      diff.push_back(b[x] - static_cast<float>(a[x]));
   }
-
-  // The bare sphere's brightness B around every pixel: a grey-level closing
-  // (dilation then erosion) with a square wider than a dot (separable: fast)
-  // fills the dark dots in from their surroundings and keeps the shading,
-  // however one-sided the lamp or wherever a highlight is; a light blur takes the noise's upward
-  // bias off. A dot is then dark RELATIVE to its own surroundings, so dots on
-  // the shaded side (barely above the backdrop) are found as well as on the
-  // lit side.
-  const int bx0 = std::max(0, static_cast<int>(std::floor(cu - rin)) - 3);
-  const int bx1 = std::min(img.cols - 1, static_cast<int>(std::ceil(cu + rin)) + 3);
-  if (bx0 > bx1) return out;
-  cv::Mat level;
-  {
-    // The closing runs on the frame's own integers (max and min commute with
-    // the conversion, so it equals the closing of the converted levels); the
-    // blur on floats.
-    const cv::Mat roi = img(cv::Range(v0, v1 + 1), cv::Range(bx0, bx1 + 1));
-    cv::Mat closed;
-    closeWithSquare(roi, std::max(2, static_cast<int>(std::lround(0.17 * r))), closed);
-    closed.convertTo(level, CV_32F);
-    cv::GaussianBlur(level, level, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
-    // The closing rides on the noise's maxima: take the noise's spread in
-    // the sphere off (the median of closing - image over bare pixels).
-    std::vector<float> diff;
-    for (int y = 0; y < roi.rows; y += 3) {
-      const T* a = roi.ptr<T>(y);
-      const float* b = level.ptr<float>(y);
-      const int iy = y;
-      for (int x = std::max(0, lo[iy] - bx0); x <= std::min(roi.cols - 1, hi[iy] - bx0); x += 3)
-        diff.push_back(b[x] - static_cast<float>(a[x]));
-    }
-    if (diff.size() >= 10) {
-      std::nth_element(diff.begin(), diff.begin() + diff.size() / 2, diff.end());
-      level -= std::max(0.0f, diff[diff.size() / 2]);
-    }
+  if (diff.size() >= 10) {
+    std::nth_element(diff.begin(), diff.begin() + diff.size() / 2, diff.end());
+    level -= std::max(0.0f, diff[diff.size() / 2]);
   }
-  const auto shade = [&](int x, int y) {
-    return static_cast<double>(level.at<float>(y - v0, x - bx0));
-  };
-  // A pixel is a dot candidate below halfway from the dark reference to B.
-  std::vector<Run> runs = darkRuns<T>(img, level, bg, v0, bx0, lo, hi, clipped);
-  if (runs.empty()) return out;
+  return level;
+}
 
-  struct Group {
-    int x0, x1, y0, y1;
-    bool edge;
-    int pixels;
-  };
-  std::vector<int> group_of(runs.size(), -1);
+// An 8-connected group of dark runs: a dot candidate.
+struct Group {
+  int x0, x1, y0, y1;
+  bool edge;  // touches the disc's edge or the frame's
+  int pixels;
+};
+
+// The runs' groups (from their union-find roots); group_of[i]: run i's group.
+std::vector<Group> groupRuns(std::vector<Run>& runs, std::vector<int>& group_of) {
+  group_of.assign(runs.size(), -1);
   std::vector<Group> groups;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const int root = findRoot(runs, static_cast<int>(i));
@@ -268,124 +279,148 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     gr.edge |= runs[i].edge;
     gr.pixels += runs[i].x1 - runs[i].x0 + 1;
   }
+  return groups;
+}
 
-  // Which group owns each dark pixel, over the analysed square (for the rings).
-  const int sq0 = std::max(0, static_cast<int>(std::floor(cu - rin)) - 3);
-  const int sq1 = std::min(img.cols - 1, static_cast<int>(std::ceil(cu + rin)) + 3);
-  const int sw = sq1 - sq0 + 1;
-  // The map is a buffer each thread keeps from call to call, all -1 between
-  // calls: the runs are written in, and taken out again on the way out,
-  // rather than the whole square filled every call.
-  thread_local std::vector<std::int32_t> owner_cells;
-  if (owner_cells.size() < static_cast<std::size_t>(sw) * rows)
-    owner_cells.resize(static_cast<std::size_t>(sw) * rows, -1);
-  const auto ownerRow = [&](int y) {
-    return owner_cells.data() + static_cast<std::size_t>(y - v0) * sw - sq0;
+// Which group owns each dark pixel of the disc's square (-1: none), for the
+// rings around each dot. The cells are a buffer each thread keeps from call
+// to call, all -1 between calls: the runs are written in, and taken out
+// again when the map goes, rather than the whole square filled every call.
+class OwnerMap {
+ public:
+  OwnerMap(const Disc& d, const std::vector<Run>& runs, const std::vector<int>& group_of)
+      : runs_(runs), v0_(d.v0), x0_(d.bx0), width_(d.bx1 - d.bx0 + 1) {
+    thread_local std::vector<std::int32_t> cells;
+    if (cells.size() < static_cast<std::size_t>(width_) * d.rows())
+      cells.resize(static_cast<std::size_t>(width_) * d.rows(), -1);
+    cells_ = cells.data();
+    for (std::size_t i = 0; i < runs.size(); ++i)
+      std::fill(row(runs[i].y) + runs[i].x0, row(runs[i].y) + runs[i].x1 + 1, group_of[i]);
+  }
+  ~OwnerMap() {
+    for (const Run& run : runs_) std::fill(row(run.y) + run.x0, row(run.y) + run.x1 + 1, -1);
+  }
+  OwnerMap(const OwnerMap&) = delete;
+  OwnerMap& operator=(const OwnerMap&) = delete;
+  /// Row y's cells, indexed by the frame's column.
+  const std::int32_t* row(int y) const {
+    return cells_ + static_cast<std::size_t>(y - v0_) * width_ - x0_;
+  }
+
+ private:
+  std::int32_t* row(int y) { return cells_ + static_cast<std::size_t>(y - v0_) * width_ - x0_; }
+  const std::vector<Run>& runs_;
+  int v0_, x0_, width_;
+  std::int32_t* cells_ = nullptr;
+};
+
+// The paint's own level (a little above the background in the simulator,
+// often more on real spheres), from the dots' darkest pixels. The coverage
+// is then (B - I) / (B - paint), so the areas (and the dots' size used for
+// the limb correction) come out right. Under uneven light the paint is lit
+// as the sphere around it is: its level P = p0 + p1 B is fitted to those
+// pixels (p1 = 0 for a paint of one level, p0 = 0 for a paint lit like the
+// sphere).
+struct PaintLevel {
+  double p0 = 0, p1 = 0;
+  double at(double bare) const { return p0 + p1 * bare; }
+};
+
+template <class T>
+PaintLevel paintLevel(const cv::Mat& img, const cv::Mat& level, const Disc& d,
+                      const std::vector<Run>& runs) {
+  PaintLevel p{d.bg, 0.0};
+  double n = 0, sb = 0, sbb = 0, si = 0, sbi = 0;
+  std::vector<double> core;
+  for (const Run& run : runs) {
+    const T* row = img.ptr<T>(run.y);
+    const float* shade = level.ptr<float>(run.y - d.v0) - d.bx0;
+    for (int x = run.x0; x <= run.x1; ++x) {
+      const double b = shade[x], i = row[x];
+      if (!(i - d.bg < 0.25 * (b - d.bg))) continue;
+      n += 1, sb += b, sbb += b * b, si += i, sbi += b * i;
+      core.push_back(i);
+    }
+  }
+  if (core.size() < 5) return p;
+  std::nth_element(core.begin(), core.begin() + core.size() / 2, core.end());
+  p.p0 = core[core.size() / 2];
+  const double var_b = sbb / n - (sb / n) * (sb / n);
+  const double mean_b = sb / n;
+  if (n >= 20 && var_b > 1e-4 * mean_b * mean_b) {
+    p.p1 = std::clamp((sbi / n - mean_b * si / n) / var_b, 0.0, 0.5);
+    p.p0 = si / n - p.p1 * mean_b;
+  }
+  return p;
+}
+
+// What measuring one dot needs, shared by all of a frame's dots.
+struct DotScratch {
+  std::vector<BareSample> bare;
+  FitScratch fit;
+};
+
+// Dot candidate g's centre and area: each pixel weighted by its coverage
+// (B - I) / (B - P), with B under the dot a quadratic in (x, y) fitted to the
+// bare sphere in a frame around it (smooth and unbiased, where the closing
+// is only good enough to find dots), refitted once without the pixels that
+// stray (a neighbouring dot, a glint). None for an area below a pixel or
+// above a quarter of the disc.
+template <class T>
+std::optional<Dot> measureDot(const cv::Mat& img, const cv::Mat& level, const Disc& d,
+                              const OwnerMap& owner, const PaintLevel& paint, int g,
+                              const Group& gr, DotScratch& k) {
+  const int gap = 2, ring = std::max(3, static_cast<int>(std::lround(0.06 * d.r)));
+  const double mx = 0.5 * (gr.x0 + gr.x1), my = 0.5 * (gr.y0 + gr.y1);
+  Quadratic coef = Quadratic::Zero();
+  k.bare.clear();
+  for (int y = std::max(d.v0, gr.y0 - gap - ring); y <= std::min(d.v1, gr.y1 + gap + ring); ++y) {
+    const int iy = y - d.v0;
+    const T* row = img.ptr<T>(y);
+    const std::int32_t* o = owner.row(y);
+    for (int x = std::max(d.lo[iy], gr.x0 - gap - ring);
+         x <= std::min(d.hi[iy], gr.x1 + gap + ring); ++x) {
+      if (x >= gr.x0 - gap && x <= gr.x1 + gap && y >= gr.y0 - gap && y <= gr.y1 + gap) continue;
+      if (o[x] >= 0) continue;
+      k.bare.push_back({x - mx, y - my, static_cast<double>(row[x])});
+    }
+  }
+  const bool local = fitBareQuadratic(k.bare, k.fit, coef);
+  const auto bare = [&](int x, int y) {
+    return local ? quadraticAt(coef, x - mx, y - my)
+                 : static_cast<double>(level.at<float>(y - d.v0, x - d.bx0));
   };
-  struct Clear {
-    const std::vector<Run>& runs;
-    decltype(ownerRow)& row;
-    ~Clear() {
-      for (const Run& run : runs) std::fill(row(run.y) + run.x0, row(run.y) + run.x1 + 1, -1);
-    }
-  } clear_on_return{runs, ownerRow};
-  for (std::size_t i = 0; i < runs.size(); ++i)
-    std::fill(ownerRow(runs[i].y) + runs[i].x0, ownerRow(runs[i].y) + runs[i].x1 + 1, group_of[i]);
-
-  // The paint's own level (a little above the background in the simulator,
-  // often more on real spheres): the median of the dots' darkest pixels. The
-  // coverage is then (B - I) / (B - paint), so the areas (and the dots' size
-  // used for the limb correction) come out right.
-  // Under uneven light the paint is lit as the sphere around it is: its
-  // level P = p0 + p1 B is fitted to the dots' darkest pixels (p1 = 0 for a
-  // paint of one level, p0 = 0 for a paint lit like the sphere).
-  double p0 = bg, p1 = 0;
-  {
-    double n = 0, sb = 0, sbb = 0, si = 0, sbi = 0;
-    std::vector<double> core;
-    for (const Run& run : runs) {
-      const T* row = img.ptr<T>(run.y);
-      for (int x = run.x0; x <= run.x1; ++x) {
-        const double b = shade(x, run.y), i = row[x];
-        if (!(i - bg < 0.25 * (b - bg))) continue;
-        n += 1, sb += b, sbb += b * b, si += i, sbi += b * i;
-        core.push_back(i);
-      }
-    }
-    if (core.size() >= 5) {
-      std::nth_element(core.begin(), core.begin() + core.size() / 2, core.end());
-      p0 = core[core.size() / 2];
-      const double var_b = sbb / n - (sb / n) * (sb / n);
-      const double mean_b = sb / n;
-      if (n >= 20 && var_b > 1e-4 * mean_b * mean_b) {
-        p1 = std::clamp((sbi / n - mean_b * si / n) / var_b, 0.0, 0.5);
-        p0 = si / n - p1 * mean_b;
-      }
+  double sw = 0, su = 0, sv = 0;
+  for (int y = std::max(d.v0, gr.y0 - 2); y <= std::min(d.v1, gr.y1 + 2); ++y) {
+    const int iy = y - d.v0;
+    const T* row = img.ptr<T>(y);
+    const std::int32_t* o = owner.row(y);
+    for (int x = std::max(d.lo[iy], gr.x0 - 2); x <= std::min(d.hi[iy], gr.x1 + 2); ++x) {
+      if (o[x] >= 0 && o[x] != g) continue;
+      const double b = bare(x, y);
+      const double w = (b - row[x]) / std::max(1e-6 * (b + 1), b - paint.at(b));
+      sw += w, su += w * x, sv += w * y;
     }
   }
-  const double max_area = 0.25 * r * r;
-  const double cos_max = std::cos(set.max_polar_deg * std::numbers::pi / 180.0);
-  std::vector<BareSample> bare_samples;
-  FitScratch fit_scratch;
-  for (std::size_t g = 0; g < groups.size(); ++g) {
-    const Group& gr = groups[g];
-    if (gr.edge) {
-      ++out.rejected;
-      continue;
-    }
-    // B under the dot, for its coverage weights: a quadratic in (x, y)
-    // fitted to the bare sphere in a frame around the dot (smooth and
-    // unbiased, where the closing above is only good enough to find dots),
-    // refitted once without the pixels that stray (a neighbouring dot, a glint).
-    const int gap = 2, ring = std::max(3, static_cast<int>(std::lround(0.06 * r)));
-    const double mx = 0.5 * (gr.x0 + gr.x1), my = 0.5 * (gr.y0 + gr.y1);
-    Quadratic coef = Quadratic::Zero();
-    bare_samples.clear();
-    for (int y = std::max(v0, gr.y0 - gap - ring); y <= std::min(v1, gr.y1 + gap + ring); ++y) {
-      const int iy = y - v0;
-      const T* row = img.ptr<T>(y);
-      const std::int32_t* o = ownerRow(y);
-      for (int x = std::max(lo[iy], gr.x0 - gap - ring); x <= std::min(hi[iy], gr.x1 + gap + ring);
-           ++x) {
-        if (x >= gr.x0 - gap && x <= gr.x1 + gap && y >= gr.y0 - gap && y <= gr.y1 + gap) continue;
-        if (o[x] >= 0) continue;
-        bare_samples.push_back({x - mx, y - my, static_cast<double>(row[x])});
-      }
-    }
-    const bool local = fitBareQuadratic(bare_samples, fit_scratch, coef);
-    const auto bare = [&](int x, int y) {
-      return local ? quadraticAt(coef, x - mx, y - my) : shade(x, y);
-    };
-    double sw_ = 0, su = 0, sv = 0;
-    for (int y = std::max(v0, gr.y0 - 2); y <= std::min(v1, gr.y1 + 2); ++y) {
-      const int iy = y - v0;
-      const T* row = img.ptr<T>(y);
-      const std::int32_t* o = ownerRow(y);
-      for (int x = std::max(lo[iy], gr.x0 - 2); x <= std::min(hi[iy], gr.x1 + 2); ++x) {
-        if (o[x] >= 0 && o[x] != static_cast<int>(g)) continue;
-        const double b = bare(x, y);
-        const double w = (b - row[x]) / std::max(1e-6 * (b + 1), b - (p0 + p1 * b));
-        sw_ += w, su += w * x, sv += w * y;
-      }
-    }
-    if (!(sw_ >= 1.0) || sw_ > max_area) {
-      ++out.rejected;
-      continue;
-    }
-    Dot d;
-    d.u_px = su / sw_;
-    d.v_px = sv / sw_;
-    d.area_px2 = sw_;
-    out.dots.push_back(d);
-  }
+  if (!(sw >= 1.0) || sw > 0.25 * d.r * d.r) return std::nullopt;
+  Dot dot;
+  dot.u_px = su / sw;
+  dot.v_px = sv / sw;
+  dot.area_px2 = sw;
+  return dot;
+}
 
-  // Dot size: face-on area pi (R sin alpha)^2; a dot seen at polar angle theta
-  // covers that times cos(theta).
+// The dots' size, given or from their areas (face-on area pi (R sin
+// alpha)^2; a dot seen at polar angle theta covers that times cos(theta)),
+// each dot lifted onto the sphere with it, and those left out that lie too
+// near the limb or have the wrong area for a dot at their place (a fragment
+// split by noise, a speck, two dots run together).
+void sizeAndScreen(const Disc& d, const DotSettings& set, DotFrame& out) {
   std::vector<double> sin2;
-  for (Dot& d : out.dots) {
-    d.on_sphere = liftToSphere(d.u_px, d.v_px, cu, cv, r);
-    if (d.on_sphere.z() > 0.4)
-      sin2.push_back(d.area_px2 / (std::numbers::pi * r * r * d.on_sphere.z()));
+  for (Dot& dot : out.dots) {
+    dot.on_sphere = liftToSphere(dot.u_px, dot.v_px, d.cu, d.cv, d.r);
+    if (dot.on_sphere.z() > 0.4)
+      sin2.push_back(dot.area_px2 / (std::numbers::pi * d.r * d.r * dot.on_sphere.z()));
   }
   double alpha = set.angular_radius_rad;
   if (!(alpha > 0) && !sin2.empty()) {
@@ -393,24 +428,47 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
     alpha = std::asin(std::sqrt(std::clamp(sin2[sin2.size() / 2], 0.0, 0.25)));
   }
   out.angular_radius_rad = alpha > 0 ? alpha : 0.0;
-  out.dot_area_px2 = std::numbers::pi * std::pow(r * std::sin(out.angular_radius_rad), 2);
+  out.dot_area_px2 = std::numbers::pi * std::pow(d.r * std::sin(out.angular_radius_rad), 2);
+  const double cos_max = std::cos(set.max_polar_deg * std::numbers::pi / 180.0);
   std::vector<Dot> kept;
-  for (Dot& d : out.dots) {
-    d.on_sphere = liftToSphere(d.u_px, d.v_px, cu, cv, r, out.angular_radius_rad);
-    if (d.on_sphere.z() < cos_max) {
+  for (Dot& dot : out.dots) {
+    dot.on_sphere = liftToSphere(dot.u_px, dot.v_px, d.cu, d.cv, d.r, out.angular_radius_rad);
+    const double expected = out.dot_area_px2 * dot.on_sphere.z();
+    const bool wrong_area =
+        out.dot_area_px2 > 0 && (dot.area_px2 < 0.4 * expected || dot.area_px2 > 2.5 * expected);
+    if (dot.on_sphere.z() < cos_max || wrong_area) {
       ++out.rejected;
       continue;
     }
-    // A fragment (a dot split by noise, a speck) or two dots run together
-    // has the wrong area for a dot at this place on the sphere.
-    const double expected = out.dot_area_px2 * d.on_sphere.z();
-    if (out.dot_area_px2 > 0 && (d.area_px2 < 0.4 * expected || d.area_px2 > 2.5 * expected)) {
-      ++out.rejected;
-      continue;
-    }
-    kept.push_back(d);
+    kept.push_back(dot);
   }
   out.dots = std::move(kept);
+}
+
+template <class T>
+DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const DotSettings& set) {
+  DotFrame out;
+  Disc d;
+  if (!analysedDisc(img, s, set, d)) return out;
+  const cv::Mat level = bareLevel<T>(img, d);
+  // A pixel is a dot candidate below halfway from the dark reference to B.
+  std::vector<Run> runs = darkRuns<T>(img, level, d.bg, d.v0, d.bx0, d.lo, d.hi, d.clipped);
+  if (runs.empty()) return out;
+  std::vector<int> group_of;
+  const std::vector<Group> groups = groupRuns(runs, group_of);
+  const OwnerMap owner(d, runs, group_of);
+  const PaintLevel paint = paintLevel<T>(img, level, d, runs);
+  DotScratch scratch;
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    std::optional<Dot> dot;
+    if (!groups[g].edge)
+      dot = measureDot<T>(img, level, d, owner, paint, static_cast<int>(g), groups[g], scratch);
+    if (dot)
+      out.dots.push_back(*dot);
+    else
+      ++out.rejected;
+  }
+  sizeAndScreen(d, set, out);
   return out;
 }
 
