@@ -242,152 +242,197 @@ Eigen::VectorXd solveWithFrameOffsets(const NormalEquations& ne,
   return dx;
 }
 
-// `warm`: a fit of the same frames to start from (its spin, dot positions,
-// shifts, noise scale and outlier cut), for a refit with one track fewer: one
-// Gauss-Newton step from there (the delete-one estimate to second order),
-// without a new outlier cut. Otherwise the spin starts at w_start.
-Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
-                          const std::vector<std::vector<int>>& track_of, int next_track,
-                          const Vec3& w_start, const JointFit* warm = nullptr) {
-  const std::size_t n = frames.size();
-  JointFit out;
-  // ---- observations of tracks seen at least twice
-  std::vector<int> count(next_track, 0);
-  for (std::size_t k = 0; k < n; ++k)
-    for (const int t : track_of[k])
-      if (t >= 0) ++count[t];
-  std::vector<int> param_of(next_track, -1);
+// One side's joint fit as it runs: the observations of the tracks seen at
+// least twice; the unknowns (the spin, each track's position on the body,
+// each frame's centre shift) and their normal equations. Residuals are taken
+// in the image plane (x, y of the unit sphere), where the dots' errors are
+// isotropic; lifting only served the matching.
+struct JointProblem {
+  const std::vector<SpinFrame>& frames;
+  const std::size_t n;
+  const double t0;
+  // ---- what is observed
+  std::vector<int> param_of;  // per track id: its body-position parameter, -1: seen once
   int tracks = 0;
-  for (int t = 0; t < next_track; ++t)
-    if (count[t] >= 2) param_of[t] = tracks++;
   std::vector<Observation> obs;
-  std::vector<char> frame_used(n, 0);
-  for (std::size_t k = 0; k < n; ++k)
-    for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
-      const int t = track_of[k][i];
-      if (t < 0 || param_of[t] < 0) continue;
-      obs.push_back({static_cast<int>(k), param_of[t], frames[k].dots[i], weightOf(frames[k], i),
-                     static_cast<int>(i)});
-      frame_used[k] = 1;
-    }
-  const double t0 = frames.front().t_s;
-
-  // ---- joint fit: spin, body positions and (optionally) per-frame centre offsets
-  // Residuals are taken in the image plane (x, y of the unit sphere), where
-  // the dots' errors are isotropic; lifting only served the matching.
-  Vec3 w = warm ? warm->w : w_start;
-  std::vector<Vec3> body(tracks, Vec3::Zero());
-  for (const Observation& o : obs)
-    body[o.track] += o.w * expRot(w * (frames[o.frame].t_s - t0)).transpose() * o.p;
-  for (Vec3& b : body) b.normalize();
-  if (warm)
-    for (int t = 0; t < next_track; ++t)
-      if (param_of[t] >= 0 && warm->has_body[t]) body[param_of[t]] = warm->body[t];
-  std::vector<int> offset_of(n, -1);
+  std::vector<char> frame_used;
+  std::vector<int> offset_of;  // per frame: its centre offset, -1: none
   int offsets = 0;
-  for (std::size_t k = 0; k < n; ++k)
-    if (frame_used[k] && frames[k].centre_sigma > 0) offset_of[k] = offsets++;
-  std::vector<Eigen::Vector2d> shift =
-      warm ? warm->shift : std::vector<Eigen::Vector2d>(n, Eigen::Vector2d::Zero());
-  std::vector<char> use(obs.size(), 1);
-  if (warm)
-    for (std::size_t i = 0; i < obs.size(); ++i) use[i] = warm->used_obs[obs[i].frame][obs[i].dot];
+  int nb = 0;  // parameters besides the offsets: spin and body positions
+  // ---- the unknowns
+  Vec3 w = Vec3::Zero();
+  std::vector<Vec3> body;
+  std::vector<Eigen::Vector2d> shift;
+  std::vector<char> use;  // per observation: kept by the outlier cut
+  // Offsets are held at zero until the residuals have given the dots' noise
+  // scale, which sets the weight of their prior (the detector's centre sigma).
+  bool with_offsets = false;
+  double s2 = 0;  // the residuals' variance scale
+  int used = 0;
+  double rms = 0;
   // The rotation to each frame with observations, and its left Jacobian, at
   // spin w: once per frame, not once per dot.
-  std::vector<Eigen::Matrix3d> rot(n), jl(n);
-  const auto rotateFrames = [&](const Vec3& spin, bool jacobians = true) {
+  std::vector<Eigen::Matrix3d> rot, jl;
+  NormalEquations ne{0, 0};
+
+  JointProblem(const std::vector<SpinFrame>& frames_, const std::vector<std::vector<int>>& track_of,
+               int next_track, const Vec3& w_start, const JointFit* warm)
+      : frames(frames_), n(frames_.size()), t0(frames_.front().t_s), rot(n), jl(n) {
+    observe(track_of, next_track);
+    start(w_start, warm, next_track);
+    nb = 3 + 2 * tracks;
+    ne = NormalEquations(nb, offsets);
+    couplingRows();
+  }
+
+  // Observations of the tracks seen at least twice.
+  void observe(const std::vector<std::vector<int>>& track_of, int next_track) {
+    std::vector<int> count(next_track, 0);
+    for (std::size_t k = 0; k < n; ++k)
+      for (const int t : track_of[k])
+        if (t >= 0) ++count[t];
+    param_of.assign(next_track, -1);
+    for (int t = 0; t < next_track; ++t)
+      if (count[t] >= 2) param_of[t] = tracks++;
+    frame_used.assign(n, 0);
+    for (std::size_t k = 0; k < n; ++k)
+      for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
+        const int t = track_of[k][i];
+        if (t < 0 || param_of[t] < 0) continue;
+        obs.push_back({static_cast<int>(k), param_of[t], frames[k].dots[i], weightOf(frames[k], i),
+                       static_cast<int>(i)});
+        frame_used[k] = 1;
+      }
+    offset_of.assign(n, -1);
+    for (std::size_t k = 0; k < n; ++k)
+      if (frame_used[k] && frames[k].centre_sigma > 0) offset_of[k] = offsets++;
+  }
+
+  // Where the fit starts: the warm fit's state, or spin w_start with each
+  // track's body position the mean of its dots turned back by it.
+  void start(const Vec3& w_start, const JointFit* warm, int next_track) {
+    w = warm ? warm->w : w_start;
+    body.assign(tracks, Vec3::Zero());
+    for (const Observation& o : obs)
+      body[o.track] += o.w * expRot(w * (frames[o.frame].t_s - t0)).transpose() * o.p;
+    for (Vec3& b : body) b.normalize();
+    if (warm)
+      for (int t = 0; t < next_track; ++t)
+        if (param_of[t] >= 0 && warm->has_body[t]) body[param_of[t]] = warm->body[t];
+    shift = warm ? warm->shift : std::vector<Eigen::Vector2d>(n, Eigen::Vector2d::Zero());
+    use.assign(obs.size(), 1);
+    if (warm) {
+      for (std::size_t i = 0; i < obs.size(); ++i)
+        use[i] = warm->used_obs[obs[i].frame][obs[i].dot];
+      s2 = warm->s2;
+      with_offsets = warm->with_offsets;
+    }
+  }
+
+  // The rows of each frame offset's coupling block that may be non-zero.
+  void couplingRows() {
+    for (const Observation& o : obs) {
+      if (offset_of[o.frame] < 0) continue;
+      std::vector<int>& r = ne.rows[offset_of[o.frame]];
+      if (r.empty()) r = {0, 1, 2};
+      r.push_back(3 + 2 * o.track);
+      r.push_back(4 + 2 * o.track);
+    }
+    for (std::vector<int>& r : ne.rows) {
+      std::sort(r.begin(), r.end());
+      r.erase(std::unique(r.begin(), r.end()), r.end());
+    }
+  }
+
+  void rotateFrames(const Vec3& spin, bool jacobians = true) {
     for (std::size_t k = 0; k < n; ++k) {
       if (!frame_used[k]) continue;
       const Vec3 phi = spin * (frames[k].t_s - t0);
       rot[k] = expRot(phi);
       if (jacobians) jl[k] = leftJacobian(phi);
     }
-  };
-  const int nb = 3 + 2 * tracks;
-  NormalEquations ne(nb, offsets);
-  for (const Observation& o : obs) {
-    if (offset_of[o.frame] < 0) continue;
-    std::vector<int>& r = ne.rows[offset_of[o.frame]];
-    if (r.empty()) r = {0, 1, 2};
-    r.push_back(3 + 2 * o.track);
-    r.push_back(4 + 2 * o.track);
   }
-  for (std::vector<int>& r : ne.rows) {
-    std::sort(r.begin(), r.end());
-    r.erase(std::unique(r.begin(), r.end()), r.end());
-  }
-  double s2 = warm ? warm->s2 : 0;
-  int used = 0;
-  // Offsets are held at zero until the residuals have given the dots' noise
-  // scale, which sets the weight of their prior (the detector's centre sigma).
-  bool with_offsets = warm && warm->with_offsets;
-  const int outer_rounds = warm ? 1 : 4, inner_steps = warm ? 1 : 20;
-  for (int outer = 0; outer < outer_rounds; ++outer) {
-    const double prior_scale = with_offsets ? s2 : 0.0;
-    for (int it = 0; it < inner_steps; ++it) {
-      ne.setZero();
-      std::vector<Eigen::Matrix<double, 3, 2>> basis(tracks);
-      for (int j = 0; j < tracks; ++j) {
-        const Vec3& b = body[j];
-        const Vec3 e1 =
-            (std::abs(b.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(b).normalized();
-        basis[j].col(0) = e1;
-        basis[j].col(1) = b.cross(e1);
-      }
-      rotateFrames(w);
-      for (std::size_t i = 0; i < obs.size(); ++i) {
-        if (!use[i]) continue;
-        const Observation& o = obs[i];
-        const double tau = frames[o.frame].t_s - t0;
-        const Eigen::Matrix3d& e = rot[o.frame];
-        const Vec3 m = e * body[o.track];
-        const int off = with_offsets ? offset_of[o.frame] : -1;
-        Eigen::Vector2d r = o.p.head<2>() - m.head<2>();
-        if (off >= 0) r -= shift[o.frame];
-        Eigen::Matrix<double, 2, 5> jac;
-        jac.leftCols<3>() = (-skew(m) * jl[o.frame] * tau).topRows<2>();
-        jac.rightCols<2>() = (e * basis[o.track]).topRows<2>();
-        const int pb = 3 + 2 * o.track;
-        const Eigen::Matrix<double, 5, 5> jtj = o.w * jac.transpose() * jac;
-        const Eigen::Matrix<double, 5, 1> jtr = o.w * jac.transpose() * r;
-        ne.a.topLeftCorner<3, 3>() += jtj.topLeftCorner<3, 3>();
-        ne.a.block<3, 2>(0, pb) += jtj.topRightCorner<3, 2>();
-        ne.a.block<2, 3>(pb, 0) += jtj.bottomLeftCorner<2, 3>();
-        ne.a.block<2, 2>(pb, pb) += jtj.bottomRightCorner<2, 2>();
-        ne.ga.head<3>() += jtr.head<3>();
-        ne.ga.segment<2>(pb) += jtr.tail<2>();
-        if (off >= 0) {
-          // d(model)/d(shift) = identity.
-          ne.b.block<3, 2>(0, 2 * off) += o.w * jac.leftCols<3>().transpose();
-          ne.b.block<2, 2>(pb, 2 * off) += o.w * jac.rightCols<2>().transpose();
-          ne.d[off] += o.w * Eigen::Matrix2d::Identity();
-          ne.gd[off] += o.w * r;
-        }
-      }
-      if (with_offsets)
-        for (std::size_t k = 0; k < n; ++k) {
-          if (offset_of[k] < 0) continue;
-          const int po = offset_of[k];
-          const double lambda = prior_scale / (frames[k].centre_sigma * frames[k].centre_sigma);
-          ne.d[po] += lambda * Eigen::Matrix2d::Identity();
-          ne.gd[po] -= lambda * shift[k];
-        }
-      // A track whose observations were all dropped leaves its block empty;
-      // offsets are unused until enabled.
-      ne.a.diagonal().tail(nb - 3).array() += 1e-12;
-      for (Eigen::Matrix2d& m : ne.d) m.diagonal().array() += with_offsets ? 1e-12 : 1.0 + 1e-12;
-      const Eigen::VectorXd dx = solveWithFrameOffsets(ne);
-      if (!dx.allFinite()) return fail("spin: the dot fit is degenerate (dots on one line?)");
-      w += dx.head<3>();
-      for (int j = 0; j < tracks; ++j)
-        body[j] = (body[j] + basis[j] * dx.segment<2>(3 + 2 * j)).normalized();
-      if (with_offsets)
-        for (std::size_t k = 0; k < n; ++k)
-          if (offset_of[k] >= 0) shift[k] += dx.segment<2>(nb + 2 * offset_of[k]);
-      if (dx.norm() < 1e-12 + 1e-10 * w.norm()) break;
+
+  // Each body position's tangent plane: the two directions its step moves it.
+  std::vector<Eigen::Matrix<double, 3, 2>> tangentBases() const {
+    std::vector<Eigen::Matrix<double, 3, 2>> basis(tracks);
+    for (int j = 0; j < tracks; ++j) {
+      const Vec3& b = body[j];
+      const Vec3 e1 = (std::abs(b.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(b).normalized();
+      basis[j].col(0) = e1;
+      basis[j].col(1) = b.cross(e1);
     }
-    if (warm) break;  // the cut and the noise scale are the full fit's
-    // Residuals; drop observations beyond 4 robust sigmas and refit.
+    return basis;
+  }
+
+  // The normal equations at the current state; the offsets' prior weighted
+  // by prior_scale over each frame's centre variance.
+  void accumulate(const std::vector<Eigen::Matrix<double, 3, 2>>& basis, double prior_scale) {
+    ne.setZero();
+    rotateFrames(w);
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      if (!use[i]) continue;
+      const Observation& o = obs[i];
+      const double tau = frames[o.frame].t_s - t0;
+      const Eigen::Matrix3d& e = rot[o.frame];
+      const Vec3 m = e * body[o.track];
+      const int off = with_offsets ? offset_of[o.frame] : -1;
+      Eigen::Vector2d r = o.p.head<2>() - m.head<2>();
+      if (off >= 0) r -= shift[o.frame];
+      Eigen::Matrix<double, 2, 5> jac;
+      jac.leftCols<3>() = (-skew(m) * jl[o.frame] * tau).topRows<2>();
+      jac.rightCols<2>() = (e * basis[o.track]).topRows<2>();
+      const int pb = 3 + 2 * o.track;
+      const Eigen::Matrix<double, 5, 5> jtj = o.w * jac.transpose() * jac;
+      const Eigen::Matrix<double, 5, 1> jtr = o.w * jac.transpose() * r;
+      ne.a.topLeftCorner<3, 3>() += jtj.topLeftCorner<3, 3>();
+      ne.a.block<3, 2>(0, pb) += jtj.topRightCorner<3, 2>();
+      ne.a.block<2, 3>(pb, 0) += jtj.bottomLeftCorner<2, 3>();
+      ne.a.block<2, 2>(pb, pb) += jtj.bottomRightCorner<2, 2>();
+      ne.ga.head<3>() += jtr.head<3>();
+      ne.ga.segment<2>(pb) += jtr.tail<2>();
+      if (off >= 0) {
+        // d(model)/d(shift) = identity.
+        ne.b.block<3, 2>(0, 2 * off) += o.w * jac.leftCols<3>().transpose();
+        ne.b.block<2, 2>(pb, 2 * off) += o.w * jac.rightCols<2>().transpose();
+        ne.d[off] += o.w * Eigen::Matrix2d::Identity();
+        ne.gd[off] += o.w * r;
+      }
+    }
+    if (with_offsets)
+      for (std::size_t k = 0; k < n; ++k) {
+        if (offset_of[k] < 0) continue;
+        const int po = offset_of[k];
+        const double lambda = prior_scale / (frames[k].centre_sigma * frames[k].centre_sigma);
+        ne.d[po] += lambda * Eigen::Matrix2d::Identity();
+        ne.gd[po] -= lambda * shift[k];
+      }
+    // A track whose observations were all dropped leaves its block empty;
+    // offsets are unused until enabled.
+    ne.a.diagonal().tail(nb - 3).array() += 1e-12;
+    for (Eigen::Matrix2d& m : ne.d) m.diagonal().array() += with_offsets ? 1e-12 : 1.0 + 1e-12;
+  }
+
+  // One Gauss-Newton step: true once it no longer moves the spin.
+  Result<bool> step(double prior_scale) {
+    const std::vector<Eigen::Matrix<double, 3, 2>> basis = tangentBases();
+    accumulate(basis, prior_scale);
+    const Eigen::VectorXd dx = solveWithFrameOffsets(ne);
+    if (!dx.allFinite()) return fail("spin: the dot fit is degenerate (dots on one line?)");
+    w += dx.head<3>();
+    for (int j = 0; j < tracks; ++j)
+      body[j] = (body[j] + basis[j] * dx.segment<2>(3 + 2 * j)).normalized();
+    if (with_offsets)
+      for (std::size_t k = 0; k < n; ++k)
+        if (offset_of[k] >= 0) shift[k] += dx.segment<2>(nb + 2 * offset_of[k]);
+    return dx.norm() < 1e-12 + 1e-10 * w.norm();
+  }
+
+  // The residuals: the noise scale s2 (the offsets' prior counting as data:
+  // its penalty joins them), and the observations beyond 4 robust sigmas
+  // dropped. Turns the offsets on after the first round. True when nothing
+  // changed and a refit is not needed.
+  Result<bool> cutOutliers(double prior_scale, int outer) {
     std::vector<double> rn(obs.size(), 0), absr;
     double ss = 0, ss_unw = 0;
     used = 0;
@@ -408,7 +453,6 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
     if (dof < 1)
       return fail("spin: " + std::to_string(used) + " dot positions in " + std::to_string(tracks) +
                   " tracks are too few to fit a spin");
-    // The offsets' prior counts as data: its penalty joins the residuals.
     double penalty = 0;
     if (with_offsets)
       for (std::size_t k = 0; k < n; ++k)
@@ -416,7 +460,7 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
           penalty += prior_scale * shift[k].squaredNorm() /
                      (frames[k].centre_sigma * frames[k].centre_sigma);
     s2 = (ss + penalty) / dof;
-    out.rms = std::sqrt(ss_unw / used);
+    rms = std::sqrt(ss_unw / used);
     std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
     // Norms of 2-D Gaussian residuals: median = 1.1774 sigma.
     const double sigma = absr[absr.size() / 2] / 1.1774;
@@ -428,29 +472,62 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
     }
     const bool enable = offsets > 0 && !with_offsets;
     with_offsets = with_offsets || offsets > 0;
-    if (!changed && !enable && outer > 0) break;
+    return !changed && !enable && outer > 0;
   }
-  out.w = w;
-  if (!warm) {
-    Eigen::MatrixXd a_inverse;
-    solveWithFrameOffsets(ne, &a_inverse);
-    out.cov = a_inverse.topLeftCorner<3, 3>() * s2;
+
+  // The fit as JointFit keeps it (body positions by track id); the spin's
+  // covariance only for a full fit (`covariance`).
+  JointFit result(int next_track, bool covariance) {
+    JointFit out;
+    out.w = w;
+    if (covariance) {
+      Eigen::MatrixXd a_inverse;
+      solveWithFrameOffsets(ne, &a_inverse);
+      out.cov = a_inverse.topLeftCorner<3, 3>() * s2;
+    }
+    out.rms = rms;
+    out.shift = shift;
+    out.s2 = s2;
+    out.with_offsets = with_offsets;
+    out.used_obs.resize(n);
+    for (std::size_t k = 0; k < n; ++k) out.used_obs[k].assign(frames[k].dots.size(), 0);
+    for (std::size_t i = 0; i < obs.size(); ++i) out.used_obs[obs[i].frame][obs[i].dot] = use[i];
+    out.body.assign(next_track, Vec3::Zero());
+    out.has_body.assign(next_track, 0);
+    for (int t = 0; t < next_track; ++t)
+      if (param_of[t] >= 0) out.body[t] = body[param_of[t]], out.has_body[t] = 1;
+    out.tracks = tracks;
+    out.used = used;
+    out.rejected = static_cast<int>(obs.size()) - used;
+    out.frames = static_cast<int>(std::count(frame_used.begin(), frame_used.end(), 1));
+    return out;
   }
-  out.shift = std::move(shift);
-  out.s2 = s2;
-  out.with_offsets = with_offsets;
-  out.used_obs.resize(n);
-  for (std::size_t k = 0; k < n; ++k) out.used_obs[k].assign(frames[k].dots.size(), 0);
-  for (std::size_t i = 0; i < obs.size(); ++i) out.used_obs[obs[i].frame][obs[i].dot] = use[i];
-  out.body.assign(next_track, Vec3::Zero());
-  out.has_body.assign(next_track, 0);
-  for (int t = 0; t < next_track; ++t)
-    if (param_of[t] >= 0) out.body[t] = body[param_of[t]], out.has_body[t] = 1;
-  out.tracks = tracks;
-  out.used = used;
-  out.rejected = static_cast<int>(obs.size()) - used;
-  out.frames = static_cast<int>(std::count(frame_used.begin(), frame_used.end(), 1));
-  return out;
+};
+
+// `warm`: a fit of the same frames to start from (its spin, dot positions,
+// shifts, noise scale and outlier cut), for a refit with one track fewer: one
+// Gauss-Newton step from there (the delete-one estimate to second order),
+// without a new outlier cut. Otherwise the spin starts at w_start: Gauss-
+// Newton steps, then the outlier cut and the noise scale, four rounds at
+// most, the frames' centre offsets freed after the first.
+Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
+                          const std::vector<std::vector<int>>& track_of, int next_track,
+                          const Vec3& w_start, const JointFit* warm = nullptr) {
+  JointProblem p(frames, track_of, next_track, w_start, warm);
+  const int outer_rounds = warm ? 1 : 4, inner_steps = warm ? 1 : 20;
+  for (int outer = 0; outer < outer_rounds; ++outer) {
+    const double prior_scale = p.with_offsets ? p.s2 : 0.0;
+    for (int it = 0; it < inner_steps; ++it) {
+      const Result<bool> converged = p.step(prior_scale);
+      if (!converged) return converged.error();
+      if (*converged) break;
+    }
+    if (warm) break;  // the cut and the noise scale are the full fit's
+    const Result<bool> settled = p.cutOutliers(prior_scale, outer);
+    if (!settled) return settled.error();
+    if (*settled) break;
+  }
+  return p.result(next_track, warm == nullptr);
 }
 
 // The spin's spread when one track (one physical dot) at a time is left out,
