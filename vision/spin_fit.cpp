@@ -574,100 +574,115 @@ Eigen::Matrix3d atLeast(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
 
 }  // namespace
 
-Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
-  const std::size_t n = frames.size();
-  if (n < 2) return fail("spin: " + std::to_string(n) + " frames with dots; need at least 2");
-  for (std::size_t k = 1; k < n; ++k)
-    if (!(frames[k].t_s > frames[k - 1].t_s))
-      return fail("spin: frame times must increase (frame " + std::to_string(k) + ")");
-  const double cos_gate = std::cos(opt.match_gate_rad);
-  SpinFit out;
-  out.track_of.resize(n);
-  for (std::size_t k = 0; k < n; ++k) out.track_of[k].assign(frames[k].dots.size(), -1);
+namespace {
 
-  // ---- match consecutive frames, chain matches into tracks
-  int next_track = 0;
+// Dots followed from frame to frame, chained into tracks (track_of[k][i]:
+// frame k's dot i's track, -1: none), and the mean rotation rate the pairs
+// gave (the first fit's start).
+struct Tracks {
+  std::vector<std::vector<int>> track_of;
+  int next_track = 0;  // tracks 0 .. next_track - 1
+  int pairs = 0;       // consecutive frames matched
   Vec3 sum_w = Vec3::Zero();
   double sum_dt = 0;
-  const auto matchPairs = [&](int min_matches) {
-    bool have_pred = false;
-    for (std::size_t k = 0; k + 1 < n; ++k) {
-      const SpinFrame &a = frames[k], &b = frames[k + 1];
-      const double dt = b.t_s - a.t_s;
-      if (static_cast<int>(std::min(a.dots.size(), b.dots.size())) < min_matches) continue;
-      Eigen::Matrix3d rot;
-      std::vector<Match> m;
-      bool ok = false;
-      if (have_pred) {
-        rot = expRot(sum_w / sum_dt * dt);
-        m = matchDots(a, b, rot, cos_gate);
-        const double need = 0.5 * static_cast<double>(std::min(a.dots.size(), b.dots.size()));
-        ok = static_cast<double>(m.size()) >= need &&
-             refinePair(a, b, m, rot, cos_gate, min_matches);
-      }
-      if (!ok && searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, min_matches, rot)) {
-        m = matchDots(a, b, rot, cos_gate);
-        ok = refinePair(a, b, m, rot, cos_gate, min_matches);
-      }
-      if (!ok) continue;
-      const Eigen::AngleAxisd aa(rot);
-      // Prediction for the next pair: the mean angular velocity so far.
-      sum_w += aa.axis() * aa.angle();
-      sum_dt += dt;
-      have_pred = true;
-      ++out.pairs;
-      for (const Match& mm : m) {
-        int& ta = out.track_of[k][mm.first];
-        if (ta < 0) ta = next_track++;
-        out.track_of[k + 1][mm.second] = ta;
-      }
+
+  explicit Tracks(const std::vector<SpinFrame>& frames) : track_of(frames.size()) {
+    for (std::size_t k = 0; k < frames.size(); ++k) track_of[k].assign(frames[k].dots.size(), -1);
+  }
+  // Frames k and k + 1's matched dots onto one track each.
+  void chain(std::size_t k, const std::vector<Match>& m) {
+    for (const Match& mm : m) {
+      int& ta = track_of[k][mm.first];
+      if (ta < 0) ta = next_track++;
+      track_of[k + 1][mm.second] = ta;
     }
-  };
-  matchPairs(opt.min_matches);
-  // Few dots in view: bootstrap from pairs of two (the smaller of the two
-  // possible rotations is taken; the fit's residuals catch a wrong one).
-  if (out.pairs == 0 && opt.min_matches > 2) matchPairs(2);
-  // One dot in view at a time: follow each dot to its nearest neighbour in the
-  // next frame (a turn of less than the gate per frame). A dot's path over
-  // several frames still fixes the spin; the fit's covariance says how well.
-  if (out.pairs == 0) {
-    for (std::size_t k = 0; k + 1 < n; ++k) {
+  }
+};
+
+// Consecutive frames with at least `min_matches` dots each matched by the
+// rotation between them: predicted from the mean rate so far when there is
+// one, else searched for (searchRotation), then refined on the matches.
+void matchPairs(const std::vector<SpinFrame>& frames, const SpinOptions& opt, int min_matches,
+                double cos_gate, Tracks& tr) {
+  bool have_pred = false;
+  for (std::size_t k = 0; k + 1 < frames.size(); ++k) {
+    const SpinFrame &a = frames[k], &b = frames[k + 1];
+    const double dt = b.t_s - a.t_s;
+    if (static_cast<int>(std::min(a.dots.size(), b.dots.size())) < min_matches) continue;
+    Eigen::Matrix3d rot;
+    std::vector<Match> m;
+    bool ok = false;
+    if (have_pred) {
+      rot = expRot(tr.sum_w / tr.sum_dt * dt);
+      m = matchDots(a, b, rot, cos_gate);
+      const double need = 0.5 * static_cast<double>(std::min(a.dots.size(), b.dots.size()));
+      ok = static_cast<double>(m.size()) >= need && refinePair(a, b, m, rot, cos_gate, min_matches);
+    }
+    if (!ok && searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, min_matches, rot)) {
+      m = matchDots(a, b, rot, cos_gate);
+      ok = refinePair(a, b, m, rot, cos_gate, min_matches);
+    }
+    if (!ok) continue;
+    const Eigen::AngleAxisd aa(rot);
+    // Prediction for the next pair: the mean angular velocity so far.
+    tr.sum_w += aa.axis() * aa.angle();
+    tr.sum_dt += dt;
+    have_pred = true;
+    ++tr.pairs;
+    tr.chain(k, m);
+  }
+}
+
+// The tracks from the pairs: matched by rotation; with few dots in view,
+// bootstrapped from pairs of two (the smaller of the two possible rotations
+// is taken; the fit's residuals catch a wrong one); with one dot in view at
+// a time, each dot followed to its nearest neighbour in the next frame (a
+// turn of less than the gate per frame: a dot's path over several frames
+// still fixes the spin; the fit's covariance says how well).
+Result<Tracks> trackDots(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
+  const double cos_gate = std::cos(opt.match_gate_rad);
+  Tracks tr(frames);
+  matchPairs(frames, opt, opt.min_matches, cos_gate, tr);
+  if (tr.pairs == 0 && opt.min_matches > 2) matchPairs(frames, opt, 2, cos_gate, tr);
+  if (tr.pairs == 0) {
+    for (std::size_t k = 0; k + 1 < frames.size(); ++k) {
       const std::vector<Match> m =
           matchDots(frames[k], frames[k + 1], Eigen::Matrix3d::Identity(), cos_gate);
       if (m.empty()) continue;
-      ++out.pairs;
-      for (const Match& mm : m) {
-        int& ta = out.track_of[k][mm.first];
-        if (ta < 0) ta = next_track++;
-        out.track_of[k + 1][mm.second] = ta;
-      }
+      ++tr.pairs;
+      tr.chain(k, m);
     }
-    sum_w = Vec3::Zero();
-    sum_dt = 1;
+    tr.sum_w = Vec3::Zero();
+    tr.sum_dt = 1;
   }
-  if (out.pairs == 0)
+  if (tr.pairs == 0)
     return fail(
         "spin: no dot could be followed from one frame to the next (no dots in view, "
         "or the sphere turns too far between frames)");
+  return tr;
+}
 
-  // ---- first fit, then every dot re-assigned with it (tracks grow across
-  // frames the pairwise matching skipped), and the final fit
-  auto first = jointFit(frames, out.track_of, next_track, sum_w / sum_dt);
-  if (!first) return first.error();
+// Every dot re-assigned with the first fit: to the track whose predicted
+// place it is the mutual best match of (tracks grow across frames the
+// pairwise matching skipped), then the dots on no track yet joined into new
+// tracks from consecutive frames, predicted with the spin. grown_next: one
+// past the last track.
+std::vector<std::vector<int>> regrowTracks(const std::vector<SpinFrame>& frames,
+                                           const JointFit& first, int next_track, double cos_tight,
+                                           int& grown_next) {
+  const std::size_t n = frames.size();
   const double t0 = frames.front().t_s;
-  const double cos_tight = std::cos(opt.regrow_gate_rad);
   std::vector<std::vector<int>> grown(n);
   for (std::size_t k = 0; k < n; ++k) {
     grown[k].assign(frames[k].dots.size(), -1);
-    const Eigen::Matrix3d o = expRot(first->w * (frames[k].t_s - t0));
-    // Mutual best between this frame's dots and the tracks' predicted places.
+    const Eigen::Matrix3d o = expRot(first.w * (frames[k].t_s - t0));
     std::vector<int> best_track(frames[k].dots.size(), -1);
     std::vector<double> best_c(frames[k].dots.size(), cos_tight);
     std::vector<int> best_dot(next_track, -1);
     std::vector<double> best_dc(next_track, cos_tight);
     for (int t = 0; t < next_track; ++t) {
-      if (!first->has_body[t]) continue;
-      const Vec3 q = o * first->body[t];
+      if (!first.has_body[t]) continue;
+      const Vec3 q = o * first.body[t];
       for (std::size_t i = 0; i < frames[k].dots.size(); ++i) {
         const double c = q.dot(frames[k].dots[i]);
         if (c > best_c[i]) best_c[i] = c, best_track[i] = t;
@@ -678,8 +693,7 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
       if (best_track[i] >= 0 && best_dot[best_track[i]] == static_cast<int>(i))
         grown[k][i] = best_track[i];
   }
-  // Dots on no track yet: new tracks from consecutive frames, predicted with the spin.
-  int grown_next = next_track;
+  grown_next = next_track;
   for (std::size_t k = 0; k + 1 < n; ++k) {
     SpinFrame a, b;
     std::vector<int> ia, ib;
@@ -690,24 +704,44 @@ Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions&
       if (grown[k + 1][i] < 0)
         b.dots.push_back(frames[k + 1].dots[i]), ib.push_back(static_cast<int>(i));
     if (a.dots.empty() || b.dots.empty()) continue;
-    const Eigen::Matrix3d rot = expRot(first->w * (frames[k + 1].t_s - frames[k].t_s));
+    const Eigen::Matrix3d rot = expRot(first.w * (frames[k + 1].t_s - frames[k].t_s));
     for (const Match& mm : matchDots(a, b, rot, cos_tight)) {
       int& ta = grown[k][ia[mm.first]];
       if (ta < 0) ta = grown_next++;
       grown[k + 1][ib[mm.second]] = ta;
     }
   }
-  auto fit = jointFit(frames, grown, grown_next, first->w);
-  int tracks_total = grown_next;
+  return grown;
+}
+
+}  // namespace
+
+Result<SpinFit> fitSpin(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
+  const std::size_t n = frames.size();
+  if (n < 2) return fail("spin: " + std::to_string(n) + " frames with dots; need at least 2");
+  for (std::size_t k = 1; k < n; ++k)
+    if (!(frames[k].t_s > frames[k - 1].t_s))
+      return fail("spin: frame times must increase (frame " + std::to_string(k) + ")");
+  Result<Tracks> tr = trackDots(frames, opt);
+  if (!tr) return tr.error();
+  SpinFit out;
+  out.pairs = tr->pairs;
+  out.track_of = std::move(tr->track_of);
+  // The first fit, then every dot re-assigned with it, and the final fit (the
+  // first kept when the grown tracks do not fit).
+  auto first = jointFit(frames, out.track_of, tr->next_track, tr->sum_w / tr->sum_dt);
+  if (!first) return first.error();
+  int tracks_total = 0;
+  std::vector<std::vector<int>> grown =
+      regrowTracks(frames, *first, tr->next_track, std::cos(opt.regrow_gate_rad), tracks_total);
+  auto fit = jointFit(frames, grown, tracks_total, first->w);
   if (!fit) {
-    fit = std::move(first);  // the grown tracks did not fit: keep the first
-    tracks_total = next_track;
+    fit = std::move(first);
+    tracks_total = tr->next_track;
   } else {
     out.track_of = std::move(grown);
   }
-  const Vec3 w = fit->w;
-
-  out.spin_rad_s = w;
+  out.spin_rad_s = fit->w;
   out.covariance = fit->cov;
   if (const auto jack = trackJackknife(frames, out.track_of, tracks_total, *fit))
     out.covariance = atLeast(fit->cov, *jack);
