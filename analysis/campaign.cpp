@@ -142,17 +142,17 @@ std::string angleDeg(double cot_incidence) {
   return num(std::atan2(1.0, cot_incidence) * kRadToDeg);
 }
 
-Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
-                                       const FrictionOptions& options) {
+// What the friction fit cannot start without: a finite K > 0, a fitted e,
+// enough shots for both regimes, and each shot's inputs.
+Status checkFrictionInputs(const FrictionInput& in, FittedValue e, const FrictionOptions& options,
+                           int min_per_regime) {
   const double K = options.inertia_factor_K;
   if (!std::isfinite(K) || K <= 0)
     return fail("inertia factor K = " + num(K) +
                 " must be finite and > 0 (2/5 for homogeneous spheres)");
-  const int min_per_regime = std::max(1, options.min_shots_per_regime);
   if (!std::isfinite(e.value) || e.value <= -1 || !std::isfinite(e.sigma) || e.sigma < 0)
     return fail("restitution e = " + num(e.value) + " +- " + num(e.sigma) +
                 " must be finite, > -1, with a sigma >= 0: fit e first (fitRestitutionMean)");
-
   const std::size_t n = in.shots.size();
   const std::size_t needed = std::max<std::size_t>(4, 2 * std::size_t(min_per_regime));
   if (n < needed)
@@ -163,62 +163,73 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
                 "for Nylon)");
   for (std::size_t i = 0; i < n; ++i)
     if (auto err = validateFrictionShot(in.index[i], in.shots[i])) return *err;
+  return Ok{};
+}
 
-  // Sort by x; keep each point's position in the input.
-  std::vector<std::size_t> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::vector<double> x_all(n);
-  for (std::size_t i = 0; i < n; ++i) x_all[i] = in.shots[i].cotIncidence();
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return x_all[a] < x_all[b]; });
-  std::vector<double> x(n), y(n), sigma_beta(n), sigma_x(n), w(n);
-  for (std::size_t r = 0; r < n; ++r) {
-    const CampaignShot& s = in.shots[order[r]];
-    x[r] = x_all[order[r]];
-    y[r] = s.beta + 1.0;
-    sigma_beta[r] = s.beta_sigma;
-    sigma_x[r] = s.cotIncidenceSigma();
-    w[r] = 1.0 / (sigma_beta[r] * sigma_beta[r]);
+// Walton's kinked line beta + 1 = min(c, s x) fitted to the shots sorted by
+// x = -v_n/v_s, with effective variances: an error dx moves a sliding
+// point's model value by s dx and a rolling point's by nothing. Near the
+// switch a point's regime is itself uncertain, so the x term is weighted by
+// the probability that its true x lies below x0, which keeps the weights
+// continuous in (s, c). u: the robust loss's weights (all 1 for least
+// squares), multiplying them.
+struct KinkedLineFit {
+  std::vector<std::size_t> order;  // the r-th point is shot order[r]
+  std::vector<double> x, y, sigma_beta, sigma_x, w, u;
+  KinkedLine fit;
+
+  explicit KinkedLineFit(const FrictionInput& in) {
+    const std::size_t n = in.shots.size();
+    order.resize(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::vector<double> x_all(n);
+    for (std::size_t i = 0; i < n; ++i) x_all[i] = in.shots[i].cotIncidence();
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return x_all[a] < x_all[b]; });
+    x.resize(n), y.resize(n), sigma_beta.resize(n), sigma_x.resize(n), w.resize(n);
+    u.assign(n, 1.0);
+    for (std::size_t r = 0; r < n; ++r) {
+      const CampaignShot& s = in.shots[order[r]];
+      x[r] = x_all[order[r]];
+      y[r] = s.beta + 1.0;
+      sigma_beta[r] = s.beta_sigma;
+      sigma_x[r] = s.cotIncidenceSigma();
+      w[r] = 1.0 / (sigma_beta[r] * sigma_beta[r]);
+    }
+    fit = fitKinkedLine(x, y, w);
+  }
+  std::size_t size() const { return x.size(); }
+  double model(const KinkedLine& f, std::size_t r) const {
+    return std::min(f.plateau, f.slope * x[r]);
   }
 
-  // Effective variances: an error dx moves a sliding point's model value by
-  // s dx and a rolling point's by nothing. Near the switch a point's regime is
-  // itself uncertain, so the x term is weighted by the probability that its
-  // true x lies below x0, which keeps the weights continuous in (s, c).
-  // u: the robust loss's weights (all 1 for least squares), multiplying them.
-  std::vector<double> u(n, 1.0);
-  auto effectiveWeights = [&](const KinkedLine& f, std::vector<double>& weights) {
+  void effectiveWeights(const KinkedLine& f, std::vector<double>& weights) const {
     const double x0 = f.plateau / f.slope;
-    for (std::size_t r = 0; r < n; ++r) {
+    for (std::size_t r = 0; r < size(); ++r) {
       const double p_sliding =
           sigma_x[r] > 0 ? standardNormalCdf((x0 - x[r]) / sigma_x[r]) : (x[r] < x0 ? 1.0 : 0.0);
       const double sx = f.slope * sigma_x[r];
       weights[r] = u[r] / (sigma_beta[r] * sigma_beta[r] + p_sliding * sx * sx);
     }
-  };
+  }
   // chi2 of a solution with the weights it implies itself.
-  auto selfConsistentChi2 = [&](const KinkedLine& f) {
-    std::vector<double> weights(n);
+  double selfConsistentChi2(const KinkedLine& f) const {
+    std::vector<double> weights(size());
     effectiveWeights(f, weights);
     double chi2 = 0;
-    for (std::size_t r = 0; r < n; ++r) {
-      const double res = y[r] - std::min(f.plateau, f.slope * x[r]);
+    for (std::size_t r = 0; r < size(); ++r) {
+      const double res = y[r] - model(f, r);
       chi2 += weights[r] * res * res;
     }
     return chi2;
-  };
+  }
+
   // Fixed-point iteration (Orear's effective variance method). The best
   // partition can flip when the weights move, so the map is discontinuous and
   // may cycle between two near-equal solutions instead of settling; then the
   // cycle's member with the smaller self-consistent chi2 is taken.
-  constexpr int kSettleIterations = 40, kCycleIterations = 10;
-  KinkedLine fit = fitKinkedLine(x, y, w);
-  // With a robust loss, an outer loop reweights the shots by their normalised
-  // residuals (IRLS) and settles the effective variances again, until the
-  // robust weights stop changing.
-  const bool robust = options.robust.loss != RobustLoss::LeastSquares;
-  constexpr int kRobustIterations = 50;
-  for (int outer = 0; outer < (robust ? kRobustIterations : 1); ++outer) {
+  void settle() {
+    constexpr int kSettleIterations = 40, kCycleIterations = 10;
     KinkedLine best_in_cycle;
     double best_cycle_chi2 = kInf;
     bool settled = false;
@@ -238,38 +249,43 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
       }
     }
     if (!settled && best_in_cycle.valid) fit = best_in_cycle;
-    if (!robust || !fit.valid) break;
-    // Normalised residuals with the loss's weights taken out.
+  }
+
+  // One round of the robust loss (IRLS): the shots reweighted by their
+  // normalised residuals (the loss's weights taken out), and the line
+  // refitted. True once the robust weights stop changing.
+  bool reweight(const RobustOptions& robust) {
+    const std::size_t n = size();
     std::vector<double> z(n);
     effectiveWeights(fit, w);
     for (std::size_t r = 0; r < n; ++r) {
       const double w_plain = u[r] > 0 ? w[r] / u[r] : 0.0;
-      z[r] = (y[r] - std::min(fit.plateau, fit.slope * x[r])) * std::sqrt(w_plain);
+      z[r] = (y[r] - model(fit, r)) * std::sqrt(w_plain);
     }
     const double scale = robustScale(z);
     double change = 0;
     for (std::size_t r = 0; r < n; ++r) {
-      const double un = std::max(robustWeight(z[r] / scale, options.robust), 1e-6);
+      const double un = std::max(robustWeight(z[r] / scale, robust), 1e-6);
       change = std::max(change, std::abs(un - u[r]));
       u[r] = un;
     }
-    if (change < 1e-6) break;
+    if (change < 1e-6) return true;
     effectiveWeights(fit, w);
     const KinkedLine refit = fitKinkedLine(x, y, w);
     if (refit.valid) fit = refit;
+    return false;
   }
-  if (!fit.valid)
-    return fail(
-        "beta does not rise with x = -v_n/v_s anywhere in the campaign, so Walton's "
-        "sliding line cannot be fitted: check the sign conventions (v_s' = -beta v_s, "
-        "v_n < 0 on approach)");
+};
 
-  const std::size_t n_sliding = fit.first_rolling;
-  const std::size_t n_rolling = n - fit.first_rolling;
-  const double x0 = fit.plateau / fit.slope;
+// Both regimes need min_per_regime shots; the error says where to add them.
+Status requireBothRegimes(const KinkedLineFit& k, int min_per_regime) {
+  const std::size_t n = k.size();
+  const std::size_t n_sliding = k.fit.first_rolling;
+  const std::size_t n_rolling = n - k.fit.first_rolling;
+  const double x0 = k.fit.plateau / k.fit.slope;
   if (n_rolling < std::size_t(min_per_regime)) {
     const std::string add = "add shots nearer head-on (incidence angle below " +
-                            angleDeg(n_rolling == 0 ? x.back() : x0) +
+                            angleDeg(n_rolling == 0 ? k.x.back() : x0) +
                             " degrees, i.e. larger -v_n/v_s) to measure beta0";
     if (n_rolling == 0)
       return fail("all " + std::to_string(n) + " shots are in the sliding regime: " + add);
@@ -279,7 +295,7 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
   }
   if (n_sliding < std::size_t(min_per_regime)) {
     const std::string add = "add shots at more grazing incidence (incidence angle above " +
-                            angleDeg(n_sliding == 0 ? x.front() : x0) +
+                            angleDeg(n_sliding == 0 ? k.x.front() : x0) +
                             " degrees, i.e. smaller -v_n/v_s) to measure mu";
     if (n_sliding == 0)
       return fail("all " + std::to_string(n) + " shots are in the rolling regime: " + add);
@@ -287,16 +303,24 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
                 " shots are in the sliding regime (x = -v_n/v_s below the fitted switch x0 = " +
                 num(x0) + "), at least " + std::to_string(min_per_regime) + " are needed: " + add);
   }
+  return Ok{};
+}
 
+// The fitted line's values and uncertainties: slope s and beta0 = c - 1
+// (Birge-scaled), mu = s / ((1 + 1/K)(1 + e)) with e's uncertainty, the
+// switch x0 = c/s and its angle, and each shot's regime and robust weight.
+FrictionFit frictionResult(KinkedLineFit& k, FittedValue e, double K) {
+  const KinkedLine& fit = k.fit;
+  const std::size_t n = k.size();
   FrictionFit out;
   out.inertia_factor_K = K;
   out.dof = int(n) - 2;
   // From the residuals rather than the prefix sums, whose differences lose
   // digits when the fit is good; weights as the solution itself implies.
-  effectiveWeights(fit, w);
+  k.effectiveWeights(fit, k.w);
   for (std::size_t r = 0; r < n; ++r) {
-    const double model = std::min(fit.plateau, fit.slope * x[r]);
-    out.chi2 += w[r] * (y[r] - model) * (y[r] - model);
+    const double res = k.y[r] - k.model(fit, r);
+    out.chi2 += k.w[r] * res * res;
   }
   out.scale_factor = birgeScale(out.chi2, out.dof);
   // For a fixed partition the two lines are separate linear fits, so (s, c) are
@@ -304,9 +328,9 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
   double info_s = 0, info_c = 0;
   for (std::size_t r = 0; r < n; ++r) {
     if (r < fit.first_rolling)
-      info_s += w[r] * x[r] * x[r];
+      info_s += k.w[r] * k.x[r] * k.x[r];
     else
-      info_c += w[r];
+      info_c += k.w[r];
   }
   const double scale2 = out.scale_factor * out.scale_factor;
   Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
@@ -324,6 +348,7 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
   out.mu = {mu, std::sqrt(dmu_ds * dmu_ds * cov(0, 0) + dmu_de * dmu_de * e.sigma * e.sigma)};
 
   // x0 = c/s; psi0 = atan(1/x0).
+  const double x0 = fit.plateau / fit.slope;
   const Eigen::Vector2d dx0{-fit.plateau / (fit.slope * fit.slope), 1.0 / fit.slope};
   const double sigma_x0 = std::sqrt(dx0.dot(cov * dx0));
   out.switch_cot = {x0, sigma_x0};
@@ -331,12 +356,35 @@ Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
 
   out.regime.assign(n, CollisionRegime::Rolling);
   for (std::size_t r = 0; r < fit.first_rolling; ++r)
-    out.regime[order[r]] = CollisionRegime::Sliding;
+    out.regime[k.order[r]] = CollisionRegime::Sliding;
   out.robust_weight.assign(n, 1.0);
-  for (std::size_t r = 0; r < n; ++r) out.robust_weight[order[r]] = u[r];
-  out.sliding_count = int(n_sliding);
-  out.rolling_count = int(n_rolling);
+  for (std::size_t r = 0; r < n; ++r) out.robust_weight[k.order[r]] = k.u[r];
+  out.sliding_count = int(fit.first_rolling);
+  out.rolling_count = int(n - fit.first_rolling);
   return out;
+}
+
+Result<FrictionFit> fitFrictionIndexed(const FrictionInput& in, FittedValue e,
+                                       const FrictionOptions& options) {
+  const int min_per_regime = std::max(1, options.min_shots_per_regime);
+  if (Status ok = checkFrictionInputs(in, e, options, min_per_regime); !ok) return ok.error();
+  KinkedLineFit k(in);
+  // With a robust loss, an outer loop reweights the shots by their normalised
+  // residuals (IRLS) and settles the effective variances again, until the
+  // robust weights stop changing.
+  const bool robust = options.robust.loss != RobustLoss::LeastSquares;
+  constexpr int kRobustIterations = 50;
+  for (int outer = 0; outer < (robust ? kRobustIterations : 1); ++outer) {
+    k.settle();
+    if (!robust || !k.fit.valid || k.reweight(options.robust)) break;
+  }
+  if (!k.fit.valid)
+    return fail(
+        "beta does not rise with x = -v_n/v_s anywhere in the campaign, so Walton's "
+        "sliding line cannot be fitted: check the sign conventions (v_s' = -beta v_s, "
+        "v_n < 0 on approach)");
+  if (Status ok = requireBothRegimes(k, min_per_regime); !ok) return ok.error();
+  return frictionResult(k, e, options.inertia_factor_K);
 }
 
 }  // namespace
