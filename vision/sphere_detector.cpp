@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "vision/avx2_clones.hpp"
 #include "vision/silhouette_fit.hpp"
@@ -1037,34 +1038,29 @@ Result<CircleFit> fitOutline(std::vector<CirclePoint>& pts, const Circle& about,
 // `top_clips`: full scale is where the sensor clipped (false for a backlit
 // frame's negative: there full scale is black, no light, the silhouette's
 // true level, and the profiles into it are whole).
-template <class T>
-FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
-                         const SphereDetectorSettings& set, bool top_clips) {
-  FrameSpheres out;
-  const int w = img.cols, h = img.rows;
-  const double max_r = maxRadius(set, w, h), min_r = minRadius(set, w, h);
-  const int step = grid.step;
-  const int clip_value = top_clips ? max_value : std::numeric_limits<int>::max();
-  const Levels lv = measureLevels(grid, max_value, clip_value);
+// The frame's levels into `out`; false (with a note) when no sphere can be
+// told from its background: an overexposed frame, or nothing bright in it.
+bool levelsAllowSpheres(const Levels& lv, int max_value, FrameSpheres& out) {
   out.background = lv.bg;
   out.noise_sigma = lv.sigma;
   out.threshold = lv.threshold;
   out.low_threshold = lv.low;
   out.saturated = lv.saturated_fraction > 0.2 || lv.bg > 0.5 * max_value;
   if (lv.bg > 0.5 * max_value) {
-    out.notes.push_back(
+    out.notes.emplace_back(
         "the background is brighter than half of full scale (saturated or "
         "overexposed frame): no sphere can be told from it");
-    return out;
+    return false;
   }
   if (lv.bright - lv.bg < std::max(12.0 * lv.sigma, 0.04 * max_value)) {
-    out.notes.push_back("no bright object in the frame (no sphere)");
-    return out;
+    out.notes.emplace_back("no bright object in the frame (no sphere)");
+    return false;
   }
+  return true;
+}
 
-  const std::vector<Blob> blobs = findBlobs(grid, lv.low, lv.threshold);
-  const double min_cells = 0.15 * 3.14159 * min_r * min_r / (step * step);
-
+// What every edge profile of the frame is read against.
+EdgeContext frameEdgeContext(const Levels& lv, int clip_value, const SphereDetectorSettings& set) {
   EdgeContext ctx;
   ctx.threshold = lv.threshold;
   ctx.sigma = lv.sigma;
@@ -1075,10 +1071,23 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
   ctx.min_contrast = 0.01 * (lv.bright - lv.bg);
   ctx.clip_value = clip_value;
   ctx.hw = std::max(1, static_cast<int>(std::ceil(set.edge_half_width_px)));
+  return ctx;
+}
 
-  struct Candidate {
-    CircleFit coarse;
-    bool touching;
+// A sphere the coarse grid saw: its circle there, and whether it came from a
+// blob of two touching spheres split in two.
+struct Candidate {
+  CircleFit coarse;
+  bool touching;
+};
+
+// The blobs' coarse circles of a plausible radius: one per round blob, two
+// for a blob that splits into a touching pair; the rest counted as ignored.
+std::vector<Candidate> coarseCandidates(const std::vector<Blob>& blobs, double min_r, double max_r,
+                                        int step, FrameSpheres& out) {
+  const double min_cells = 0.15 * 3.14159 * min_r * min_r / (step * step);
+  const auto radiusOk = [&](const CircleFit& f) {
+    return f.radius >= min_r - step && f.radius <= max_r + step;
   };
   std::vector<Candidate> cands;
   for (const Blob& blob : blobs) {
@@ -1088,9 +1097,6 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
       continue;
     }
     const Result<CircleFit> single = fitCoarse(blob.outline, step);
-    auto radiusOk = [&](const CircleFit& f) {
-      return f.radius >= min_r - step && f.radius <= max_r + step;
-    };
     if (goodCoarse(single, blob.outline.size(), step) && radiusOk(*single)) {
       cands.push_back({*single, false});
       continue;
@@ -1103,73 +1109,105 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
     }
     ++out.blobs_ignored;
   }
+  return cands;
+}
 
-  for (const Candidate& cand : cands) {
-    Circle c{cand.coarse.u, cand.coarse.v, cand.coarse.radius};
-    EdgeContext local = ctx;
-    // The coarse circle is good to about half a grid cell.
-    local.search = step / 2 + 3 + (cand.touching ? 4 : 0);
-    // Big spheres have edge points to spare: every other line halves the work
-    // for a sqrt(2) larger (still tiny) noise.
-    local.line_stride = set.line_stride > 0
-                            ? set.line_stride
-                            : std::max(1, static_cast<int>(std::lround(c.r / 30.0)));
-    // The limb brightness is read over up to 8 px inside, less on small spheres.
-    local.n_in = std::clamp(static_cast<int>(c.r / 7.0), 3, 8);
-    static_assert(8 <= kMaxInside, "the depth sums hold at most kMaxInside inside samples");
-    local.radius = c.r;
-    local.quadratic = true;
-    std::vector<CirclePoint> pts;
-    EdgeStats st;
-    edgePoints<T>(img, c, local, pts, st);
-    Result<CircleFit> fit = fitOutline(pts, c, set.camera);
-    if (!fit || fit->points < 12) {
-      ++out.blobs_ignored;
-      out.notes.push_back("a blob near (" + std::to_string(static_cast<int>(c.u)) + ", " +
-                          std::to_string(static_cast<int>(c.v)) +
-                          ") has too few clean edge points for a circle");
-      continue;
-    }
-    SphereMeasurement m;
-    m.circle = *fit;
-    m.touching = cand.touching;
-    m.background = st.accepted ? st.sum_out / st.accepted : lv.bg;
-    m.rim_level = st.accepted ? st.sum_rim / st.accepted : lv.threshold;
-    m.saturated_pixels = st.saturated;
-    m.border_profiles = st.border;
-    const double r = fit->radius;
-    m.cut_by_border =
-        fit->u - r < -0.5 || fit->v - r < -0.5 || fit->u + r > w - 0.5 || fit->v + r > h - 0.5;
-    if (r < min_r || r > max_r) {
-      ++out.blobs_ignored;
-      continue;
-    }
-    out.spheres.push_back(m);
+// One candidate measured from its edge profiles (step 4 of the method); none
+// (counted, with a note when its outline is unclean) when too few clean edge
+// points or a radius out of range.
+template <class T>
+std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Candidate& cand,
+                                                  const EdgeContext& ctx, const Levels& lv,
+                                                  const SphereDetectorSettings& set, double min_r,
+                                                  double max_r, int step, FrameSpheres& out) {
+  Circle c{cand.coarse.u, cand.coarse.v, cand.coarse.radius};
+  EdgeContext local = ctx;
+  // The coarse circle is good to about half a grid cell.
+  local.search = step / 2 + 3 + (cand.touching ? 4 : 0);
+  // Big spheres have edge points to spare: every other line halves the work
+  // for a sqrt(2) larger (still tiny) noise.
+  local.line_stride = set.line_stride > 0 ? set.line_stride
+                                          : std::max(1, static_cast<int>(std::lround(c.r / 30.0)));
+  // The limb brightness is read over up to 8 px inside, less on small spheres.
+  local.n_in = std::clamp(static_cast<int>(c.r / 7.0), 3, 8);
+  static_assert(8 <= kMaxInside, "the depth sums hold at most kMaxInside inside samples");
+  local.radius = c.r;
+  local.quadratic = true;
+  std::vector<CirclePoint> pts;
+  EdgeStats st;
+  edgePoints<T>(img, c, local, pts, st);
+  Result<CircleFit> fit = fitOutline(pts, c, set.camera);
+  if (!fit || fit->points < 12) {
+    ++out.blobs_ignored;
+    out.notes.push_back("a blob near (" + std::to_string(static_cast<int>(c.u)) + ", " +
+                        std::to_string(static_cast<int>(c.v)) +
+                        ") has too few clean edge points for a circle");
+    return std::nullopt;
   }
-  // One sphere found twice (a blob split in two that both refine onto it):
-  // keep the circle with more edge points.
-  for (std::size_t i = 0; i < out.spheres.size(); ++i)
-    for (std::size_t j = i + 1; j < out.spheres.size();) {
-      const CircleFit &a = out.spheres[i].circle, &b = out.spheres[j].circle;
+  SphereMeasurement m;
+  m.circle = *fit;
+  m.touching = cand.touching;
+  m.background = st.accepted ? st.sum_out / st.accepted : lv.bg;
+  m.rim_level = st.accepted ? st.sum_rim / st.accepted : lv.threshold;
+  m.saturated_pixels = st.saturated;
+  m.border_profiles = st.border;
+  const double r = fit->radius;
+  m.cut_by_border = fit->u - r < -0.5 || fit->v - r < -0.5 || fit->u + r > img.cols - 0.5 ||
+                    fit->v + r > img.rows - 0.5;
+  if (r < min_r || r > max_r) {
+    ++out.blobs_ignored;
+    return std::nullopt;
+  }
+  return m;
+}
+
+// One sphere found twice (a blob split in two that both refine onto it):
+// keep the circle with more edge points.
+void dropDuplicates(std::vector<SphereMeasurement>& spheres) {
+  for (std::size_t i = 0; i < spheres.size(); ++i)
+    for (std::size_t j = i + 1; j < spheres.size();) {
+      const CircleFit &a = spheres[i].circle, &b = spheres[j].circle;
       if (std::hypot(a.u - b.u, a.v - b.v) < 0.5 * std::min(a.radius, b.radius)) {
-        if (b.points > a.points) out.spheres[i] = out.spheres[j];
-        out.spheres.erase(out.spheres.begin() + static_cast<std::ptrdiff_t>(j));
+        if (b.points > a.points) spheres[i] = spheres[j];
+        spheres.erase(spheres.begin() + static_cast<std::ptrdiff_t>(j));
       } else {
         ++j;
       }
     }
-  // Touching is decided from the final outlines: spheres whose outlines (nearly)
-  // meet touch even when their blobs were apart on the grid, and a blob split
-  // in two whose halves both refined onto one sphere (a shaded sphere with dark
-  // dots can look like two to the coarse fit) leaves a sphere that touches
-  // nothing.
-  for (SphereMeasurement& m : out.spheres) m.touching = false;
-  for (std::size_t i = 0; i < out.spheres.size(); ++i)
-    for (std::size_t j = i + 1; j < out.spheres.size(); ++j) {
-      const CircleFit &a = out.spheres[i].circle, &b = out.spheres[j].circle;
+}
+
+// Touching is decided from the final outlines: spheres whose outlines (nearly)
+// meet touch even when their blobs were apart on the grid, and a blob split
+// in two whose halves both refined onto one sphere (a shaded sphere with dark
+// dots can look like two to the coarse fit) leaves a sphere that touches
+// nothing.
+void markTouching(std::vector<SphereMeasurement>& spheres, int step) {
+  for (SphereMeasurement& m : spheres) m.touching = false;
+  for (std::size_t i = 0; i < spheres.size(); ++i)
+    for (std::size_t j = i + 1; j < spheres.size(); ++j) {
+      const CircleFit &a = spheres[i].circle, &b = spheres[j].circle;
       if (std::hypot(a.u - b.u, a.v - b.v) < a.radius + b.radius + std::max(2.0, 1.0 * step))
-        out.spheres[i].touching = out.spheres[j].touching = true;
+        spheres[i].touching = spheres[j].touching = true;
     }
+}
+
+template <class T>
+FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
+                         const SphereDetectorSettings& set, bool top_clips) {
+  FrameSpheres out;
+  const double max_r = maxRadius(set, img.cols, img.rows);
+  const double min_r = minRadius(set, img.cols, img.rows);
+  const int step = grid.step;
+  const int clip_value = top_clips ? max_value : std::numeric_limits<int>::max();
+  const Levels lv = measureLevels(grid, max_value, clip_value);
+  if (!levelsAllowSpheres(lv, max_value, out)) return out;
+  const std::vector<Blob> blobs = findBlobs(grid, lv.low, lv.threshold);
+  const EdgeContext ctx = frameEdgeContext(lv, clip_value, set);
+  for (const Candidate& cand : coarseCandidates(blobs, min_r, max_r, step, out))
+    if (auto m = measureCandidate<T>(img, cand, ctx, lv, set, min_r, max_r, step, out))
+      out.spheres.push_back(*m);
+  dropDuplicates(out.spheres);
+  markTouching(out.spheres, step);
   refineSmallSpheres(img, set, out.spheres);
   std::sort(out.spheres.begin(), out.spheres.end(),
             [](const SphereMeasurement& a, const SphereMeasurement& b) {
