@@ -47,7 +47,19 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(settings);
   scroll->setWidget(settings);
   outer->addWidget(scroll, 1);
+  addProfileBox(layout);
+  addLaunchers(layout);
+  addCalibrationChart(layout);
+  addBurstBox(layout);
+  addSafetyBox(layout);
+  layout->addStretch();
+  // ... the action bar does not: always on screen.
+  outer->addWidget(makeActionBar());
+  updateButtons();
+}
 
+// The profile's name and its devices' table.
+void RigPanel::addProfileBox(QVBoxLayout* layout) {
   auto* profile_box = new QGroupBox(tr("Rig profile"));
   auto* pl = new QVBoxLayout(profile_box);
   profile_label_ = new QLabel(tr("no profile loaded"));
@@ -65,7 +77,11 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
                              devices_->horizontalHeader()->height() + 6);
   pl->addWidget(devices_);
   layout->addWidget(profile_box);
+}
 
+// Each launcher's exit speed and pressure setpoint (either sets the other
+// through the calibration) and the regulator's read-back.
+void RigPanel::addLaunchers(QVBoxLayout* layout) {
   auto* launch_row = new QHBoxLayout;
   for (int i = 0; i < 2; ++i) {
     launcher_box_[i] = new QGroupBox(tr("Launcher %1").arg(i + 1));
@@ -104,7 +120,9 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
     launch_row->addWidget(launcher_box_[i]);
   }
   layout->addLayout(launch_row);
+}
 
+void RigPanel::addCalibrationChart(QVBoxLayout* layout) {
   // The launch calibration v(p), with the two setpoints on it.
   auto* chart = new QChart;
   chart->legend()->hide();
@@ -129,7 +147,10 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   curve_view_->setRenderHint(QPainter::Antialiasing);
   curve_view_->setMinimumHeight(170);
   layout->addWidget(curve_view_);
+}
 
+// The burst's frames, frame rate and exposure, applied together.
+void RigPanel::addBurstBox(QVBoxLayout* layout) {
   auto* burst_box = new QGroupBox(tr("Burst"));
   auto* bf = new QFormLayout(burst_box);
   pre_ = new GuardedSpinBox;
@@ -190,7 +211,9 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
         BurstSettings{pre_->value(), post_->value(), fps_->value(), exposure_->value()});
   });
   layout->addWidget(burst_box);
+}
 
+void RigPanel::addSafetyBox(QVBoxLayout* layout) {
   auto* safety_box = new QGroupBox(tr("Safety limits (from the profile)"));
   auto* sl = new QVBoxLayout(safety_box);
   safety_ = new QLabel("-");
@@ -198,10 +221,10 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   safety_->setWordWrap(true);
   sl->addWidget(safety_);
   layout->addWidget(safety_box);
+}
 
-  layout->addStretch();
-
-  // ... the action bar does not: always on screen.
+// The action bar: a pending setpoint, the buttons, the state and what to do next.
+QFrame* RigPanel::makeActionBar() {
   auto* bar = new QFrame;
   action_bar_ = bar;
   bar->installEventFilter(this);
@@ -210,6 +233,14 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   auto* al = new QVBoxLayout(bar);
   al->setContentsMargins(6, 4, 6, 4);
   al->setSpacing(3);
+  addSetpointRow(al);
+  addActionButtons(al);
+  addStateLabels(al);
+  return bar;
+}
+
+// An edited setpoint while armed, waiting for its confirmation.
+void RigPanel::addSetpointRow(QVBoxLayout* al) {
   auto* pending_row = new QHBoxLayout;
   setpoint_pending_ = new QLabel;
   setpoint_pending_->setObjectName("setpoint_pending");
@@ -226,7 +257,9 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   setpoint_pending_->hide();
   apply_setpoint_->hide();
   connect(apply_setpoint_, &QPushButton::clicked, this, &RigPanel::confirmSetpoint);
+}
 
+void RigPanel::addActionButtons(QVBoxLayout* al) {
   auto* buttons = new QHBoxLayout;
   arm_ = new QPushButton(tr("Arm"));
   arm_->setObjectName("arm_button");
@@ -288,7 +321,9 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
     updateButtons();
     emit reconnectRequested();
   });
+}
 
+void RigPanel::addStateLabels(QVBoxLayout* al) {
   lost_ = new QLabel;
   lost_->setObjectName("lost_devices");
   lost_->setWordWrap(true);
@@ -312,8 +347,6 @@ RigPanel::RigPanel(QWidget* parent) : QWidget(parent) {
   al->addWidget(hint_);
   al->addWidget(step_);
   al->addWidget(shots_dir_);
-  outer->addWidget(bar);
-  updateButtons();
 }
 
 void RigPanel::setProfile(ProfilePtr profile) {

@@ -23,6 +23,7 @@ class QPushButton;
 class QTableWidget;
 class QGroupBox;
 class QFrame;
+class QVBoxLayout;
 class QChartView;
 class QLineSeries;
 class QScatterSeries;
@@ -78,6 +79,17 @@ class RigPanel : public QWidget {
   void inputRefused(QString message);
 
  private:
+  // The constructor's parts, top to bottom.
+  void addProfileBox(QVBoxLayout* layout);
+  void addLaunchers(QVBoxLayout* layout);
+  void addCalibrationChart(QVBoxLayout* layout);
+  void addBurstBox(QVBoxLayout* layout);
+  void addSafetyBox(QVBoxLayout* layout);
+  QFrame* makeActionBar();
+  void addSetpointRow(QVBoxLayout* al);
+  void addActionButtons(QVBoxLayout* al);
+  void addStateLabels(QVBoxLayout* al);
+
   void speedEdited(int i);
   void pressureEdited(int i);
   void updateButtons();
