@@ -85,6 +85,26 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   auto* central = new QWidget;
   auto* layout = new QVBoxLayout(central);
   layout->setContentsMargins(4, 4, 4, 4);
+  addMessageBar(layout);
+  addViews(layout);
+  setCentralWidget(central);
+  addRigDock();
+  buildMenus();
+  connectRigPanel();
+  connectWorker();
+  connectCampaign();
+  connectAnalysis();
+  connectBrowser();
+  if (options_.restore_settings) restoreSettings();
+  if (!options_.shots_dir.isEmpty()) shots_dir_ = options_.shots_dir;
+  if (shots_dir_.isEmpty()) shots_dir_ = QDir::current().filePath("shots");
+  setShotsDir(shots_dir_);
+  QString profile = options_.rig_profile.isEmpty() ? profile_path_ : options_.rig_profile;
+  loadProfile(profile);
+}
+
+// Messages that need reading (errors, warnings, a shot not saved), above the views.
+void MainWindow::addMessageBar(QVBoxLayout* layout) {
   message_bar_ = new QFrame;
   message_bar_->setObjectName("message_bar");
   message_bar_->setFrameShape(QFrame::StyledPanel);
@@ -108,7 +128,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   message_bar_->hide();
   connect(dismiss, &QPushButton::clicked, message_bar_, &QWidget::hide);
   layout->addWidget(message_bar_);
+}
 
+void MainWindow::addViews(QVBoxLayout* layout) {
   tabs_ = new QTabWidget;
   tabs_->setObjectName("views");
   live_view_ = new LiveView;
@@ -121,8 +143,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   tabs_->addTab(shot_browser_, tr("Shots"));
   tabs_->addTab(campaign_view_, tr("Campaign"));
   layout->addWidget(tabs_, 1);
-  setCentralWidget(central);
+}
 
+void MainWindow::addRigDock() {
   // The panel scrolls its settings itself and keeps its action bar (Arm,
   // Fire, Cancel, the state) outside the scrolling part, always on screen.
   rig_panel_ = new RigPanel;
@@ -132,8 +155,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   dock->setWidget(rig_panel_);
   dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
   addDockWidget(Qt::LeftDockWidgetArea, dock);
-  buildMenus();
+}
 
+// Rig panel -> control thread.
+void MainWindow::connectRigPanel() {
   // Rig panel -> control thread.
   connect(rig_panel_, &RigPanel::armRequested, this, [this](std::array<double, 2> v) {
     // A shot that cannot be saved should not be fired: check before the lines
@@ -161,7 +186,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     worker_->requestBurstSettings(b.pre_trigger_frames, b.post_trigger_frames, b.fps,
                                   b.exposure_us);
   });
+}
 
+// Control thread -> views.
+void MainWindow::connectWorker() {
   // Control thread -> views.
   connect(worker_, &RigWorker::profileLoaded, this, [this](ProfilePtr profile, CameraPtr camera) {
     profile_ = profile;
@@ -213,6 +241,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     rig_panel_->reconnectFinished(ok, message);
     showMessage(message, ok ? MessageKind::Info : MessageKind::Error);
   });
+}
+
+// A campaign's progress and end, from the control thread.
+void MainWindow::connectCampaign() {
   connect(worker_, &RigWorker::campaignProgress, this, [this](int done, int total, ShotPtr shot) {
     if (progress_) {
       progress_->setMaximum(total);
@@ -245,7 +277,9 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
             shot_browser_->refresh();
             campaign_view_->refresh();  // failed shots are in the folder too
           });
+}
 
+void MainWindow::connectAnalysis() {
   // Analysis.
   connect(runner_, &AnalysisRunner::analysed, this, &MainWindow::onAnalysed);
   connect(runner_, &AnalysisRunner::failed, this, &MainWindow::onAnalysisFailed);
@@ -253,7 +287,10 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
     replay_view_->resultCard()->setMessage(qs(shot->id), tr("analysing..."));
     runner_->analyze(shot, "replay", replay_file_);
   });
+}
 
+// Browser and campaign views.
+void MainWindow::connectBrowser() {
   // Browser and campaign.
   connect(shot_browser_, &ShotBrowser::shotOpened, this, [this](ShotPtr shot, QString file) {
     showShot(shot);
@@ -278,13 +315,6 @@ MainWindow::MainWindow(MainWindowOptions options, QWidget* parent)
   connect(worker_, &RigWorker::adaptiveProgress, this, &MainWindow::onAdaptiveProgress);
   connect(campaign_view_, &CampaignView::cancelRequested, this,
           [this] { worker_->requestCancel(); });
-
-  if (options_.restore_settings) restoreSettings();
-  if (!options_.shots_dir.isEmpty()) shots_dir_ = options_.shots_dir;
-  if (shots_dir_.isEmpty()) shots_dir_ = QDir::current().filePath("shots");
-  setShotsDir(shots_dir_);
-  QString profile = options_.rig_profile.isEmpty() ? profile_path_ : options_.rig_profile;
-  loadProfile(profile);
 }
 
 MainWindow::~MainWindow() {

@@ -14,6 +14,7 @@
 #include "app/gui/rig_worker.hpp"
 #include "app/gui/shot_analysis_service.hpp"
 
+class QVBoxLayout;
 class QLabel;
 class QTabWidget;
 class QProgressDialog;
@@ -109,7 +110,16 @@ class MainWindow : public QMainWindow {
   void closeEvent(QCloseEvent* event) override;
 
  private:
+  // The constructor's parts.
+  void addMessageBar(QVBoxLayout* layout);
+  void addViews(QVBoxLayout* layout);
+  void addRigDock();
   void buildMenus();
+  void connectRigPanel();
+  void connectWorker();
+  void connectCampaign();
+  void connectAnalysis();
+  void connectBrowser();
   void restoreSettings();
   void saveSettings();
   void onShotFired(ShotPtr shot, QString file, QString save_error);
