@@ -136,148 +136,204 @@ const std::uint16_t* phantomLinLut10() {
   return kLinLut10;
 }
 
+namespace {
+
+// The file's fields this reader uses, as read and checked stage by stage.
+struct CineLayout {
+  const MappedFile& f;
+  const std::string& path;
+  const std::uint8_t* d;
+  // CINEFILEHEADER
+  std::int32_t first_image_no = 0;
+  std::uint32_t image_count = 0;
+  std::uint32_t off_bmi = 0, off_setup = 0, off_offsets = 0;
+  // BITMAPINFOHEADER
+  std::int32_t bi_width = 0, bi_height = 0;
+  std::uint16_t bit_count = 0;
+  std::uint32_t bi_compression = 0;
+  std::int32_t pels_per_m = 0;
+  std::int64_t width = 0, height = 0;
+  // SETUP
+  const std::uint8_t* setup = nullptr;
+  std::uint16_t setup_length = 0;
+
+  Error bad(const std::string& what) const {
+    return fail(path + ": " + what + ": the file is damaged, truncated or not a Phantom CINE");
+  }
+
+  // CINEFILEHEADER: the mark, version 1, uncompressed, at least one image.
+  Status readHeader() {
+    if (!f.holds(0, kHeaderSize) || d[0] != 'C' || d[1] != 'I')
+      return fail(path +
+                  " is not a Phantom CINE file (it does not start with 'CI'): check the "
+                  "file, or convert it to PNG frames");
+    const std::uint16_t header_size = le16(d + 2), compression = le16(d + 4), version = le16(d + 6);
+    first_image_no = static_cast<std::int32_t>(le32(d + 16));
+    image_count = le32(d + 20);
+    off_bmi = le32(d + 24), off_setup = le32(d + 28), off_offsets = le32(d + 32);
+    if (header_size < kHeaderSize)
+      return bad("header size " + std::to_string(header_size) + " < 44");
+    if (version != 1)
+      return fail(path + ": CINE version " + std::to_string(version) +
+                  " (this reader knows version 1): convert it with Phantom PCC or to PNG frames");
+    if (compression != 0)
+      return fail(path + ": CINE compression " + std::to_string(compression) +
+                  (compression == 2 ? " (raw colour sensor data)" : " (JPEG)") +
+                  "; only uncompressed monochrome CINE is read: save it from PCC as "
+                  "uncompressed grey, or convert it to PNG frames");
+    if (image_count < 1) return bad("the header says it holds no images");
+    return Ok{};
+  }
+
+  // BITMAPINFOHEADER: a possible size, 8- or 16-bit grey or packed 10/12-bit.
+  Status readBitmapInfo() {
+    if (!f.holds(off_bmi, 40)) return bad("the image header lies beyond the end of the file");
+    const std::uint8_t* bmi = d + off_bmi;
+    bi_width = static_cast<std::int32_t>(le32(bmi + 4));
+    bi_height = static_cast<std::int32_t>(le32(bmi + 8));
+    bit_count = le16(bmi + 14);
+    bi_compression = le32(bmi + 16);
+    pels_per_m = static_cast<std::int32_t>(le32(bmi + 24));
+    width = bi_width;
+    height = bi_height < 0 ? -std::int64_t{bi_height} : bi_height;
+    if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide ||
+        width * height > kMaxPixels)
+      return bad("image size " + std::to_string(bi_width) + " x " + std::to_string(bi_height) +
+                 " is impossible");
+    if (bi_compression != kBiRgb && bi_compression != kBiPacked)
+      return fail(path + ": bitmap compression " + std::to_string(bi_compression) +
+                  " is not one this reader decodes (uncompressed or packed 10/12-bit)");
+    if (bi_compression == kBiRgb && bit_count != 8 && bit_count != 16)
+      return fail(path + ": " + std::to_string(bit_count) + "-bit pixels" +
+                  (bit_count == 24 || bit_count == 48 ? " (colour)" : "") +
+                  "; only 8- or 16-bit monochrome CINE is read: convert it to grey PNG frames");
+    return Ok{};
+  }
+
+  // SETUP: marked, recent enough to hold what is read, monochrome.
+  Status readSetup() {
+    if (!f.holds(off_setup, kSetupLength + 2)) return bad("the setup block lies beyond the end");
+    setup = d + off_setup;
+    setup_length = le16(setup + kSetupLength);
+    if (setup[kSetupMark] != 'S' || setup[kSetupMark + 1] != 'T')
+      return bad("the setup block has no 'ST' mark");
+    if (setup_length < kSetupNeed)
+      return fail(path + ": setup block of " + std::to_string(setup_length) +
+                  " bytes, from a Phantom software older than this reader knows: re-save it "
+                  "with a current PCC");
+    if (!f.holds(off_setup, setup_length)) return bad("the setup block runs past the end");
+    if ((le32(setup + kSetupCfa) & 0xFFFFFF) != 0)
+      return fail(path +
+                  " holds colour (Bayer) sensor data; only monochrome CINE is read: "
+                  "convert it to grey PNG frames");
+    return Ok{};
+  }
+
+  // What the header, bitmap and setup say about the footage, and how rows
+  // are stored.
+  void describe(CineReader& r) const {
+    FootageInfo& in = r.info;
+    in.format = "Phantom CINE";
+    in.data_path = path;
+    in.width = static_cast<int>(width);
+    in.height = static_cast<int>(height);
+    in.fps = le32(setup + kSetupFrameRate);
+    const std::uint32_t shutter_ns =
+        setup_length >= kSetupShutterNs + 4 ? le32(setup + kSetupShutterNs) : 0;
+    in.exposure_s = shutter_ns > 0 ? shutter_ns * 1e-9 : le32(setup + kSetupShutterUs) * 1e-6;
+    if (const std::uint32_t serial = le32(setup + kSetupSerial); serial != 0)
+      in.camera = "Phantom, serial " + std::to_string(serial);
+    in.first_frame = first_image_no;
+    in.trigger_known = true;
+    if (pels_per_m > 0) in.sensor_pixel_m = 1.0 / pels_per_m;
+    // Unpacked images are bottom-up, packed ones top-down (as PIMS and pycine
+    // read them). bFlipV is a display preference and is not applied: on the
+    // test vector (bubbles rising from a needle) applying it, as FFmpeg does,
+    // turns the scene upside down.
+    r.bottom_up = bi_compression == kBiRgb;
+    if (bi_height < 0) r.bottom_up = !r.bottom_up;
+    if (le32(setup + kSetupFlipV) != 0)
+      in.note =
+          "the file asks viewers to flip it vertically (bFlipV); frames are given as "
+          "recorded: if gravity points up in them, use --gravity-dir up";
+  }
+
+  // The first image's size sets the pixels' packing: 10- or 12-bit packed,
+  // or 8/16-bit rows (padded to 4 bytes or not).
+  Status pixelLayout(std::uint64_t image_size, CineReader& r) const {
+    FootageInfo& in = r.info;
+    const std::uint64_t pixels = static_cast<std::uint64_t>(width * height);
+    if (bi_compression == kBiPacked) {
+      if (image_size * 8 == pixels * 10 && pixels % 4 == 0) {
+        in.stored_bits = 10;
+      } else if (image_size * 8 == pixels * 12 && pixels % 2 == 0) {
+        in.stored_bits = 12;
+      } else {
+        return bad("packed images of " + std::to_string(image_size) + " bytes for " +
+                   std::to_string(pixels) + " pixels are neither 10- nor 12-bit");
+      }
+      in.packed = true;
+      in.frame_bytes = image_size;
+      in.effective_bits = 12;
+      return Ok{};
+    }
+    in.stored_bits = bit_count;
+    r.stride = static_cast<std::uint64_t>(width) * (bit_count / 8);
+    const std::uint64_t padded = (r.stride + 3) & ~std::uint64_t{3};
+    if (image_size == padded * static_cast<std::uint64_t>(height)) r.stride = padded;
+    in.frame_bytes = r.stride * static_cast<std::uint64_t>(height);
+    const std::uint32_t real_bpp = le32(setup + kSetupRealBpp);
+    in.effective_bits = real_bpp >= 1 && static_cast<int>(real_bpp) <= in.stored_bits
+                            ? static_cast<int>(real_bpp)
+                            : in.stored_bits;
+    return Ok{};
+  }
+
+  // Each image's pixels, from the table of offsets past its annotation:
+  // bounded by the file before anything is allocated, each image checked to
+  // lie within it.
+  Status imageOffsets(CineReader& r) const {
+    if (!f.holds(off_offsets, std::uint64_t{8} * image_count))
+      return fail(path + " says it holds " + std::to_string(image_count) +
+                  " images but its table of image offsets runs past the end of the file: the "
+                  "file is truncated (an interrupted copy?); copy it again");
+    r.pixels_at.resize(image_count);
+    for (std::uint32_t i = 0; i < image_count; ++i) {
+      const std::uint64_t at = le64(d + off_offsets + 8 * std::uint64_t{i});
+      const std::string which = "image " + std::to_string(i) + " of " + std::to_string(image_count);
+      auto truncated = [&] {
+        return fail(path + ": " + which +
+                    " lies beyond the end of the file: the file is truncated (an interrupted "
+                    "copy?); copy it again");
+      };
+      if (!f.holds(at, 8)) return truncated();
+      const std::uint32_t annotation = le32(d + at);
+      if (annotation < 8)
+        return bad(which + " has an annotation of " + std::to_string(annotation) + " bytes");
+      if (!f.holds(at, annotation)) return truncated();
+      if (i == 0)
+        if (Status ok = pixelLayout(le32(d + at + annotation - 4), r); !ok) return ok;
+      if (!f.holds(at + annotation, r.info.frame_bytes)) return truncated();
+      r.pixels_at[i] = at + annotation;
+    }
+    return Ok{};
+  }
+};
+
+}  // namespace
+
 Result<std::unique_ptr<FootageReader>> openCine(const std::string& path) {
   auto mapped = MappedFile::open(path);
   if (!mapped) return mapped.error();
-  const MappedFile& f = **mapped;
-  const std::uint8_t* d = f.data();
-  auto bad = [&](const std::string& what) {
-    return fail(path + ": " + what + ": the file is damaged, truncated or not a Phantom CINE");
-  };
-  if (!f.holds(0, kHeaderSize) || d[0] != 'C' || d[1] != 'I')
-    return fail(path +
-                " is not a Phantom CINE file (it does not start with 'CI'): check the "
-                "file, or convert it to PNG frames");
-  const std::uint16_t header_size = le16(d + 2), compression = le16(d + 4), version = le16(d + 6);
-  const std::int32_t first_image_no = static_cast<std::int32_t>(le32(d + 16));
-  const std::uint32_t image_count = le32(d + 20);
-  const std::uint32_t off_bmi = le32(d + 24), off_setup = le32(d + 28), off_offsets = le32(d + 32);
-  if (header_size < kHeaderSize) return bad("header size " + std::to_string(header_size) + " < 44");
-  if (version != 1)
-    return fail(path + ": CINE version " + std::to_string(version) +
-                " (this reader knows version 1): convert it with Phantom PCC or to PNG frames");
-  if (compression != 0)
-    return fail(path + ": CINE compression " + std::to_string(compression) +
-                (compression == 2 ? " (raw colour sensor data)" : " (JPEG)") +
-                "; only uncompressed monochrome CINE is read: save it from PCC as uncompressed "
-                "grey, or convert it to PNG frames");
-  if (image_count < 1) return bad("the header says it holds no images");
-
-  // BITMAPINFOHEADER
-  if (!f.holds(off_bmi, 40)) return bad("the image header lies beyond the end of the file");
-  const std::uint8_t* bmi = d + off_bmi;
-  const std::int32_t bi_width = static_cast<std::int32_t>(le32(bmi + 4));
-  const std::int32_t bi_height = static_cast<std::int32_t>(le32(bmi + 8));
-  const std::uint16_t bit_count = le16(bmi + 14);
-  const std::uint32_t bi_compression = le32(bmi + 16);
-  const std::int32_t pels_per_m = static_cast<std::int32_t>(le32(bmi + 24));
-  const std::int64_t width = bi_width,
-                     height = bi_height < 0 ? -std::int64_t{bi_height} : bi_height;
-  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide ||
-      width * height > kMaxPixels)
-    return bad("image size " + std::to_string(bi_width) + " x " + std::to_string(bi_height) +
-               " is impossible");
-  if (bi_compression != kBiRgb && bi_compression != kBiPacked)
-    return fail(path + ": bitmap compression " + std::to_string(bi_compression) +
-                " is not one this reader decodes (uncompressed or packed 10/12-bit)");
-  if (bi_compression == kBiRgb && bit_count != 8 && bit_count != 16)
-    return fail(path + ": " + std::to_string(bit_count) + "-bit pixels" +
-                (bit_count == 24 || bit_count == 48 ? " (colour)" : "") +
-                "; only 8- or 16-bit monochrome CINE is read: convert it to grey PNG frames");
-
-  // SETUP
-  if (!f.holds(off_setup, kSetupLength + 2)) return bad("the setup block lies beyond the end");
-  const std::uint8_t* setup = d + off_setup;
-  const std::uint16_t setup_length = le16(setup + kSetupLength);
-  if (setup[kSetupMark] != 'S' || setup[kSetupMark + 1] != 'T')
-    return bad("the setup block has no 'ST' mark");
-  if (setup_length < kSetupNeed)
-    return fail(path + ": setup block of " + std::to_string(setup_length) +
-                " bytes, from a Phantom software older than this reader knows: re-save it "
-                "with a current PCC");
-  if (!f.holds(off_setup, setup_length)) return bad("the setup block runs past the end");
-  if ((le32(setup + kSetupCfa) & 0xFFFFFF) != 0)
-    return fail(path +
-                " holds colour (Bayer) sensor data; only monochrome CINE is read: "
-                "convert it to grey PNG frames");
-
+  CineLayout c{**mapped, path, (*mapped)->data()};
+  if (Status ok = c.readHeader(); !ok) return ok.error();
+  if (Status ok = c.readBitmapInfo(); !ok) return ok.error();
+  if (Status ok = c.readSetup(); !ok) return ok.error();
   auto r = std::make_unique<CineReader>();
-  FootageInfo& in = r->info;
-  in.format = "Phantom CINE";
-  in.data_path = path;
-  in.width = static_cast<int>(width);
-  in.height = static_cast<int>(height);
-  in.fps = le32(setup + kSetupFrameRate);
-  const std::uint32_t shutter_ns =
-      setup_length >= kSetupShutterNs + 4 ? le32(setup + kSetupShutterNs) : 0;
-  in.exposure_s = shutter_ns > 0 ? shutter_ns * 1e-9 : le32(setup + kSetupShutterUs) * 1e-6;
-  if (const std::uint32_t serial = le32(setup + kSetupSerial); serial != 0)
-    in.camera = "Phantom, serial " + std::to_string(serial);
-  in.first_frame = first_image_no;
-  in.trigger_known = true;
-  if (pels_per_m > 0) in.sensor_pixel_m = 1.0 / pels_per_m;
-  // Unpacked images are bottom-up, packed ones top-down (as PIMS and pycine
-  // read them). bFlipV is a display preference and is not applied: on the
-  // test vector (bubbles rising from a needle) applying it, as FFmpeg does,
-  // turns the scene upside down.
-  r->bottom_up = bi_compression == kBiRgb;
-  if (bi_height < 0) r->bottom_up = !r->bottom_up;
-  if (le32(setup + kSetupFlipV) != 0)
-    in.note =
-        "the file asks viewers to flip it vertically (bFlipV); frames are given as "
-        "recorded: if gravity points up in them, use --gravity-dir up";
-
-  // Image offsets: bounded by the file before anything is allocated.
-  if (!f.holds(off_offsets, std::uint64_t{8} * image_count))
-    return fail(path + " says it holds " + std::to_string(image_count) +
-                " images but its table of image offsets runs past the end of the file: the "
-                "file is truncated (an interrupted copy?); copy it again");
-  const std::uint64_t pixels = static_cast<std::uint64_t>(width * height);
-  r->pixels_at.resize(image_count);
-  for (std::uint32_t i = 0; i < image_count; ++i) {
-    const std::uint64_t at = le64(d + off_offsets + 8 * std::uint64_t{i});
-    const std::string which = "image " + std::to_string(i) + " of " + std::to_string(image_count);
-    auto truncated = [&] {
-      return fail(path + ": " + which +
-                  " lies beyond the end of the file: the file is truncated (an interrupted "
-                  "copy?); copy it again");
-    };
-    if (!f.holds(at, 8)) return truncated();
-    const std::uint32_t annotation = le32(d + at);
-    if (annotation < 8)
-      return bad(which + " has an annotation of " + std::to_string(annotation) + " bytes");
-    if (!f.holds(at, annotation)) return truncated();
-    const std::uint64_t image_size = le32(d + at + annotation - 4);
-    if (i == 0) {
-      if (bi_compression == kBiPacked) {
-        if (image_size * 8 == pixels * 10 && pixels % 4 == 0) {
-          in.stored_bits = 10;
-        } else if (image_size * 8 == pixels * 12 && pixels % 2 == 0) {
-          in.stored_bits = 12;
-        } else {
-          return bad("packed images of " + std::to_string(image_size) + " bytes for " +
-                     std::to_string(pixels) + " pixels are neither 10- nor 12-bit");
-        }
-        in.packed = true;
-        in.frame_bytes = image_size;
-        in.effective_bits = 12;
-      } else {
-        in.stored_bits = bit_count;
-        r->stride = static_cast<std::uint64_t>(width) * (bit_count / 8);
-        const std::uint64_t padded = (r->stride + 3) & ~std::uint64_t{3};
-        if (image_size == padded * static_cast<std::uint64_t>(height)) r->stride = padded;
-        in.frame_bytes = r->stride * static_cast<std::uint64_t>(height);
-        const std::uint32_t real_bpp = le32(setup + kSetupRealBpp);
-        in.effective_bits = real_bpp >= 1 && static_cast<int>(real_bpp) <= in.stored_bits
-                                ? static_cast<int>(real_bpp)
-                                : in.stored_bits;
-      }
-    }
-    if (!f.holds(at + annotation, in.frame_bytes)) return truncated();
-    r->pixels_at[i] = at + annotation;
-  }
-  in.frame_count = image_count;
-  in.pixel_format = pixelFormatFor(in.stored_bits, in.effective_bits);
+  c.describe(*r);
+  if (Status ok = c.imageOffsets(*r); !ok) return ok.error();
+  r->info.frame_count = c.image_count;
+  r->info.pixel_format = pixelFormatFor(r->info.stored_bits, r->info.effective_bits);
   r->file = std::move(*mapped);
   return std::unique_ptr<FootageReader>(std::move(r));
 }
