@@ -161,6 +161,22 @@ std::string plotCsv(const app::PlotSpec& plot) {
 
 CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(this);
+  addControls(layout);
+  addAdaptiveTargets(layout);
+  addReportArea(layout);
+  showMode();
+  connect(&loader_, &QFutureWatcher<Loaded>::finished, this, [this] {
+    Loaded l = loader_.result();
+    setCharts(std::move(l.charts), l.summary);
+    if (refresh_again_) {
+      refresh_again_ = false;
+      refresh();
+    }
+  });
+}
+
+// The campaign's kind, size, seed and incidence range; Run, Cancel, Export all.
+void CampaignView::addControls(QVBoxLayout* layout) {
   auto* controls = new QHBoxLayout;
   mode_ = new QComboBox;
   mode_->setObjectName("campaign_mode");
@@ -213,6 +229,27 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   controls->addStretch();
   controls->addWidget(export_all);
   layout->addLayout(controls);
+
+  connect(mode_, &QComboBox::currentIndexChanged, this, [this] { showMode(); });
+  connect(run_, &QPushButton::clicked, this, [this] {
+    if (adaptiveSelected())
+      emit adaptiveCampaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
+                                     angle_min_->value(), angle_max_->value(), target_mu_->value(),
+                                     target_beta0_->value());
+    else
+      emit campaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
+                             angle_min_->value(), angle_max_->value());
+  });
+  connect(cancel_, &QPushButton::clicked, this, [this] { emit cancelRequested(); });
+  connect(export_all, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Export the plots into"), dir_);
+    if (dir.isEmpty()) return;
+    QString error;
+    if (!exportAll(dir, &error)) summary_->setText(error);
+  });
+}
+
+void CampaignView::addAdaptiveTargets(QVBoxLayout* layout) {
   // The adaptive campaign's targets (mu and beta_0 are dimensionless).
   adaptive_controls_ = new QWidget;
   auto* targets = new QHBoxLayout(adaptive_controls_);
@@ -242,6 +279,10 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   targets->addWidget(note);
   targets->addStretch();
   layout->addWidget(adaptive_controls_);
+}
+
+// The adaptive campaign's status and log, the report, the summary and the plots.
+void CampaignView::addReportArea(QVBoxLayout* layout) {
   adaptive_status_ = new QLabel;
   adaptive_status_->setObjectName("campaign_adaptive_status");
   adaptive_status_->setWordWrap(true);
@@ -270,33 +311,6 @@ CampaignView::CampaignView(QWidget* parent) : QWidget(parent) {
   new QGridLayout(grid_host_);
   scroll->setWidget(grid_host_);
   layout->addWidget(scroll, 1);
-  showMode();
-
-  connect(mode_, &QComboBox::currentIndexChanged, this, [this] { showMode(); });
-  connect(run_, &QPushButton::clicked, this, [this] {
-    if (adaptiveSelected())
-      emit adaptiveCampaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
-                                     angle_min_->value(), angle_max_->value(), target_mu_->value(),
-                                     target_beta0_->value());
-    else
-      emit campaignRequested(shots_->value(), static_cast<quint64>(seed_->value()),
-                             angle_min_->value(), angle_max_->value());
-  });
-  connect(cancel_, &QPushButton::clicked, this, [this] { emit cancelRequested(); });
-  connect(export_all, &QPushButton::clicked, this, [this] {
-    const QString dir = QFileDialog::getExistingDirectory(this, tr("Export the plots into"), dir_);
-    if (dir.isEmpty()) return;
-    QString error;
-    if (!exportAll(dir, &error)) summary_->setText(error);
-  });
-  connect(&loader_, &QFutureWatcher<Loaded>::finished, this, [this] {
-    Loaded l = loader_.result();
-    setCharts(std::move(l.charts), l.summary);
-    if (refresh_again_) {
-      refresh_again_ = false;
-      refresh();
-    }
-  });
 }
 
 CampaignView::~CampaignView() {

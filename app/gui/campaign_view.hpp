@@ -16,6 +16,7 @@
 #include "app/report/plot.hpp"
 
 class QChartView;
+class QVBoxLayout;
 class QComboBox;
 class QLabel;
 class QPlainTextEdit;
@@ -97,6 +98,10 @@ class CampaignView : public QWidget {
   };
 
  private:
+  // The constructor's parts, top to bottom.
+  void addControls(QVBoxLayout* layout);
+  void addAdaptiveTargets(QVBoxLayout* layout);
+  void addReportArea(QVBoxLayout* layout);
   void rebuild();
   void showMode();
 
