@@ -52,6 +52,22 @@ enum Column {
 
 ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(this);
+  addFolderRow(layout);
+  addFilters(layout);
+  addTable(layout);
+  addButtons(layout);
+  connect(&reader_, &QFutureWatcher<ReadOutcome>::finished, this, [this] {
+    const ReadOutcome r = reader_.result();
+    if (!r.shot) {
+      emit error(tr("Cannot open the shot: %1").arg(r.error));
+      return;
+    }
+    emit shotOpened(r.shot, reading_file_);
+  });
+}
+
+// The folder shown, and the buttons to choose another or read it again.
+void ShotBrowser::addFolderRow(QVBoxLayout* layout) {
   auto* top = new QHBoxLayout;
   folder_label_ = new QLabel(tr("no folder"));
   folder_label_->setObjectName("folder_label");
@@ -63,6 +79,15 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
   top->addWidget(refresh_button);
   layout->addLayout(top);
 
+  connect(choose, &QPushButton::clicked, this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, tr("Shot folder"), dir_);
+    if (!dir.isEmpty()) setFolder(dir);
+  });
+  connect(refresh_button, &QPushButton::clicked, this, &ShotBrowser::refresh);
+}
+
+// Material, status and dates: the table shows the shots that match.
+void ShotBrowser::addFilters(QVBoxLayout* layout) {
   auto* filters = new QHBoxLayout;
   material_ = new QComboBox;
   material_->setObjectName("material_filter");
@@ -92,6 +117,15 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
   filters->addStretch();
   layout->addLayout(filters);
 
+  for (auto* c : {material_, status_})
+    connect(c, &QComboBox::currentIndexChanged, this, &ShotBrowser::fill);
+  connect(use_dates_, &QCheckBox::toggled, this, &ShotBrowser::fill);
+  connect(since_, &QDateEdit::dateChanged, this, &ShotBrowser::fill);
+  connect(until_, &QDateEdit::dateChanged, this, &ShotBrowser::fill);
+}
+
+// One row a shot; a double click opens it, its note is edited in place.
+void ShotBrowser::addTable(QVBoxLayout* layout) {
   table_ = new QTableWidget(0, kColumns);
   table_->setObjectName("shot_table");
   table_->setHorizontalHeaderLabels({tr("shot"), tr("time (local)"), tr("material"), tr("status"),
@@ -109,6 +143,17 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
   table_->verticalHeader()->hide();
   layout->addWidget(table_, 1);
 
+  connect(table_, &QTableWidget::cellDoubleClicked, this, [this](int row, int) { openRow(row); });
+  connect(table_, &QTableWidget::itemChanged, this, [this](QTableWidgetItem* item) {
+    if (filling_ || item->column() != kNote || item->row() >= static_cast<int>(rows_.size()))
+      return;
+    const app::CatalogRow& r = rows_[item->row()];
+    const std::string note = item->text().trimmed().toStdString();
+    if (note != r.note) saveNote(r.id, note);
+  });
+}
+
+void ShotBrowser::addButtons(QVBoxLayout* layout) {
   auto* bottom = new QHBoxLayout;
   count_ = new QLabel;
   count_->setObjectName("shot_count");
@@ -124,17 +169,6 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
   bottom->addWidget(reanalyse_all);
   layout->addLayout(bottom);
 
-  connect(choose, &QPushButton::clicked, this, [this] {
-    const QString dir = QFileDialog::getExistingDirectory(this, tr("Shot folder"), dir_);
-    if (!dir.isEmpty()) setFolder(dir);
-  });
-  connect(refresh_button, &QPushButton::clicked, this, &ShotBrowser::refresh);
-  for (auto* c : {material_, status_})
-    connect(c, &QComboBox::currentIndexChanged, this, &ShotBrowser::fill);
-  connect(use_dates_, &QCheckBox::toggled, this, &ShotBrowser::fill);
-  connect(since_, &QDateEdit::dateChanged, this, &ShotBrowser::fill);
-  connect(until_, &QDateEdit::dateChanged, this, &ShotBrowser::fill);
-  connect(table_, &QTableWidget::cellDoubleClicked, this, [this](int row, int) { openRow(row); });
   connect(open, &QPushButton::clicked, this, [this] {
     if (table_->currentRow() >= 0) openRow(table_->currentRow());
   });
@@ -145,21 +179,6 @@ ShotBrowser::ShotBrowser(QWidget* parent) : QWidget(parent) {
     QStringList files;
     for (const auto& r : rows_) files << QDir(dir_).filePath(qs(r.file));
     if (!files.isEmpty()) emit reanalyseRequested(files);
-  });
-  connect(table_, &QTableWidget::itemChanged, this, [this](QTableWidgetItem* item) {
-    if (filling_ || item->column() != kNote || item->row() >= static_cast<int>(rows_.size()))
-      return;
-    const app::CatalogRow& r = rows_[item->row()];
-    const std::string note = item->text().trimmed().toStdString();
-    if (note != r.note) saveNote(r.id, note);
-  });
-  connect(&reader_, &QFutureWatcher<ReadOutcome>::finished, this, [this] {
-    const ReadOutcome r = reader_.result();
-    if (!r.shot) {
-      emit error(tr("Cannot open the shot: %1").arg(r.error));
-      return;
-    }
-    emit shotOpened(r.shot, reading_file_);
   });
 }
 

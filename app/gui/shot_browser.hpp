@@ -10,6 +10,7 @@
 #include "app/gui/shot_analysis_service.hpp"
 #include "app/store/catalog.hpp"
 
+class QVBoxLayout;
 class QComboBox;
 class QDateEdit;
 class QCheckBox;
@@ -48,6 +49,11 @@ class ShotBrowser : public QWidget {
   void noteSaved(QString shot_id, QString error);
 
  private:
+  // The constructor's parts, top to bottom.
+  void addFolderRow(QVBoxLayout* layout);
+  void addFilters(QVBoxLayout* layout);
+  void addTable(QVBoxLayout* layout);
+  void addButtons(QVBoxLayout* layout);
   void fill();
   QStringList selectedFiles() const;
   void saveNote(const std::string& id, const std::string& note);
