@@ -251,7 +251,14 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
           what, d.x(), d.y(), d.z(), e.sigma.x(), e.sigma.y(), e.sigma.z(), truth.x(), truth.y(),
           truth.z());
     };
-    std::printf("  sphere %d:\n", s + 1);
+    // Outlines cut by the frame's border in the 11 frames around the trigger
+    // (the impact): the circle then rests on part of the edge.
+    int cut = 0;
+    for (const vision::FrameDetections& fd : r.frames)
+      cut += fd.sphere[s] && fd.sphere[s]->cut_by_border && std::abs(fd.frame_id) <= 5;
+    std::printf(
+        "  sphere %d: frames %d before, %d after; cut by the border in %d of frames -5..5\n", s + 1,
+        k.frames_before, k.frames_after, cut);
     row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
     row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
     row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
