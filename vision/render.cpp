@@ -143,6 +143,70 @@ int capRuns(const DotInstance& c, double cos_a, double y, double rho, double* ou
   return runs;
 }
 
+// One sphere instance's row, as drawSphereRow's stages share it: the sub-rows'
+// heights y and half-chords w from the centre, the lit level at the chord's
+// centre and the columns [t0, t1] the row touches.
+struct RowGeometry {
+  Sub y, w, level;
+  float kr3;  // k / (3 R^2): the shading's cubic term
+  double r, cu;
+  int t0, t1;
+};
+
+// Paints one dot (cap) into one row: exactly along each sub-row, where the cap
+// covers one or two runs, and by the sub-rows across. Painting replaces the
+// lit brightness b by `dot` over those runs (sig is lowered, cov unchanged).
+void paintDotRow(const DotInstance& di, double cos_dot, const RowGeometry& g, float dot, float* sig,
+                 const float* cov) {
+  const double r = g.r;
+  const Sub& y = g.y;
+  const Sub& w = g.w;
+  const float kr3 = g.kr3;
+  const int t0 = g.t0, t1 = g.t1;
+  const Sub paint_level = g.level - dot;
+  Sub a0 = Sub::Zero(), b0 = Sub::Zero(), a1 = Sub::Zero(), b1 = Sub::Zero();
+  double hull_a = r, hull_b = -r;    // union of all runs in the row
+  double inner_a = -r, inner_b = r;  // common part of all runs: pixels fully painted
+  for (int j = 0; j < kEdgeSubrows; ++j) {
+    double x[4];
+    const int runs = w[j] > 0 ? capRuns(di, cos_dot, -y[j] / r, w[j] / r, x) : 0;
+    if (runs == 1) {
+      inner_a = std::max(inner_a, x[0] * r);
+      inner_b = std::min(inner_b, x[1] * r);
+    } else {
+      inner_a = r, inner_b = -r;
+    }
+    if (runs == 0) continue;
+    hull_a = std::min(hull_a, x[0] * r);
+    hull_b = std::max(hull_b, x[2 * runs - 1] * r);
+    a0[j] = static_cast<float>(x[0] * r);
+    b0[j] = static_cast<float>(x[1] * r);
+    if (runs == 2) {
+      a1[j] = static_cast<float>(x[2] * r);
+      b1[j] = static_cast<float>(x[3] * r);
+    }
+  }
+  if (hull_a >= hull_b) return;
+  const bool two_runs = (a1 != b1).any();
+  const int u_lo = std::max(t0, toIndex(std::floor(g.cu + hull_a + 0.5)));
+  const int u_hi = std::min(t1, toIndex(std::ceil(g.cu + hull_b - 0.5)));
+  for (int u = u_lo; u <= u_hi; ++u) {
+    const float xl = static_cast<float>(u - 0.5 - g.cu);
+    if (cov[u] >= 1.0f && xl >= inner_a && xl + 1.0f <= inner_b) {
+      sig[u] = dot;  // wholly painted, wholly on the disc
+      continue;
+    }
+    Sub xa = a0.max(xl), xb = b0.min(xl + 1.0f).max(xa);
+    float paint = ((xb - xa) * paint_level - kr3 * (xb.cube() - xa.cube())).sum();
+    if (two_runs) {
+      xa = a1.max(xl);
+      xb = b1.min(xl + 1.0f).max(xa);
+      paint += ((xb - xa) * paint_level - kr3 * (xb.cube() - xa.cube())).sum();
+    }
+    sig[u] -= paint * (1.0f / kEdgeSubrows);
+  }
+}
+
 // Draws one row of one sphere instance into sig/cov for the columns it touches
 // and returns them as [lo, hi] (lo > hi: none). cov[u] is the fraction of pixel
 // u covered by the disc; sig[u] the integral of brightness over the covered
@@ -224,57 +288,149 @@ void drawSphereRow(const SphereInstance& s, const DotInstance* dots, int v, cons
     for (int u = i1 + 1; u <= t1; ++u) edge(u);
   }
 
-  // Dots, integrated like the disc edge: exactly along each sub-row, where a
-  // cap covers one or two runs, and by the sub-rows across. Painting replaces
-  // the lit brightness b by dot_level over those runs.
-  const float dot = dot_level;
-  const Sub paint_level = level - dot;
+  // Dots, integrated like the disc edge; painting replaces the lit brightness.
+  const RowGeometry g{y, w, level, kr3, r, s.cu, t0, t1};
   for (int d = 0; d < s.dot_count; ++d) {
     const DotInstance& di = dots[s.first_dot + d];
-    if (v < di.v0 || v > di.v1) continue;
-    Sub a0 = Sub::Zero(), b0 = Sub::Zero(), a1 = Sub::Zero(), b1 = Sub::Zero();
-    double hull_a = r, hull_b = -r;    // union of all runs in the row
-    double inner_a = -r, inner_b = r;  // common part of all runs: pixels fully painted
-    for (int j = 0; j < kEdgeSubrows; ++j) {
-      double x[4];
-      const int runs = w[j] > 0 ? capRuns(di, cos_dot, -y[j] / r, w[j] / r, x) : 0;
-      if (runs == 1) {
-        inner_a = std::max(inner_a, x[0] * r);
-        inner_b = std::min(inner_b, x[1] * r);
-      } else {
-        inner_a = r, inner_b = -r;
-      }
-      if (runs == 0) continue;
-      hull_a = std::min(hull_a, x[0] * r);
-      hull_b = std::max(hull_b, x[2 * runs - 1] * r);
-      a0[j] = static_cast<float>(x[0] * r);
-      b0[j] = static_cast<float>(x[1] * r);
-      if (runs == 2) {
-        a1[j] = static_cast<float>(x[2] * r);
-        b1[j] = static_cast<float>(x[3] * r);
-      }
-    }
-    if (hull_a >= hull_b) continue;
-    const bool two_runs = (a1 != b1).any();
-    const int u_lo = std::max(t0, toIndex(std::floor(s.cu + hull_a + 0.5)));
-    const int u_hi = std::min(t1, toIndex(std::ceil(s.cu + hull_b - 0.5)));
-    for (int u = u_lo; u <= u_hi; ++u) {
-      const float xl = static_cast<float>(u - 0.5 - s.cu);
-      if (cov[u] >= 1.0f && xl >= inner_a && xl + 1.0f <= inner_b) {
-        sig[u] = dot;  // wholly painted, wholly on the disc
-        continue;
-      }
-      Sub xa = a0.max(xl), xb = b0.min(xl + 1.0f).max(xa);
-      float paint = ((xb - xa) * paint_level - kr3 * (xb.cube() - xa.cube())).sum();
-      if (two_runs) {
-        xa = a1.max(xl);
-        xb = b1.min(xl + 1.0f).max(xa);
-        paint += ((xb - xa) * paint_level - kr3 * (xb.cube() - xa.cube())).sum();
-      }
-      sig[u] -= paint * (1.0f / kEdgeSubrows);
-    }
+    if (v >= di.v0 && v <= di.v1) paintDotRow(di, cos_dot, g, dot_level, sig, cov);
   }
 }
+
+// Time samples over the exposure: one per kBlurStepPx of the fastest surface
+// point's motion (or RenderSettings::blur_samples), 1 without exposure.
+int blurSamples(const RenderSettings& st, const std::vector<SphereView>& spheres) {
+  if (!(st.exposure_s > 0)) return 1;
+  if (st.blur_samples > 0) return st.blur_samples;
+  double fastest_px = 0;
+  for (const SphereView& sv : spheres)
+    fastest_px =
+        std::max(fastest_px,
+                 (sv.velocity_px_s.norm() + sv.spin_rad_s.norm() * sv.radius_px) * st.exposure_s);
+  if (!(fastest_px >= 0)) return 1;  // NaN motion: draw it still
+  return static_cast<int>(
+      std::clamp(std::ceil(fastest_px / kBlurStepPx), 1.0, double{kMaxBlurSamples}));
+}
+
+// Appends the visible dots of sphere `sv` at time t (s from mid-exposure),
+// drawn as instance `si`; returns cos of the dots' angular radius (1: none).
+double appendDotInstances(const SphereView& sv, const SphereInstance& si, double t,
+                          std::vector<DotInstance>& dots) {
+  if (sv.dots == nullptr || sv.dots->centres.empty()) return 1.0;
+  const double r = si.radius;
+  const double alpha = sv.dots->angular_radius_rad;
+  const double sin_a = std::sin(alpha);
+  Eigen::Matrix3d rot = sv.orientation.normalized().toRotationMatrix();
+  const double spin = sv.spin_rad_s.norm();
+  if (spin > 0 && t != 0)
+    rot = Eigen::AngleAxisd(spin * t, sv.spin_rad_s / spin).toRotationMatrix() * rot;
+  for (const Vec3& cb : sv.dots->centres) {
+    const Vec3 c = rot * cb.normalized();
+    if (c.z() <= -sin_a) continue;  // cap entirely on the far hemisphere
+    // The cap spans polar angles phi -+ a from world +y, phi = acos(c_y),
+    // clipped at the poles (a cap may contain one).
+    const double phi = std::acos(std::clamp(c.y(), -1.0, 1.0));
+    DotInstance d{};
+    d.cx = c.x();
+    d.cy = c.y();
+    d.cz = c.z();
+    d.h2 = c.x() * c.x() + c.z() * c.z();
+    d.inv_h2 = d.h2 > 0 ? 1.0 / d.h2 : 0.0;
+    d.y_lo = std::cos(std::min(phi + alpha, std::numbers::pi));
+    d.y_hi = std::cos(std::max(phi - alpha, 0.0));
+    // Rows whose pixels meet the cap's box; runs are exact, so no margin.
+    d.v0 = toIndex(std::floor(si.cv - r * d.y_hi - 0.5)) + 1;
+    d.v1 = toIndex(std::ceil(si.cv - r * d.y_lo + 0.5)) - 1;
+    dots.push_back(d);
+  }
+  return std::cos(alpha);
+}
+
+// Every sphere at every time sample (symmetric about mid-exposure, t = 0, so
+// the blurred image's centroid is the mid-exposure position), with its dots.
+struct Instances {
+  std::vector<SphereInstance> inst;
+  std::vector<DotInstance> dots;
+  std::vector<double> cos_dot;  // cos(dot angular radius), per instance
+};
+
+Instances layOutInstances(const std::vector<SphereView>& spheres, int samples,
+                          const RenderSettings& st) {
+  Instances out;
+  out.inst.reserve(static_cast<std::size_t>(samples) * spheres.size());
+  for (int j = 0; j < samples; ++j) {
+    const double t = samples == 1 ? 0.0 : st.exposure_s * ((j + 0.5) / samples - 0.5);
+    for (const SphereView& sv : spheres) {
+      SphereInstance si{};
+      si.radius = sv.radius_px;
+      si.sample = j;
+      si.cu = sv.centre_px.x() + sv.velocity_px_s.x() * t;
+      si.cv = sv.centre_px.y() + sv.velocity_px_s.y() * t;
+      si.first_dot = static_cast<int>(out.dots.size());
+      const double r = si.radius;
+      if (!(r > 0) || !std::isfinite(r) || !std::isfinite(si.cu) || !std::isfinite(si.cv))
+        continue;  // nothing to draw
+      si.v0 = std::max(0, toIndex(std::floor(si.cv - r - 0.5)) + 1);
+      si.v1 = std::min(st.height - 1, toIndex(std::ceil(si.cv + r + 0.5)) - 1);
+      si.u0 = std::max(0, toIndex(std::floor(si.cu - r - 0.5)) + 1);
+      si.u1 = std::min(st.width - 1, toIndex(std::ceil(si.cu + r + 0.5)) - 1);
+      if (si.v0 > si.v1 || si.u0 > si.u1) continue;  // wholly outside the frame
+      const double cosd = appendDotInstances(sv, si, t, out.dots);
+      si.dot_count = static_cast<int>(out.dots.size()) - si.first_dot;
+      out.inst.push_back(si);
+      out.cos_dot.push_back(cosd);
+    }
+  }
+  return out;
+}
+
+// Adds one row's sphere instances (`active`, indices into in.inst, grouped by
+// time sample) into acc = buf[0, width): the mean over samples of
+// (pixel - background). buf holds 4 rows of width floats; the other three are
+// scratch.
+struct RowCompositor {
+  const Instances& in;
+  Shading shade;
+  float dot_level, bg, weight;
+  int width;
+
+  void compose(const std::vector<int>& active, int v, float* buf) const {
+    float* acc = buf;
+    float* tmp = acc + width;  // one sample's (pixel - background), when spheres overlap
+    float* sig = tmp + width;  // one sphere instance's row, see drawSphereRow
+    float* cov = sig + width;
+    // Within a sample spheres that share columns are composited front-to-back
+    // in list order (later in front), otherwise their contributions simply add.
+    std::size_t a = 0;
+    while (a < active.size()) {
+      const int sample = in.inst[active[a]].sample;
+      std::size_t b = a;
+      int lo = width, hi = -1;
+      bool overlap = false;
+      while (b < active.size() && in.inst[active[b]].sample == sample) {
+        const SphereInstance& s = in.inst[active[b]];
+        if (s.u0 <= hi && s.u1 >= lo) overlap = true;
+        lo = std::min(lo, s.u0);
+        hi = std::max(hi, s.u1);
+        ++b;
+      }
+      if (overlap) std::fill(tmp + lo, tmp + hi + 1, 0.0f);
+      for (std::size_t i = a; i < b; ++i) {
+        const SphereInstance& s = in.inst[active[i]];
+        int r0, r1;
+        drawSphereRow(s, in.dots.data(), v, shade, dot_level, in.cos_dot[active[i]], width, sig,
+                      cov, r0, r1);
+        if (overlap) {
+          for (int u = r0; u <= r1; ++u) tmp[u] = tmp[u] * (1.0f - cov[u]) + sig[u] - cov[u] * bg;
+        } else {
+          for (int u = r0; u <= r1; ++u) acc[u] += weight * (sig[u] - cov[u] * bg);
+        }
+      }
+      if (overlap)
+        for (int u = lo; u <= hi; ++u) acc[u] += weight * tmp[u];
+      a = b;
+    }
+  }
+};
 
 }  // namespace
 
@@ -360,151 +516,46 @@ cv::Mat Renderer::render(const std::vector<SphereView>& spheres, std::uint64_t f
   const RenderSettings& st = settings_;
   const int width = st.width, height = st.height;
   const float full = static_cast<float>(maxValue(st.format));
-  const float bg = static_cast<float>(st.background_level);
-  const Shading shade{static_cast<float>(st.rim_level),
-                      static_cast<float>(st.sphere_level - st.rim_level)};
-  const float dot_level = static_cast<float>(st.dot_level);
-
-  // Time samples over the exposure, symmetric about its middle (t = 0), so the
-  // blurred image's centroid is the mid-exposure position.
-  int samples = 1;
-  if (st.exposure_s > 0) {
-    if (st.blur_samples > 0) {
-      samples = st.blur_samples;
-    } else {
-      double fastest_px = 0;
-      for (const SphereView& sv : spheres)
-        fastest_px =
-            std::max(fastest_px, (sv.velocity_px_s.norm() + sv.spin_rad_s.norm() * sv.radius_px) *
-                                     st.exposure_s);
-      samples = static_cast<int>(
-          std::clamp(std::ceil(fastest_px / kBlurStepPx), 1.0, double{kMaxBlurSamples}));
-      if (!(fastest_px >= 0)) samples = 1;  // NaN motion: draw it still
-    }
-  }
-
-  std::vector<SphereInstance> inst;
-  std::vector<DotInstance> dots;
-  std::vector<double> cos_dot;  // cos(dot angular radius), per instance
-  inst.reserve(static_cast<std::size_t>(samples) * spheres.size());
-  for (int j = 0; j < samples; ++j) {
-    const double t = samples == 1 ? 0.0 : st.exposure_s * ((j + 0.5) / samples - 0.5);
-    for (const SphereView& sv : spheres) {
-      SphereInstance si{};
-      si.radius = sv.radius_px;
-      si.sample = j;
-      si.cu = sv.centre_px.x() + sv.velocity_px_s.x() * t;
-      si.cv = sv.centre_px.y() + sv.velocity_px_s.y() * t;
-      si.first_dot = static_cast<int>(dots.size());
-      const double r = si.radius;
-      if (!(r > 0) || !std::isfinite(r) || !std::isfinite(si.cu) || !std::isfinite(si.cv))
-        continue;  // nothing to draw
-      si.v0 = std::max(0, toIndex(std::floor(si.cv - r - 0.5)) + 1);
-      si.v1 = std::min(height - 1, toIndex(std::ceil(si.cv + r + 0.5)) - 1);
-      si.u0 = std::max(0, toIndex(std::floor(si.cu - r - 0.5)) + 1);
-      si.u1 = std::min(width - 1, toIndex(std::ceil(si.cu + r + 0.5)) - 1);
-      if (si.v0 > si.v1 || si.u0 > si.u1) continue;  // wholly outside the frame
-      double cosd = 1.0;
-      if (sv.dots != nullptr && !sv.dots->centres.empty()) {
-        const double alpha = sv.dots->angular_radius_rad;
-        cosd = std::cos(alpha);
-        const double sin_a = std::sin(alpha);
-        Eigen::Matrix3d rot = sv.orientation.normalized().toRotationMatrix();
-        const double spin = sv.spin_rad_s.norm();
-        if (spin > 0 && t != 0)
-          rot = Eigen::AngleAxisd(spin * t, sv.spin_rad_s / spin).toRotationMatrix() * rot;
-        for (const Vec3& cb : sv.dots->centres) {
-          const Vec3 c = rot * cb.normalized();
-          if (c.z() <= -sin_a) continue;  // cap entirely on the far hemisphere
-          // The cap spans polar angles phi -+ a from world +y, phi = acos(c_y),
-          // clipped at the poles (a cap may contain one).
-          const double phi = std::acos(std::clamp(c.y(), -1.0, 1.0));
-          DotInstance d{};
-          d.cx = c.x();
-          d.cy = c.y();
-          d.cz = c.z();
-          d.h2 = c.x() * c.x() + c.z() * c.z();
-          d.inv_h2 = d.h2 > 0 ? 1.0 / d.h2 : 0.0;
-          d.y_lo = std::cos(std::min(phi + alpha, std::numbers::pi));
-          d.y_hi = std::cos(std::max(phi - alpha, 0.0));
-          // Rows whose pixels meet the cap's box; runs are exact, so no margin.
-          d.v0 = toIndex(std::floor(si.cv - r * d.y_hi - 0.5)) + 1;
-          d.v1 = toIndex(std::ceil(si.cv - r * d.y_lo + 0.5)) - 1;
-          dots.push_back(d);
-        }
-      }
-      si.dot_count = static_cast<int>(dots.size()) - si.first_dot;
-      inst.push_back(si);
-      cos_dot.push_back(cosd);
-    }
-  }
+  const int samples = blurSamples(st, spheres);
+  const Instances in = layOutInstances(spheres, samples, st);
+  const RowCompositor comp{
+      in,
+      Shading{static_cast<float>(st.rim_level), static_cast<float>(st.sphere_level - st.rim_level)},
+      static_cast<float>(st.dot_level),
+      static_cast<float>(st.background_level),
+      1.0f / static_cast<float>(samples),
+      width};
 
   cv::Mat image(height, width, cvType(st.format));
   std::vector<float> buf(4 * static_cast<std::size_t>(width), 0.0f);
-  float* acc = buf.data();   // mean over samples of (pixel - background)
-  float* tmp = acc + width;  // one sample's (pixel - background), when spheres overlap
-  float* sig = tmp + width;  // one sphere instance's row, see drawSphereRow
-  float* cov = sig + width;
-  const float weight = 1.0f / static_cast<float>(samples);
-  const float base = bg * full;
+  const float base = comp.bg * full;
   const bool noisy = st.noise_grey > 0;
+  const float sigma = static_cast<float>(st.noise_grey);
 
   // Per-frame stream of row offsets into the noise table, from (seed, frame).
   std::uint64_t rng = st.noise_seed ^ (frame_index * 0xd1b54a32d192ed03ULL) ^ 0x8bb84b93962eacc9ULL;
   splitmix64(rng);
   std::vector<int> active;
-  active.reserve(inst.size());
+  active.reserve(in.inst.size());
 
   const std::size_t pixel_bytes = image.elemSize();
   for (int v = 0; v < height; ++v) {
     std::size_t offset = 0;
     if (noisy) offset = splitmix64(rng) % kNoiseTableSize;
     const float* noise = noise_table_.data() + offset;
-    const float sigma = static_cast<float>(st.noise_grey);
 
     active.clear();
     int span0 = width, span1 = -1;
-    for (int i = 0; i < static_cast<int>(inst.size()); ++i) {
-      if (v < inst[i].v0 || v > inst[i].v1) continue;
+    for (int i = 0; i < static_cast<int>(in.inst.size()); ++i) {
+      if (v < in.inst[i].v0 || v > in.inst[i].v1) continue;
       active.push_back(i);
-      span0 = std::min(span0, inst[i].u0);
-      span1 = std::max(span1, inst[i].u1);
+      span0 = std::min(span0, in.inst[i].u0);
+      span1 = std::max(span1, in.inst[i].u1);
     }
-
+    float* acc = buf.data();  // mean over samples of (pixel - background)
     if (!active.empty()) {
       std::fill(acc + span0, acc + span1 + 1, 0.0f);
-      // Instances are grouped by time sample; within a sample spheres that
-      // share columns are composited front-to-back in list order (later in
-      // front), otherwise their contributions simply add.
-      std::size_t a = 0;
-      while (a < active.size()) {
-        const int sample = inst[active[a]].sample;
-        std::size_t b = a;
-        int lo = width, hi = -1;
-        bool overlap = false;
-        while (b < active.size() && inst[active[b]].sample == sample) {
-          const SphereInstance& s = inst[active[b]];
-          if (s.u0 <= hi && s.u1 >= lo) overlap = true;
-          lo = std::min(lo, s.u0);
-          hi = std::max(hi, s.u1);
-          ++b;
-        }
-        if (overlap) std::fill(tmp + lo, tmp + hi + 1, 0.0f);
-        for (std::size_t i = a; i < b; ++i) {
-          const SphereInstance& s = inst[active[i]];
-          int r0, r1;
-          drawSphereRow(s, dots.data(), v, shade, dot_level, cos_dot[active[i]], width, sig, cov,
-                        r0, r1);
-          if (overlap) {
-            for (int u = r0; u <= r1; ++u) tmp[u] = tmp[u] * (1.0f - cov[u]) + sig[u] - cov[u] * bg;
-          } else {
-            for (int u = r0; u <= r1; ++u) acc[u] += weight * (sig[u] - cov[u] * bg);
-          }
-        }
-        if (overlap)
-          for (int u = lo; u <= hi; ++u) acc[u] += weight * tmp[u];
-        a = b;
-      }
+      comp.compose(active, v, buf.data());
     }
 
     // Plain background from the table, then the columns near spheres on top.
