@@ -436,43 +436,38 @@ vision::Frame CameraSim::renderFrame(std::int64_t exposure_start_ns, std::uint64
   return f;
 }
 
-void CameraSim::run() {
-  const std::int64_t period = config_.framePeriodNs();
-  const std::int64_t exposure = std::llround(config_.exposure_us * 1000.0);
-  // The frame grid: frame `seq` starts exposing at t_start + seq * period.
-  std::int64_t t_start = monotonicNowNs();
-  auto startOf = [&](std::uint64_t seq) {
-    return t_start + static_cast<std::int64_t>(seq) * period;
-  };
-  // The first frame whose exposure starts at or after t.
-  auto firstFrom = [&](std::int64_t t) -> std::uint64_t {
-    return t <= t_start ? 0 : static_cast<std::uint64_t>((t - t_start + period - 1) / period);
-  };
-
+// The camera's frame grid: frame `seq` starts exposing at t_start + seq *
+// period. A frame starts at grid_origin + k period; k seeds its noise. The
+// lamps' flicker counts time from time_origin (see alignToTrigger).
+struct CameraSim::FrameGrid {
+  std::int64_t period;
+  std::int64_t t_start, grid_origin, time_origin = 0;
   std::uint64_t seq = 0;  // the camera's running frame counter
-  // A frame starts at grid_origin + k period; k seeds its noise. The lamps'
-  // flicker counts time from time_origin (see alignToTrigger).
-  std::int64_t grid_origin = t_start, time_origin = 0;
-  // The current burst's trigger once aligned to (a plain value with a
-  // sentinel: GCC 12 takes std::optional's compare for a read of an unset
-  // value, a false -Wmaybe-uninitialized).
-  constexpr std::int64_t kNotAligned = std::numeric_limits<std::int64_t>::min();
-  std::int64_t aligned_to = kNotAligned;
   std::uint64_t triggers = 0;
-  auto noiseIndex = [&](std::int64_t start_ns) {
+
+  FrameGrid(std::int64_t period_ns, std::int64_t now_ns)
+      : period(period_ns), t_start(now_ns), grid_origin(now_ns) {}
+
+  std::int64_t startOf(std::uint64_t k) const {
+    return t_start + static_cast<std::int64_t>(k) * period;
+  }
+  // The first frame whose exposure starts at or after t.
+  std::uint64_t firstFrom(std::int64_t t) const {
+    return t <= t_start ? 0 : static_cast<std::uint64_t>((t - t_start + period - 1) / period);
+  }
+  std::uint64_t noiseIndex(std::int64_t start_ns) const {
     return static_cast<std::uint64_t>((start_ns - grid_origin) / period + (std::int64_t{1} << 40));
-  };
+  }
   // The grid moved to `trigger` minus a phase drawn from the seed (draws per
-  // trigger): the frames then fall where the seed says on the shot,
-  // whose valves open at fixed delays from the trigger, however the host
-  // scheduled the sequencer. Only while no frame of the burst's window has
-  // been exposed (the sequencer triggers that far ahead): the next frame
-  // starts at the first grid time at or after the one it would have had.
-  auto alignToTrigger = [&](std::int64_t trigger, int pre_frames) {
+  // trigger): the frames then fall where the seed says on the shot, whose
+  // valves open at fixed delays from the trigger, however the host scheduled
+  // the sequencer. Only while no frame of the burst's window has been exposed
+  // (the sequencer triggers that far ahead): the next frame starts at the
+  // first grid time at or after the one it would have had.
+  void alignToTrigger(std::int64_t trigger, int pre_frames, std::uint64_t seed) {
     const std::int64_t next = startOf(seq);
     if (trigger - pre_frames * period < next) return;
-    std::uint64_t state = world_->profile().simulation.seed ^ 0x3c6ef372fe94f82bULL ^
-                          (++triggers * 0xd1b54a32d192ed03ULL);
+    std::uint64_t state = seed ^ 0x3c6ef372fe94f82bULL ^ (++triggers * 0xd1b54a32d192ed03ULL);
     const double phase = vision::detail::uniform01(state);
     grid_origin = trigger - std::llround(phase * static_cast<double>(period));
     // Mains flicker at a phase of its own, also from the seed.
@@ -480,12 +475,96 @@ void CameraSim::run() {
     const std::int64_t d = next - grid_origin;
     const std::int64_t k = d >= 0 ? (d + period - 1) / period : -(-d / period);
     t_start = grid_origin + k * period - static_cast<std::int64_t>(seq) * period;
-  };
+  }
+};
+
+// The burst being recorded, as the acquisition thread follows it.
+struct CameraSim::BurstState {
   std::shared_ptr<BurstRecorder> current;
   std::int64_t post_delivered = 0;
-  bool stalled = false;                                  // fault: the stream stopped for this burst
+  bool stalled = false;  // fault: the stream stopped for this burst
+  // The current burst's trigger once aligned to (a plain value with a
+  // sentinel: GCC 12 takes std::optional's compare for a read of an unset
+  // value, a false -Wmaybe-uninitialized).
+  static constexpr std::int64_t kNotAligned = std::numeric_limits<std::int64_t>::min();
+  std::int64_t aligned_to = kNotAligned;
+};
+
+void CameraSim::followArming(FrameGrid& grid, BurstState& burst) {
+  std::shared_ptr<BurstRecorder> armed = recorder();
+  if (armed == burst.current) return;
+  burst.current = armed;
+  burst.post_delivered = 0;
+  burst.aligned_to = BurstState::kNotAligned;
+  // fault: a silent camera delivers nothing for this burst.
+  burst.stalled = burst.current && silence_ && !silence_->answer(true);
+  // Frames exposed while nothing was armed were never kept: resume from the
+  // arming (not from now: on a loaded machine this thread may notice it late,
+  // and the ring of a real camera fills from the arming on).
+  if (burst.current) grid.seq = std::max(grid.seq, grid.firstFrom(burst.current->armedNs()));
+}
+
+std::optional<std::int64_t> CameraSim::recordStep(FrameGrid& grid, BurstState& burst) {
+  constexpr std::int64_t kIdle = std::numeric_limits<std::int64_t>::max();
+  if (!burst.current || burst.stalled) return kIdle;
+  BurstRecorder& rec = *burst.current;
+  const std::optional<std::int64_t> trigger = rec.triggerNs();
+  if (trigger && *trigger != burst.aligned_to) {
+    burst.aligned_to = *trigger;
+    grid.alignToTrigger(*trigger, rec.layout().pre_trigger_frames,
+                        world_->profile().simulation.seed);
+  }
+  const std::int64_t ts = grid.startOf(grid.seq);
+  if (!rec.wants(ts)) {
+    if (trigger && ts < *trigger) {
+      // Far before the window: those frames would be overwritten anyway.
+      const int pre = rec.layout().pre_trigger_frames;
+      grid.seq = std::max(grid.seq + 1, grid.firstFrom(*trigger - (pre + 2) * grid.period));
+      return std::nullopt;
+    }
+    return kIdle;  // complete or ended: idle until armed again
+  }
+  // A frame exists once exposed; without realtime it may be rendered earlier,
+  // as soon as the world is certain up to its end.
+  const std::int64_t ready = ts + std::llround(config_.exposure_us * 1000.0);
+  if (monotonicNowNs() < ready && (settings_.realtime || world_->knownUntilNs() < ready))
+    return ready;
+  const bool post = trigger && ts >= *trigger;
+  if (settings_.drop_every > 0 && (grid.seq + 1) % settings_.drop_every == 0) {
+    ++grid.seq;  // lost in transport: a gap in the sequence
+    return std::nullopt;
+  }
+  if (post && settings_.stop_after_frames >= 0 &&
+      burst.post_delivered >= settings_.stop_after_frames) {
+    burst.stalled = true;
+    return std::nullopt;
+  }
+  vision::Frame frame = renderFrame(ts, grid.noiseIndex(ts), grid.time_origin);
+  publishFrame(frame);
+  rec.push(grid.seq, std::move(frame));
+  if (post) ++burst.post_delivered;
+  ++grid.seq;
+  return std::nullopt;
+}
+
+std::int64_t CameraSim::previewStep(FrameGrid& grid, std::int64_t& next_preview_ns) {
   constexpr std::int64_t kPreviewPeriodNs = 40'000'000;  // idle live-view frames: 25 per second
+  const std::int64_t now = monotonicNowNs();
+  if (now >= next_preview_ns) {
+    grid.seq = std::max(grid.seq, grid.firstFrom(now));
+    const std::int64_t ts = grid.startOf(grid.seq);
+    publishFrame(renderFrame(ts, grid.noiseIndex(ts), grid.time_origin));
+    ++grid.seq;
+    next_preview_ns = now + kPreviewPeriodNs;
+  }
+  return next_preview_ns;
+}
+
+void CameraSim::run() {
+  FrameGrid grid(config_.framePeriodNs(), monotonicNowNs());
+  BurstState burst;
   std::int64_t next_preview_ns = 0;
+  constexpr std::int64_t kIdle = std::numeric_limits<std::int64_t>::max();
   for (;;) {
     std::uint64_t generation = 0;
     {
@@ -493,76 +572,18 @@ void CameraSim::run() {
       if (signal_->stop) return;
       generation = signal_->generation;
     }
-    if (std::shared_ptr<BurstRecorder> armed = recorder(); armed != current) {
-      current = armed;
-      post_delivered = 0;
-      aligned_to = kNotAligned;
-      // fault: a silent camera delivers nothing for this burst.
-      stalled = current && silence_ && !silence_->answer(true);
-      // Frames exposed while nothing was armed were never kept: resume from
-      // the arming (not from now: on a loaded machine this thread may notice
-      // it late, and the ring of a real camera fills from the arming on).
-      if (current) seq = std::max(seq, firstFrom(current->armedNs()));
-    }
-
-    std::int64_t sleep_until = std::numeric_limits<std::int64_t>::max();
-    if (current && !stalled) {
-      const std::optional<std::int64_t> trigger = current->triggerNs();
-      if (trigger && *trigger != aligned_to) {
-        aligned_to = *trigger;
-        alignToTrigger(*trigger, current->layout().pre_trigger_frames);
-      }
-      const std::int64_t ts = startOf(seq);
-      if (!current->wants(ts)) {
-        if (trigger && ts < *trigger) {
-          // Far before the window: those frames would be overwritten anyway.
-          const int pre = current->layout().pre_trigger_frames;
-          seq = std::max(seq + 1, firstFrom(*trigger - (pre + 2) * period));
-          continue;
-        }
-        // Complete or ended: idle until armed again.
-      } else {
-        // A frame exists once exposed; without realtime it may be rendered
-        // earlier, as soon as the world is certain up to its end.
-        const std::int64_t ready = ts + exposure;
-        if (monotonicNowNs() >= ready || (!settings_.realtime && world_->knownUntilNs() >= ready)) {
-          const bool post = trigger && ts >= *trigger;
-          if (settings_.drop_every > 0 && (seq + 1) % settings_.drop_every == 0) {
-            ++seq;  // lost in transport: a gap in the sequence
-            continue;
-          }
-          if (post && settings_.stop_after_frames >= 0 &&
-              post_delivered >= settings_.stop_after_frames) {
-            stalled = true;
-            continue;
-          }
-          vision::Frame frame = renderFrame(ts, noiseIndex(ts), time_origin);
-          publishFrame(frame);
-          current->push(seq, std::move(frame));
-          if (post) ++post_delivered;
-          ++seq;
-          continue;
-        }
-        sleep_until = ready;
-      }
-    }
-    if (liveView() && sleep_until == std::numeric_limits<std::int64_t>::max()) {
-      // Nothing to record: render what the camera sees now, at a viewer's rate
-      // (a real camera streams all the time; the simulator only on demand).
-      const std::int64_t now = monotonicNowNs();
-      if (now >= next_preview_ns) {
-        seq = std::max(seq, firstFrom(now));
-        publishFrame(renderFrame(startOf(seq), noiseIndex(startOf(seq)), time_origin));
-        ++seq;
-        next_preview_ns = now + kPreviewPeriodNs;
-      }
-      sleep_until = next_preview_ns;
-    }
+    followArming(grid, burst);
+    const std::optional<std::int64_t> wait = recordStep(grid, burst);
+    if (!wait) continue;  // a frame handled: look again at once
+    std::int64_t sleep_until = *wait;
+    // Nothing to record: render what the camera sees now, at a viewer's rate
+    // (a real camera streams all the time; the simulator only on demand).
+    if (liveView() && sleep_until == kIdle) sleep_until = previewStep(grid, next_preview_ns);
     std::unique_lock lock(signal_->mutex);
     const auto deadline =
         std::chrono::steady_clock::time_point(std::chrono::nanoseconds(sleep_until));
     auto woken = [&] { return signal_->stop || signal_->generation != generation; };
-    if (sleep_until == std::numeric_limits<std::int64_t>::max())
+    if (sleep_until == kIdle)
       signal_->cv.wait(lock, woken);
     else
       signal_->cv.wait_until(lock, deadline, woken);

@@ -142,6 +142,16 @@ class CameraSim final : public Camera {
   };
   void run();
   void wake();
+  // The acquisition thread's stages (camera_sim.cpp): the frame grid and the
+  // burst it records; follow a new arming; record the armed burst's next
+  // frame (nullopt: one handled or skipped, look again; else sleep until the
+  // time returned, int64 max: until woken); a live-view frame when idle
+  // (returns when the next is due).
+  struct FrameGrid;
+  struct BurstState;
+  void followArming(FrameGrid& grid, BurstState& burst);
+  std::optional<std::int64_t> recordStep(FrameGrid& grid, BurstState& burst);
+  std::int64_t previewStep(FrameGrid& grid, std::int64_t& next_preview_ns);
 
   std::shared_ptr<SimWorld> world_;
   CameraSimSettings settings_;
