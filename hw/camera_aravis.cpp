@@ -305,6 +305,13 @@ struct CameraAravis::Impl {
   // `frames_expected`: it should have sent frames (free run, software
   // trigger), so a silent camera that answers has a stalled stream.
   void checkStall(std::int64_t silent_ns, bool frames_expected);
+  // run()'s stages, below it.
+  struct StreamClock;
+  struct Sequence;
+  std::int64_t softwareTrigger(std::int64_t now, std::int64_t period, std::int64_t& next_trigger);
+  vision::FrameStatus frameStatus(ArvBuffer* b, int& w, int& h) const;
+  bool copyImage(ArvBuffer* b, int w, int h, vision::Frame& frame) const;
+  void countFrame(std::uint64_t seq, std::uint64_t skipped, bool good, int w, int h);
 
   static void onControlLost(ArvDevice*, gpointer self) {
     static_cast<Impl*>(self)->markLost("its control link stopped answering (heartbeat lost)");
@@ -757,11 +764,130 @@ void CameraAravis::Impl::checkStall(std::int64_t silent_ns, bool frames_expected
   if (auto r = owner.recorder()) r->endOfStream(what);
 }
 
+// Start of exposure on CLOCK_MONOTONIC from a buffer's device and host
+// timestamps: the device clock mapped onto the host's (ClockMap), else the
+// last frame's time plus whole periods, else the arrival; less the latency
+// (the exposure, or timestamp_latency_us).
+struct CameraAravis::Impl::StreamClock {
+  std::int64_t period, latency;
+  ClockMap clock_map;
+  std::int64_t last_ts = 0;
+  std::uint64_t last_ts_counter = 0;
+
+  std::int64_t exposureStart(ArvBuffer* b, std::uint64_t seq, std::int64_t now) {
+    const auto device_ts = static_cast<std::int64_t>(arv_buffer_get_timestamp(b));
+    const auto system_ts = static_cast<std::int64_t>(arv_buffer_get_system_timestamp(b));
+    const std::int64_t arrival = system_ts > 0 ? system_ts - realtimeMinusMonotonicNs() : now;
+    std::int64_t ts = 0;
+    if (device_ts > 0) {
+      clock_map.add(arrival - device_ts);
+      ts = device_ts + clock_map.offset() - latency;
+    } else if (last_ts != 0) {
+      ts = last_ts + static_cast<std::int64_t>(seq - last_ts_counter) * period;
+    } else {
+      ts = arrival - latency;
+    }
+    last_ts = ts;
+    last_ts_counter = seq;
+    return ts;
+  }
+};
+
+// The camera's frame ids unwrapped into a running sequence number.
+struct CameraAravis::Impl::Sequence {
+  std::optional<std::uint64_t> previous_raw;
+  std::uint64_t counter = 0;
+
+  // The frame's sequence number and how many were skipped before it; nullopt
+  // for a duplicate or late frame (the recorder could not place it anyway).
+  std::optional<std::uint64_t> place(std::uint64_t raw, std::uint64_t& skipped) {
+    std::optional<std::uint64_t> seq =
+        previous_raw ? unwrapFrameId(*previous_raw, counter, raw) : std::optional(raw);
+    if (!seq) return std::nullopt;
+    skipped = previous_raw ? *seq - counter - 1 : 0;
+    previous_raw = raw;
+    counter = *seq;
+    return seq;
+  }
+};
+
+// Fires the software trigger when due; returns how long the stream may be
+// waited on before the next is due, ns.
+std::int64_t CameraAravis::Impl::softwareTrigger(std::int64_t now, std::int64_t period,
+                                                 std::int64_t& next_trigger) {
+  if (now >= next_trigger) {
+    GError* e = nullptr;
+    {
+      std::lock_guard lock(arv_mutex);
+      arv_camera_software_trigger(camera, &e);
+    }
+    if (e) spdlog::warn("{}: software trigger failed ({})", label(), message(e));
+    next_trigger += period;
+    if (next_trigger < now) next_trigger = now + period;  // fell behind: resynchronise
+  }
+  return next_trigger - now;
+}
+
+// Good: a whole image of the configured size and format (w, h set); else
+// Incomplete (packets missing, timed out, aborted) or Failed.
+vision::FrameStatus CameraAravis::Impl::frameStatus(ArvBuffer* b, int& w, int& h) const {
+  const ArvBufferStatus status = arv_buffer_get_status(b);
+  bool good = status == ARV_BUFFER_STATUS_SUCCESS &&
+              arv_buffer_get_payload_type(b) == ARV_BUFFER_PAYLOAD_TYPE_IMAGE;
+  if (good) {
+    w = arv_buffer_get_image_width(b);
+    h = arv_buffer_get_image_height(b);
+    good = w == config.width && h == config.height &&
+           arv_buffer_get_image_pixel_format(b) == toArv(config.format);
+  }
+  if (good) return vision::FrameStatus::Good;
+  return status == ARV_BUFFER_STATUS_MISSING_PACKETS || status == ARV_BUFFER_STATUS_TIMEOUT ||
+                 status == ARV_BUFFER_STATUS_ABORTED
+             ? vision::FrameStatus::Incomplete
+             : vision::FrameStatus::Failed;
+}
+
+// Copies a good buffer's w x h image into `frame`; false (frame marked
+// Failed) when the buffer holds less than that.
+bool CameraAravis::Impl::copyImage(ArvBuffer* b, int w, int h, vision::Frame& frame) const {
+  std::size_t size = 0;
+  const auto* data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(b, &size));
+  const std::size_t row = static_cast<std::size_t>(w) * bytesPerPixel(config.format);
+  // Aravis' in-process fake leaves the received size at 0 when a custom fill
+  // pattern drew the frame; its buffers are ours, `payload` bytes.
+  if (fake && size == 0 && arv_buffer_get_status(b) == ARV_BUFFER_STATUS_SUCCESS) size = payload;
+  if (!data || size < row * h) {
+    frame.status = vision::FrameStatus::Failed;
+    return false;
+  }
+  frame.image.create(h, w, vision::cvType(config.format));
+  if (frame.image.isContinuous())
+    std::memcpy(frame.image.data, data, row * h);
+  else
+    for (int r = 0; r < h; ++r) std::memcpy(frame.image.ptr(r), data + r * row, row);
+  return true;
+}
+
+void CameraAravis::Impl::countFrame(std::uint64_t seq, std::uint64_t skipped, bool good, int w,
+                                    int h) {
+  std::lock_guard lock(counters_mutex);
+  if (counters.frames_good + counters.frames_failed == 0) counters.first_sequence = seq;
+  counters.last_sequence = seq;
+  counters.frames_missing += skipped;
+  if (good) {
+    ++counters.frames_good;
+    counters.bytes_good += static_cast<std::uint64_t>(w) * h * bytesPerPixel(config.format);
+  } else {
+    ++counters.frames_failed;
+  }
+}
+
 void CameraAravis::Impl::run() {
   const std::int64_t period = config.framePeriodNs();
-  const std::int64_t latency = std::llround(
-      (settings.timestamp_latency_us >= 0 ? settings.timestamp_latency_us : config.exposure_us) *
-      1e3);
+  StreamClock clock{period,
+                    std::llround((settings.timestamp_latency_us >= 0 ? settings.timestamp_latency_us
+                                                                     : config.exposure_us) *
+                                 1e3)};
   const std::int64_t stall = settings.stall_timeout_ms > 0
                                  ? std::llround(settings.stall_timeout_ms * 1e6)
                                  : std::max<std::int64_t>(1'000'000'000, 20 * period);
@@ -769,14 +895,8 @@ void CameraAravis::Impl::run() {
   // then only checked for a lost camera.
   const bool frames_expected = settings.trigger != AravisTrigger::Line;
   const bool software = settings.trigger == AravisTrigger::Software;
-  const int bpp = bytesPerPixel(config.format);
-  const ArvPixelFormat want_format = toArv(config.format);
 
-  ClockMap clock_map;
-  std::optional<std::uint64_t> previous_raw;
-  std::uint64_t counter = 0;
-  std::int64_t last_ts = 0;
-  std::uint64_t last_ts_counter = 0;
+  Sequence sequence;
   std::int64_t last_frame_at = monotonicNowNs();
   std::int64_t next_trigger = monotonicNowNs();
   std::shared_ptr<BurstRecorder> finished;  // complete or ended: wants no more frames
@@ -784,19 +904,8 @@ void CameraAravis::Impl::run() {
   while (!stop) {
     std::int64_t now = monotonicNowNs();
     std::int64_t wait_ns = 20'000'000;
-    if (software && !lost) {
-      if (now >= next_trigger) {
-        GError* e = nullptr;
-        {
-          std::lock_guard lock(arv_mutex);
-          arv_camera_software_trigger(camera, &e);
-        }
-        if (e) spdlog::warn("{}: software trigger failed ({})", label(), message(e));
-        next_trigger += period;
-        if (next_trigger < now) next_trigger = now + period;  // fell behind: resynchronise
-      }
-      wait_ns = std::clamp<std::int64_t>(next_trigger - now, 0, wait_ns);
-    }
+    if (software && !lost)
+      wait_ns = std::clamp<std::int64_t>(softwareTrigger(now, period, next_trigger), 0, wait_ns);
     ArvBuffer* b = arv_stream_timeout_pop_buffer(
         stream, static_cast<guint64>(std::max<std::int64_t>(wait_ns / 1000, 1)));
     refreshStreamCounters();
@@ -821,49 +930,18 @@ void CameraAravis::Impl::run() {
       ++counters.frames_failed;
       continue;
     }
-    std::optional<std::uint64_t> seq = previous_raw ? unwrapFrameId(*previous_raw, counter, raw)
-                                                    : std::optional<std::uint64_t>(raw);
-    if (!seq) {  // a duplicate or late frame: the recorder could not place it anyway
+    std::uint64_t skipped = 0;
+    const std::optional<std::uint64_t> seq = sequence.place(raw, skipped);
+    if (!seq) {
       arv_stream_push_buffer(stream, b);
       continue;
     }
-    const std::uint64_t skipped = previous_raw ? *seq - counter - 1 : 0;
-    previous_raw = raw;
-    counter = *seq;
-
-    // Start of exposure on CLOCK_MONOTONIC.
-    const auto device_ts = static_cast<std::int64_t>(arv_buffer_get_timestamp(b));
-    const auto system_ts = static_cast<std::int64_t>(arv_buffer_get_system_timestamp(b));
-    const std::int64_t arrival = system_ts > 0 ? system_ts - realtimeMinusMonotonicNs() : now;
-    std::int64_t ts = 0;
-    if (device_ts > 0) {
-      clock_map.add(arrival - device_ts);
-      ts = device_ts + clock_map.offset() - latency;
-    } else if (last_ts != 0) {
-      ts = last_ts + static_cast<std::int64_t>(*seq - last_ts_counter) * period;
-    } else {
-      ts = arrival - latency;
-    }
-    last_ts = ts;
-    last_ts_counter = *seq;
 
     vision::Frame frame;
-    frame.timestamp_ns = ts;
-    bool good = status == ARV_BUFFER_STATUS_SUCCESS &&
-                arv_buffer_get_payload_type(b) == ARV_BUFFER_PAYLOAD_TYPE_IMAGE;
+    frame.timestamp_ns = clock.exposureStart(b, *seq, now);
     int w = 0, h = 0;
-    if (good) {
-      w = arv_buffer_get_image_width(b);
-      h = arv_buffer_get_image_height(b);
-      good = w == config.width && h == config.height &&
-             arv_buffer_get_image_pixel_format(b) == want_format;
-    }
-    frame.status = good ? vision::FrameStatus::Good
-                   : status == ARV_BUFFER_STATUS_MISSING_PACKETS ||
-                           status == ARV_BUFFER_STATUS_TIMEOUT ||
-                           status == ARV_BUFFER_STATUS_ABORTED
-                       ? vision::FrameStatus::Incomplete
-                       : vision::FrameStatus::Failed;
+    frame.status = frameStatus(b, w, h);
+    bool good = frame.status == vision::FrameStatus::Good;
     // Every frame goes into the armed ring until the burst is complete: the
     // ring keeps the newest, and which of them fall before the trigger is
     // decided by frame ids, not by time (a stalling camera or irregular line
@@ -871,37 +949,9 @@ void CameraAravis::Impl::run() {
     std::shared_ptr<BurstRecorder> rec = owner.recorder();
     if (rec == finished) rec.reset();
     const bool live = owner.liveView();
-    if (good && (rec || live)) {
-      std::size_t size = 0;
-      const auto* data = static_cast<const std::uint8_t*>(arv_buffer_get_image_data(b, &size));
-      const std::size_t row = static_cast<std::size_t>(w) * bpp;
-      // Aravis' in-process fake leaves the received size at 0 when a custom
-      // fill pattern drew the frame; its buffers are ours, `payload` bytes.
-      if (fake && size == 0 && status == ARV_BUFFER_STATUS_SUCCESS) size = payload;
-      if (data && size >= row * h) {
-        frame.image.create(h, w, vision::cvType(config.format));
-        if (frame.image.isContinuous())
-          std::memcpy(frame.image.data, data, row * h);
-        else
-          for (int r = 0; r < h; ++r) std::memcpy(frame.image.ptr(r), data + r * row, row);
-      } else {
-        good = false;
-        frame.status = vision::FrameStatus::Failed;
-      }
-    }
+    if (good && (rec || live)) good = copyImage(b, w, h, frame);
     arv_stream_push_buffer(stream, b);  // back to the pool before the slower bookkeeping
-    {
-      std::lock_guard lock(counters_mutex);
-      if (counters.frames_good + counters.frames_failed == 0) counters.first_sequence = *seq;
-      counters.last_sequence = *seq;
-      counters.frames_missing += skipped;
-      if (good) {
-        ++counters.frames_good;
-        counters.bytes_good += static_cast<std::uint64_t>(w) * h * bpp;
-      } else {
-        ++counters.frames_failed;
-      }
-    }
+    countFrame(*seq, skipped, good, w, h);
     if (!good && status != ARV_BUFFER_STATUS_SUCCESS)
       spdlog::debug("{}: frame {} failed in transport (Aravis buffer status {})", label(), *seq,
                     static_cast<int>(status));
