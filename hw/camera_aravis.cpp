@@ -291,6 +291,12 @@ struct CameraAravis::Impl {
   Status open();
   void close();
   Status configure(const CameraConfig& c);
+  Status setRegion(const CameraConfig& c);  // configure()'s stages, arv_mutex held
+  Status setPixelFormat(const CameraConfig& c);
+  Status setExposure(const CameraConfig& c);
+  Status setGain(const CameraConfig& c);
+  Status setFrameRate(const CameraConfig& c);
+  Status setTransport();
   Status applyFeature(const GenicamFeature& f);
   Status setTrigger();
   Status start();
@@ -537,13 +543,9 @@ Status CameraAravis::Impl::setTrigger() {
   return set("TriggerMode", "On", "camera.trigger");
 }
 
-Status CameraAravis::Impl::configure(const CameraConfig& c) {
-  std::lock_guard lock(arv_mutex);
+// configure()'s stages, each with arv_mutex held: the region of interest.
+Status CameraAravis::Impl::setRegion(const CameraConfig& c) {
   GError* e = nullptr;
-  // The profile's own features first, so that e.g. binning is in place
-  // before the region is checked against the sensor.
-  for (const GenicamFeature& f : settings.features) COLLIDE_RETURN_IF_ERROR(applyFeature(f));
-
   const std::string roi = std::to_string(c.width) + "x" + std::to_string(c.height) + " at (" +
                           std::to_string(c.roi_x) + ", " + std::to_string(c.roi_y) + ")";
   arv_camera_set_region(camera, c.roi_x, c.roi_y, c.width, c.height, &e);
@@ -560,12 +562,23 @@ Status CameraAravis::Impl::configure(const CameraConfig& c) {
                 ", height a multiple of " + std::to_string(std::max(1, hi)) + ")");
   }
 
+  return Ok{};
+}
+
+Status CameraAravis::Impl::setPixelFormat(const CameraConfig& c) {
+  GError* e = nullptr;
   arv_camera_set_pixel_format(camera, toArv(c.format), &e);
   const ArvPixelFormat pf = e ? 0 : arv_camera_get_pixel_format(camera, &e);
   if (e || pf != toArv(c.format))
     return fail(std::string("the camera did not take pixel format ") + vision::toString(c.format) +
                 (e ? " (" + message(e) + ")" : std::string()) + ": check camera.format");
 
+  return Ok{};
+}
+
+// The exposure time, when the camera has the feature (a warning when not).
+Status CameraAravis::Impl::setExposure(const CameraConfig& c) {
+  GError* e = nullptr;
   if (arv_camera_is_exposure_time_available(camera, nullptr)) {
     double lo = 0, hi = 0;
     arv_camera_get_exposure_time_bounds(camera, &lo, &hi, &e);
@@ -584,6 +597,12 @@ Status CameraAravis::Impl::configure(const CameraConfig& c) {
                  label());
   }
 
+  return Ok{};
+}
+
+// The gain, when the camera has the feature (else camera.gain_db must be 0).
+Status CameraAravis::Impl::setGain(const CameraConfig& c) {
+  GError* e = nullptr;
   if (arv_camera_is_gain_available(camera, nullptr)) {
     arv_camera_set_gain(camera, c.gain_db, &e);
     const double got = e ? 0.0 : arv_camera_get_gain(camera, &e);
@@ -595,23 +614,32 @@ Status CameraAravis::Impl::configure(const CameraConfig& c) {
     return fail("the camera has no gain feature: set camera.gain_db = 0");
   }
 
-  if (settings.trigger == AravisTrigger::FreeRun) {
-    double lo = 0, hi = 0;
-    arv_camera_get_frame_rate_bounds(camera, &lo, &hi, &e);
-    if (e) return fail("cannot read the camera's frame rate range (" + message(e) + ")");
-    if (c.fps < lo || c.fps > hi)
-      return fail(num(c.fps) + " frames/s is outside what the camera does at this region, format " +
-                  "and exposure (" + num(lo) + ".." + num(hi) +
-                  " frames/s): check camera.fps, or shrink camera.roi");
-    arv_camera_set_frame_rate(camera, c.fps, &e);
-    const double got = e ? 0.0 : arv_camera_get_frame_rate(camera, &e);
-    if (e || std::abs(got - c.fps) > 0.005 * c.fps)
-      return fail("the camera did not take " + num(c.fps) + " frames/s" +
-                  (e ? " (" + message(e) + ")" : " (it runs at " + num(got) + ")") +
-                  ": check camera.fps (the camera may round it to its own steps)");
-  }
-  COLLIDE_RETURN_IF_ERROR(setTrigger());
+  return Ok{};
+}
 
+// The frame rate, in free run only (triggered frames come when triggered).
+Status CameraAravis::Impl::setFrameRate(const CameraConfig& c) {
+  GError* e = nullptr;
+  if (settings.trigger != AravisTrigger::FreeRun) return Ok{};
+  double lo = 0, hi = 0;
+  arv_camera_get_frame_rate_bounds(camera, &lo, &hi, &e);
+  if (e) return fail("cannot read the camera's frame rate range (" + message(e) + ")");
+  if (c.fps < lo || c.fps > hi)
+    return fail(num(c.fps) + " frames/s is outside what the camera does at this region, format " +
+                "and exposure (" + num(lo) + ".." + num(hi) +
+                " frames/s): check camera.fps, or shrink camera.roi");
+  arv_camera_set_frame_rate(camera, c.fps, &e);
+  const double got = e ? 0.0 : arv_camera_get_frame_rate(camera, &e);
+  if (e || std::abs(got - c.fps) > 0.005 * c.fps)
+    return fail("the camera did not take " + num(c.fps) + " frames/s" +
+                (e ? " (" + message(e) + ")" : " (it runs at " + num(got) + ")") +
+                ": check camera.fps (the camera may round it to its own steps)");
+  return Ok{};
+}
+
+// GigE Vision's packet size (given or negotiated) and inter-packet delay.
+Status CameraAravis::Impl::setTransport() {
+  GError* e = nullptr;
   if (gv) {
     if (settings.packet_size_bytes > 0) {
       arv_camera_gv_set_packet_size(camera, settings.packet_size_bytes, &e);
@@ -640,6 +668,21 @@ Status CameraAravis::Impl::configure(const CameraConfig& c) {
     return fail(
         "packet_size_bytes and packet_delay_ns apply to GigE Vision cameras only: remove them");
   }
+  return Ok{};
+}
+
+Status CameraAravis::Impl::configure(const CameraConfig& c) {
+  std::lock_guard lock(arv_mutex);
+  // The profile's own features first, so that e.g. binning is in place
+  // before the region is checked against the sensor.
+  for (const GenicamFeature& f : settings.features) COLLIDE_RETURN_IF_ERROR(applyFeature(f));
+  COLLIDE_RETURN_IF_ERROR(setRegion(c));
+  COLLIDE_RETURN_IF_ERROR(setPixelFormat(c));
+  COLLIDE_RETURN_IF_ERROR(setExposure(c));
+  COLLIDE_RETURN_IF_ERROR(setGain(c));
+  COLLIDE_RETURN_IF_ERROR(setFrameRate(c));
+  COLLIDE_RETURN_IF_ERROR(setTrigger());
+  COLLIDE_RETURN_IF_ERROR(setTransport());
   config = c;
   refreshInfoLocked();
   return Ok{};
