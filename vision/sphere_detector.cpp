@@ -1013,15 +1013,20 @@ Grid negativeGrid(Grid g, int max_value) {
 // mean of the ellipse's semi-axes, as a circle fit reports on a whole ellipse.
 Result<CircleFit> fitOutline(std::vector<CirclePoint>& pts, const Circle& about,
                              const std::optional<PinholeCamera>& camera) {
-  if (!camera) return fitCircle(pts, 3.5, 0.05, true);
+  // Outliers beyond 3.5 robust sigmas and 0.05 px; the points are in order
+  // along the outline, so a dent (a run of outliers) is searched for.
+  const auto robustFit = [](const std::vector<CirclePoint>& p) {
+    return fitCircle(p, 3.5, 0.05, true);
+  };
+  if (!camera) return robustFit(pts);
   const Eigen::Matrix2d shape = camera->outlineShape(about.u, about.v);
   const Eigen::Matrix2d to_circle = shape.inverse();
-  if (!to_circle.allFinite()) return fitCircle(pts, 3.5, 0.05, true);
+  if (!to_circle.allFinite()) return robustFit(pts);
   for (CirclePoint& p : pts) {
     const Eigen::Vector2d q = to_circle * Eigen::Vector2d(p.u - about.u, p.v - about.v);
     p = {about.u + q.x(), about.v + q.y()};
   }
-  Result<CircleFit> fit = fitCircle(pts, 3.5, 0.05, true);
+  Result<CircleFit> fit = robustFit(pts);
   if (!fit) return fit;
   CircleFit& f = *fit;
   const Eigen::Vector2d centre =
