@@ -644,6 +644,42 @@ InversePass withHeldDepths(const InverseInputs& in, InversePass first) {
   return second.u.nominal.ok ? second : first;
 }
 
+// The spheres' depth motion from their apparent sizes, into `out` (v_z per
+// sphere and side, notes). With a lens whose depths change the centres' places
+// (setDepths), `refit` fits the trajectories again into `fits` and the depths
+// are measured again on them.
+Result<DepthFits> fitDepths(ShotAnalysis& out, const std::vector<FrameData>& data,
+                            CollisionFits& fits, PixelScale& scale, const AnalysisSettings& set,
+                            const std::array<double, 2>& r_med,
+                            const std::function<Result<CollisionFits>()>& refit) {
+  const std::array<double, 2> mass{massOf(set, 0), massOf(set, 1)};
+  DepthFits depth = measureDepthMotion(&out.notes, data, fits, set, scale);
+  completeDepths(depth, fits, set, r_med, mass);
+  if (set.camera && setDepths(scale, depth, fits.t_split)) {
+    auto again = refit();
+    if (!again) return again.error();
+    fits = std::move(*again);
+    depth = measureDepthMotion(nullptr, data, fits, set, scale);  // notes given above
+    completeDepths(depth, fits, set, r_med, mass);
+  }
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side)
+      if (const auto& d = depth[s][side])
+        out.sphere[s].vz_from_size_m_s[side] = Measured{d->vz_m_s, d->vz_sigma_m_s};
+  return depth;
+}
+
+// no_spin_before / no_spin_after, with a note saying why, per sphere and side.
+void flagUnmeasuredSpins(ShotAnalysis& out, const ShotSpins& spins) {
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side)
+      if (const auto& why = spins.side[s][side].unknown_reason) {
+        addFlag(out, side == 0 ? "no_spin_before" : "no_spin_after");
+        out.notes.push_back("sphere " + std::to_string(s + 1) + ", " +
+                            (side == 0 ? "before" : "after") + " the impact: " + *why);
+      }
+}
+
 }  // namespace
 
 Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& set) {
@@ -683,33 +719,16 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
 
   // ---- out-of-plane motion from the apparent size (when the camera's distance
   // is known); with the lens, the fits again with each centre at its depth
-  const std::array<double, 2> mass{massOf(set, 0), massOf(set, 1)};
-  DepthFits depth = measureDepthMotion(&out.notes, data, *fits, set, scale);
-  completeDepths(depth, *fits, set, r_med, mass);
-  if (set.camera && setDepths(scale, depth, fits->t_split)) {
-    auto refit = fitCollision(data, scale, contact, gravity, set.fix_gravity,
-                              burst.exposure_us * 1e-6, frames->frame_dt);
-    if (!refit) return refit.error();
-    fits = std::move(refit);
-    depth = measureDepthMotion(nullptr, data, *fits, set, scale);  // notes given above
-    completeDepths(depth, *fits, set, r_med, mass);
-  }
-  for (int s = 0; s < 2; ++s)
-    for (int side = 0; side < 2; ++side)
-      if (const auto& d = depth[s][side])
-        out.sphere[s].vz_from_size_m_s[side] = Measured{d->vz_m_s, d->vz_sigma_m_s};
+  auto depth = fitDepths(out, data, *fits, scale, set, r_med, [&] {
+    return fitCollision(data, scale, contact, gravity, set.fix_gravity, burst.exposure_us * 1e-6,
+                        frames->frame_dt);
+  });
+  if (!depth) return depth.error();
 
   // ---- dots and spins, per sphere and side
   const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value,
                                        set.unknown_spin_sigma_rad_s, &scale);
-  for (int s = 0; s < 2; ++s)
-    for (int side = 0; side < 2; ++side)
-      if (const auto& why = spins.side[s][side].unknown_reason) {
-        addFlag(out, side == 0 ? "no_spin_before" : "no_spin_after");
-        out.notes.push_back("sphere " + std::to_string(s + 1) + ", " +
-                            (side == 0 ? "before" : "after") + " the impact: " + *why);
-      }
-
+  flagUnmeasuredSpins(out, spins);
   flagPoorSpins(out, spins);
 
   // ---- Walton's inverse, and its spread over draws of every fitted input
@@ -718,7 +737,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   const bool dark = mostlyDark(dark_frames, static_cast<int>(data.size()));
   const InverseInputs in{set,  spins,   r_med, *px,     burst.exposure_us * 1e-6,
                          dark, contact, data,  gravity, frames->frame_dt};
-  const InversePass pass = withHeldDepths(in, inversePass(in, *fits, depth, scale));
+  const InversePass pass = withHeldDepths(in, inversePass(in, *fits, *depth, scale));
   out.collision.line_of_centres_z_from_size = pass.nz_size;
   const ShotUncertainty& u = pass.u;
   if (!u.nominal.ok)
