@@ -203,6 +203,104 @@ std::optional<std::vector<cv::Point2f>> findChessboard(const cv::Mat& image,
   return corners;
 }
 
+namespace {
+
+// OpenCV's fit of the views found: one focal length (square pixels, fy / fx
+// held at 1), k1 k2 p1 p2, no k3: the camera model's parameters.
+struct LensFit {
+  std::vector<std::vector<cv::Point3f>> object;
+  cv::Mat K, dist, sd_in, sd_ex, per_view;
+  std::vector<cv::Mat> rvecs, tvecs;
+  double rms = 0;
+
+  Status fit(const Found& found, cv::Size image_size, int extra_flags) {
+    object.resize(found.corners.size());  // views only ever dropped
+    K = cv::Mat::eye(3, 3, CV_64F);
+    dist = cv::Mat();
+    rms =
+        cv::calibrateCamera(object, found.corners, image_size, K, dist, rvecs, tvecs, sd_in, sd_ex,
+                            per_view, cv::CALIB_FIX_K3 | cv::CALIB_FIX_ASPECT_RATIO | extra_flags);
+    if (!std::isfinite(rms)) return fail("the calibration did not converge");
+    return Ok{};
+  }
+};
+
+// k2 only where the pictures measure it: a narrow field (a long lens) leaves
+// k2 r^4 below the corners' noise, and an unmeasurable k2 drags k1 with it.
+// Held at 0, k2 is not known to be 0: where it is not, k1 (and f) take up
+// its part of the distortion. The fit with k2 free says how far that can
+// go, so each sigma is at least that fit's (a 0.05 k2 held at 0 moved k1
+// by 4 of the held fit's sigmas in tests/vision/camera_calibration_test).
+Status holdUnmeasuredK2(LensFit& lens, const Found& found, CameraCalibration& out) {
+  if (std::abs(lens.dist.at<double>(1)) > 2 * lens.sd_in.at<double>(5)) return Ok{};
+  const double k2 = lens.dist.at<double>(1), sk2 = lens.sd_in.at<double>(5);
+  const cv::Mat sd_free = lens.sd_in.clone();
+  if (auto st = lens.fit(found, out.image_size, cv::CALIB_FIX_K2); !st) return st.error();
+  for (int i = 0; i < 8; ++i)
+    if (i != 5)
+      lens.sd_in.at<double>(i) = std::max(lens.sd_in.at<double>(i), sd_free.at<double>(i));
+  out.k2_fitted = false;
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "k2 held at 0: these pictures do not measure it (fitted %.3g +- %.3g); tilt "
+                "the board more and fill the corners to measure it",
+                k2, sk2);
+  out.notes.push_back(buf);
+  return Ok{};
+}
+
+// The lens (focal length, principal point, distortion) and their sigmas,
+// the fit's residuals per picture.
+void fillLens(const LensFit& lens, const Found& found, std::size_t pictures,
+              CameraCalibration& out) {
+  PinholeCamera& c = out.camera;
+  c.focal_px = lens.K.at<double>(1, 1);
+  c.principal_u_px = lens.K.at<double>(0, 2);
+  c.principal_v_px = lens.K.at<double>(1, 2);
+  c.k1 = lens.dist.at<double>(0), c.k2 = lens.dist.at<double>(1);
+  c.p1 = lens.dist.at<double>(2), c.p2 = lens.dist.at<double>(3);
+  c.centre_m = Vec3::Zero();
+  const auto sd = [&](int i) { return lens.sd_in.at<double>(i); };
+  CalibrationSigma& s = out.sigma;
+  s.focal_px = std::max(sd(0), sd(1));  // fx follows fy: one free focal length
+  s.principal_u_px = sd(2), s.principal_v_px = sd(3);
+  s.k1 = sd(4), s.k2 = sd(5), s.p1 = sd(6), s.p2 = sd(7);
+  out.focal_aspect = lens.K.at<double>(0, 0) / lens.K.at<double>(1, 1);
+  out.rms_px = lens.rms;
+  out.images_used = static_cast<int>(found.corners.size());
+  out.view_rms_px.assign(pictures, std::nan(""));
+  for (std::size_t k = 0; k < found.image.size(); ++k)
+    out.view_rms_px[found.image[k]] = lens.per_view.at<double>(static_cast<int>(k));
+}
+
+// The plane picture: the board's normal in camera axes and its distance.
+void fillPlane(const LensFit& lens, const Found& found, const ChessboardSpec& board,
+               CameraCalibration& out) {
+  PinholeCamera& c = out.camera;
+  CalibrationSigma& s = out.sigma;
+  const int slot = found.plane_slot;
+  cv::Mat R;
+  cv::Rodrigues(lens.rvecs[slot], R);
+  const cv::Mat& t = lens.tvecs[slot];
+  const double n[3] = {R.at<double>(0, 2), R.at<double>(1, 2), R.at<double>(2, 2)};
+  out.plane_tilt_deg = std::acos(std::min(1.0, std::abs(n[2]))) * 180.0 / kPi;
+  // Where the optical axis meets the board's plane n . X = n . t.
+  const double distance =
+      (n[0] * t.at<double>(0) + n[1] * t.at<double>(1) + n[2] * t.at<double>(2)) / n[2];
+  c.centre_m = Vec3(0, 0, distance);
+  out.has_plane = true;
+  out.plane_pixel_size_m = distance / c.focal_px;
+  // The distance alone is as uncertain as the focal length (the board's image
+  // size fixes their ratio): tz's uncertainty from the joint fit (extrinsics
+  // are rvec, tvec per view).
+  s.plane_distance_m = lens.sd_ex.at<double>(6 * slot + 5);
+  const auto [size_m, size_sigma_m] = planeScale(found.corners[slot], board, c, s);
+  (void)size_m;  // the same scale as distance / focal for a board facing the camera
+  s.plane_pixel_size_m = size_sigma_m;
+}
+
+}  // namespace
+
 Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
                                           const ChessboardSpec& board, int plane_image,
                                           const std::vector<std::string>& names) {
@@ -228,92 +326,21 @@ Result<CameraCalibration> calibrateCamera(const std::vector<cv::Mat>& images,
                 " in varied poses (tilted, near the corners) are needed, 10 or more for a good "
                 "fit");
   out.image_size = images.front().size();
-  std::vector<std::vector<cv::Point3f>> object(found.corners.size(), boardPoints(board));
-  cv::Mat K, dist, sd_in, sd_ex, per_view;
-  std::vector<cv::Mat> rvecs, tvecs;
-  // One focal length (square pixels, fy / fx held at 1), k1 k2 p1 p2, no k3:
-  // the camera model's parameters.
-  const auto fit = [&](int extra_flags) {
-    K = cv::Mat::eye(3, 3, CV_64F);
-    dist = cv::Mat();
-    return cv::calibrateCamera(object, found.corners, out.image_size, K, dist, rvecs, tvecs, sd_in,
-                               sd_ex, per_view,
-                               cv::CALIB_FIX_K3 | cv::CALIB_FIX_ASPECT_RATIO | extra_flags);
-  };
-  double rms = fit(0);
-  if (!std::isfinite(rms)) return fail("the calibration did not converge");
+  LensFit lens;
+  lens.object.assign(found.corners.size(), boardPoints(board));
+  if (auto st = lens.fit(found, out.image_size, 0); !st) return st.error();
   // A board found with a corner on the wrong feature fits several times worse
   // than the rest: leave it out and fit again.
-  if (dropMisfits(found, per_view, names, out.notes) > 0) {
+  if (dropMisfits(found, lens.per_view, names, out.notes) > 0) {
     if (static_cast<int>(found.corners.size()) < kMinCalibrationViews)
       return fail("only " + std::to_string(found.corners.size()) +
                   " pictures fit the lens; at least " + std::to_string(kMinCalibrationViews) +
                   " are needed (see the pictures left out)");
-    object.resize(found.corners.size());
-    rms = fit(0);
-    if (!std::isfinite(rms)) return fail("the calibration did not converge");
+    if (auto st = lens.fit(found, out.image_size, 0); !st) return st.error();
   }
-  // k2 only where the pictures measure it: a narrow field (a long lens) leaves
-  // k2 r^4 below the corners' noise, and an unmeasurable k2 drags k1 with it.
-  // Held at 0, k2 is not known to be 0: where it is not, k1 (and f) take up
-  // its part of the distortion. The fit with k2 free says how far that can
-  // go, so each sigma is at least that fit's (a 0.05 k2 held at 0 moved k1
-  // by 4 of the held fit's sigmas in tests/vision/camera_calibration_test).
-  if (!(std::abs(dist.at<double>(1)) > 2 * sd_in.at<double>(5))) {
-    const double k2 = dist.at<double>(1), sk2 = sd_in.at<double>(5);
-    const cv::Mat sd_free = sd_in.clone();
-    rms = fit(cv::CALIB_FIX_K2);
-    if (!std::isfinite(rms)) return fail("the calibration did not converge");
-    for (int i = 0; i < 8; ++i)
-      if (i != 5) sd_in.at<double>(i) = std::max(sd_in.at<double>(i), sd_free.at<double>(i));
-    out.k2_fitted = false;
-    char buf[200];
-    std::snprintf(buf, sizeof buf,
-                  "k2 held at 0: these pictures do not measure it (fitted %.3g +- %.3g); tilt "
-                  "the board more and fill the corners to measure it",
-                  k2, sk2);
-    out.notes.push_back(buf);
-  }
-  PinholeCamera& c = out.camera;
-  c.focal_px = K.at<double>(1, 1);
-  c.principal_u_px = K.at<double>(0, 2);
-  c.principal_v_px = K.at<double>(1, 2);
-  c.k1 = dist.at<double>(0), c.k2 = dist.at<double>(1);
-  c.p1 = dist.at<double>(2), c.p2 = dist.at<double>(3);
-  c.centre_m = Vec3::Zero();
-  const auto sd = [&](int i) { return sd_in.at<double>(i); };
-  CalibrationSigma& s = out.sigma;
-  s.focal_px = std::max(sd(0), sd(1));  // fx follows fy: one free focal length
-  s.principal_u_px = sd(2), s.principal_v_px = sd(3);
-  s.k1 = sd(4), s.k2 = sd(5), s.p1 = sd(6), s.p2 = sd(7);
-  out.focal_aspect = K.at<double>(0, 0) / K.at<double>(1, 1);
-  out.rms_px = rms;
-  out.images_used = static_cast<int>(found.corners.size());
-  out.view_rms_px.assign(images.size(), std::nan(""));
-  for (std::size_t k = 0; k < found.image.size(); ++k)
-    out.view_rms_px[found.image[k]] = per_view.at<double>(static_cast<int>(k));
-  if (found.plane_slot < 0) return out;
-
-  // The plane picture: the board's normal in camera axes and its distance.
-  const int slot = found.plane_slot;
-  cv::Mat R;
-  cv::Rodrigues(rvecs[slot], R);
-  const cv::Mat& t = tvecs[slot];
-  const double n[3] = {R.at<double>(0, 2), R.at<double>(1, 2), R.at<double>(2, 2)};
-  out.plane_tilt_deg = std::acos(std::min(1.0, std::abs(n[2]))) * 180.0 / kPi;
-  // Where the optical axis meets the board's plane n . X = n . t.
-  const double distance =
-      (n[0] * t.at<double>(0) + n[1] * t.at<double>(1) + n[2] * t.at<double>(2)) / n[2];
-  c.centre_m = Vec3(0, 0, distance);
-  out.has_plane = true;
-  out.plane_pixel_size_m = distance / c.focal_px;
-  // The distance alone is as uncertain as the focal length (the board's image
-  // size fixes their ratio): tz's uncertainty from the joint fit (extrinsics
-  // are rvec, tvec per view).
-  s.plane_distance_m = sd_ex.at<double>(6 * slot + 5);
-  const auto [size_m, size_sigma_m] = planeScale(found.corners[slot], board, c, s);
-  (void)size_m;  // the same scale as distance / focal for a board facing the camera
-  s.plane_pixel_size_m = size_sigma_m;
+  if (auto st = holdUnmeasuredK2(lens, found, out); !st) return st.error();
+  fillLens(lens, found, images.size(), out);
+  if (found.plane_slot >= 0) fillPlane(lens, found, board, out);
   return out;
 }
 
