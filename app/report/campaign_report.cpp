@@ -216,17 +216,23 @@ double maxOr(const std::vector<double>& v, double fallback) {
 
 }  // namespace
 
-std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
-                                     const CampaignFitReport* report) {
+namespace {
+
+// The points of the campaign's plots, one series each.
+struct PlotPoints {
   Series beta{"shots", Series::Style::Points, {}, {}, {}, 0};
   Series tangent = beta, f = beta, e_tan = beta, e_vn = beta;
+};
+
+PlotPoints plotPoints(const std::vector<CampaignEntry>& entries) {
+  PlotPoints pts;
   for (const auto& entry : entries) {
     if (!entry.shot) continue;
     const CampaignShot& s = *entry.shot;
     if (s.v_s_m_s > 0 && std::isfinite(s.beta)) {
-      beta.x.push_back(s.cotIncidence());
-      beta.y.push_back(s.beta);
-      beta.y_err.push_back(s.beta_sigma);
+      pts.beta.x.push_back(s.cotIncidence());
+      pts.beta.y.push_back(s.beta);
+      pts.beta.y_err.push_back(s.beta_sigma);
     }
     const double t = s.tanIncidence();
     const auto& c = entry.results->collision;
@@ -235,28 +241,74 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
       const double y = -c.vs_after_m_s.value / s.v_n_m_s;
       const double sy =
           std::hypot(c.vs_after_m_s.sigma / s.v_n_m_s, y * s.v_n_sigma_m_s / s.v_n_m_s);
-      tangent.x.push_back(t);
-      tangent.y.push_back(y);
-      tangent.y_err.push_back(std::isfinite(sy) ? sy : 0.0);
+      pts.tangent.x.push_back(t);
+      pts.tangent.y.push_back(y);
+      pts.tangent.y_err.push_back(std::isfinite(sy) ? sy : 0.0);
     }
     if (std::isfinite(s.f)) {
-      f.x.push_back(t);
-      f.y.push_back(s.f);
-      f.y_err.push_back(s.f_sigma);
+      pts.f.x.push_back(t);
+      pts.f.y.push_back(s.f);
+      pts.f.y_err.push_back(s.f_sigma);
     }
-    e_tan.x.push_back(t);
-    e_tan.y.push_back(s.e);
-    e_tan.y_err.push_back(s.e_sigma);
-    e_vn.x.push_back(-s.v_n_m_s);
-    e_vn.y.push_back(s.e);
-    e_vn.y_err.push_back(s.e_sigma);
+    pts.e_tan.x.push_back(t);
+    pts.e_tan.y.push_back(s.e);
+    pts.e_tan.y_err.push_back(s.e_sigma);
+    pts.e_vn.x.push_back(-s.v_n_m_s);
+    pts.e_vn.y.push_back(s.e);
+    pts.e_vn.y_err.push_back(s.e_sigma);
   }
+  return pts;
+}
 
+// Walton's model with the fitted material over the friction plots.
+void addWaltonCurves(const CampaignFitReport& report, const PlotPoints& pts, PlotSpec& p1,
+                     PlotSpec& p2, PlotSpec& p3) {
+  const Material m = report.fit.friction->material();
+  const double K = report.fit.friction->inertia_factor_K;
+  char label[160];
+  std::snprintf(label, sizeof label, ": mu %.3f, beta0 %.3f, e %.3f", m.mu, m.beta0, m.e);
+  for (PlotSpec* p : {&p1, &p2, &p3}) p->title += label;
+  std::snprintf(label, sizeof label, "Walton fit");
+  const double x_hi = std::max(1.0, 1.1 * maxOr(pts.beta.x, 1.0));
+  p1.series.push_back(curve(
+      label, linspace(0, x_hi), [&](double x) { return campaignBetaCurve(x, m, K); }, 1));
+  const double t_hi = std::max(0.5, 1.1 * maxOr(pts.tangent.x, 0.5));
+  p2.series.push_back(curve(
+      label, linspace(0, t_hi), [&](double t) { return campaignTangentFormCurve(t, m, K); }, 1));
+  const double tf_hi = std::max(0.5, 1.1 * maxOr(pts.f.x, 0.5));
+  p3.series.push_back(curve(
+      label, linspace(0, tf_hi), [&](double t) { return campaignImpulseRatioCurve(t, m, K); }, 1));
+}
+
+// The mean e, and the preferred law of e against |v_n|.
+void addRestitutionCurves(const CampaignFitReport& report, const PlotPoints& pts, PlotSpec& p4,
+                          PlotSpec& p5) {
+  char label[160];
+  const auto& mean = report.fit.restitution.e;
+  std::snprintf(label, sizeof label, "mean e %.4f", mean.value);
+  const double te_hi = std::max(0.5, 1.1 * maxOr(pts.e_tan.x, 0.5));
+  p4.series.push_back(curve(
+      label, linspace(0, te_hi), [&](double) { return mean.value; }, 1));
+  if (report.fit.laws) {
+    const auto& laws = *report.fit.laws;
+    const auto& law = laws.fit(laws.preferred);
+    const double v_hi = 1.1 * maxOr(pts.e_vn.x, 1.0);
+    p5.series.push_back(curve(
+        law.formula + " (preferred, " + evidenceName(laws.evidence) + ")",
+        linspace(v_hi / 200, v_hi), [&](double v) { return law.restitutionAt(v); }, 1));
+  }
+}
+
+}  // namespace
+
+std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
+                                     const CampaignFitReport* report) {
+  const PlotPoints pts = plotPoints(entries);
   std::vector<NamedPlot> plots;
   PlotSpec p1{"beta against -v_n/v_s (Fig. 5.9)",
               "-v_n / v_s",
               "beta",
-              {beta},
+              {pts.beta},
               0.0,
               std::nullopt,
               -1.0,
@@ -264,7 +316,7 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
   PlotSpec p2{"Tangent form (Fig. 3.4)",
               "-v_s / v_n",
               "-v_s' / v_n",
-              {tangent},
+              {pts.tangent},
               0.0,
               std::nullopt,
               std::nullopt,
@@ -272,55 +324,23 @@ std::vector<NamedPlot> campaignPlots(const std::vector<CampaignEntry>& entries,
   PlotSpec p3{"Impulse ratio (Fig. 5.11)",
               "tan psi = -v_s / v_n",
               "f = |dP_t| / |dP_n|",
-              {f},
+              {pts.f},
               0.0,
               std::nullopt,
               0.0,
               std::nullopt};
-  PlotSpec p4{"e against incidence", "tan psi = -v_s / v_n", "e",         {e_tan}, 0.0,
+  PlotSpec p4{"e against incidence", "tan psi = -v_s / v_n", "e",         {pts.e_tan}, 0.0,
               std::nullopt,          std::nullopt,           std::nullopt};
   PlotSpec p5{"e against |v_n| (Figs. 5.12, 5.13)",
               "|v_n| (m/s)",
               "e",
-              {e_vn},
+              {pts.e_vn},
               0.0,
               std::nullopt,
               std::nullopt,
               std::nullopt};
-  if (report && report->fit.friction) {
-    const Material m = report->fit.friction->material();
-    const double K = report->fit.friction->inertia_factor_K;
-    char label[160];
-    std::snprintf(label, sizeof label, ": mu %.3f, beta0 %.3f, e %.3f", m.mu, m.beta0, m.e);
-    for (PlotSpec* p : {&p1, &p2, &p3}) p->title += label;
-    std::snprintf(label, sizeof label, "Walton fit");
-    const double x_hi = std::max(1.0, 1.1 * maxOr(beta.x, 1.0));
-    p1.series.push_back(curve(
-        label, linspace(0, x_hi), [&](double x) { return campaignBetaCurve(x, m, K); }, 1));
-    const double t_hi = std::max(0.5, 1.1 * maxOr(tangent.x, 0.5));
-    p2.series.push_back(curve(
-        label, linspace(0, t_hi), [&](double t) { return campaignTangentFormCurve(t, m, K); }, 1));
-    const double tf_hi = std::max(0.5, 1.1 * maxOr(f.x, 0.5));
-    p3.series.push_back(curve(
-        label, linspace(0, tf_hi), [&](double t) { return campaignImpulseRatioCurve(t, m, K); },
-        1));
-  }
-  if (report) {
-    char label[160];
-    const auto& mean = report->fit.restitution.e;
-    std::snprintf(label, sizeof label, "mean e %.4f", mean.value);
-    const double te_hi = std::max(0.5, 1.1 * maxOr(e_tan.x, 0.5));
-    p4.series.push_back(curve(
-        label, linspace(0, te_hi), [&](double) { return mean.value; }, 1));
-    if (report->fit.laws) {
-      const auto& laws = *report->fit.laws;
-      const auto& law = laws.fit(laws.preferred);
-      const double v_hi = 1.1 * maxOr(e_vn.x, 1.0);
-      p5.series.push_back(curve(
-          law.formula + " (preferred, " + evidenceName(laws.evidence) + ")",
-          linspace(v_hi / 200, v_hi), [&](double v) { return law.restitutionAt(v); }, 1));
-    }
-  }
+  if (report && report->fit.friction) addWaltonCurves(*report, pts, p1, p2, p3);
+  if (report) addRestitutionCurves(*report, pts, p4, p5);
   plots.push_back({"beta_vs_cot", p1});
   plots.push_back({"tangent_form", p2});
   plots.push_back({"f_vs_tan", p3});
@@ -333,6 +353,102 @@ namespace {
 json fitted(const FittedValue& v) {
   return {{"value", v.value}, {"sigma", v.sigma}};
 }
+
+// "friction_fit", and mu, beta0 and the switch angle into `material`.
+json frictionJson(const CampaignFitReport& report, json& material) {
+  if (!report.fit.friction) return {{"error", report.fit.friction.error().message}};
+  const auto& fr = *report.fit.friction;
+  material.update({{"mu", fitted(fr.mu)},
+                   {"beta0", fitted(fr.beta0)},
+                   {"switch_angle_deg", fitted(fr.switch_angle_deg)},
+                   {"switch_cot", fitted(fr.switch_cot)}});
+  return {{"slope", fitted(fr.slope)},
+          {"chi2", fr.chi2},
+          {"dof", fr.dof},
+          {"scale_factor", fr.scale_factor},
+          {"sliding_shots", fr.sliding_count},
+          {"rolling_shots", fr.rolling_count},
+          {"inertia_factor_K", fr.inertia_factor_K}};
+}
+
+json restitutionLawsJson(const CampaignFitReport& report) {
+  if (!report.fit.laws) return {{"error", report.fit.laws.error().message}};
+  const auto& laws = *report.fit.laws;
+  json list = json::array();
+  for (const auto& law : laws.fits) {
+    json params = json::object();
+    for (std::size_t i = 0; i < law.parameters.size(); ++i)
+      params[law.parameter_names[i]] = fitted(law.parameters[i]);
+    list.push_back({{"law", restitutionLawName(law.law)},
+                    {"formula", law.formula},
+                    {"parameters", params},
+                    {"chi2", law.chi2},
+                    {"dof", law.dof},
+                    {"bic", law.bic},
+                    {"delta_bic", law.delta_bic}});
+  }
+  return {{"preferred", restitutionLawName(laws.preferred)},
+          {"evidence", evidenceName(laws.evidence)},
+          {"bic_margin", laws.bic_margin},
+          {"fits", list}};
+}
+
+json bootstrapJson(const CampaignFitReport& report) {
+  if (!report.bootstrap) return {{"error", report.bootstrap_error}};
+  const auto& b = *report.bootstrap;
+  return {{"mu_sigma", b.mu_sigma},
+          {"beta0_sigma", b.beta0_sigma},
+          {"e_sigma", b.e_sigma},
+          {"slope_sigma", b.slope_sigma},
+          {"switch_cot_sigma", b.switch_cot_sigma},
+          {"resamples_used", b.resamples_used},
+          {"resamples_failed", b.resamples_failed}};
+}
+
+json launchSpinJson(const CampaignFitReport& report) {
+  if (!report.launch_spin) return {{"error", report.launch_spin_error}};
+  const auto& ls = *report.launch_spin;
+  json j = {{"launch_spin_rad_s", {{"value", ls.per_axis_rad_s}, {"sigma", ls.sigma_rad_s}}},
+            {"rms_per_axis_rad_s", {ls.rms_rad_s.x(), ls.rms_rad_s.y(), ls.rms_rad_s.z()}},
+            {"spins", ls.spins}};
+  if (report.stated_launch_spin_rad_s) j["profile_states_rad_s"] = *report.stated_launch_spin_rad_s;
+  if (!report.launch_spin_advice.empty()) j["advice"] = report.launch_spin_advice;
+  return j;
+}
+
+// "shots_used" (with each one's regime and robust weights) and
+// "shots_left_out" (with the reason), into `j`.
+void shotsJson(const std::vector<CampaignEntry>& entries, const CampaignFitReport& report,
+               json& j) {
+  json used = json::array(), left_out = json::array();
+  std::size_t k = 0;  // index into the fitted shots (regime is per fitted shot)
+  for (const auto& e : entries) {
+    const std::string name = e.id.empty() ? fs::path(e.file).filename().string() : e.id;
+    if (!e.shot) {
+      json row = {{"id", name}, {"reason", e.excluded_because}};
+      if (!e.excluding_flags.empty()) row["flags"] = e.excluding_flags;
+      left_out.push_back(row);
+      continue;
+    }
+    json row = {{"id", name},
+                {"e", e.shot->e},
+                {"beta", e.shot->beta},
+                {"f", e.shot->f},
+                {"vn_m_s", e.shot->v_n_m_s},
+                {"vs_m_s", e.shot->v_s_m_s}};
+    if (const auto& fr = report.fit.friction; fr && k < fr->regime.size()) {
+      row["regime"] = fr->regime[k] == CollisionRegime::Sliding ? "sliding" : "rolling";
+      row["beta_weight"] = fr->robust_weight[k];
+    }
+    if (k < report.fit.restitution.robust_weight.size())
+      row["e_weight"] = report.fit.restitution.robust_weight[k];
+    if (!e.excluding_flags.empty()) row["kept_despite_flags"] = e.excluding_flags;
+    ++k;
+    used.push_back(row);
+  }
+  j["shots_used"] = used;
+  j["shots_left_out"] = left_out;
+}
 }  // namespace
 
 std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
@@ -341,104 +457,19 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
   json j;
   j["schema"] = "collide.campaign-fit/1";
   j["material"] = {{"e", fitted(em.e)}};
-  if (report.fit.friction) {
-    const auto& fr = *report.fit.friction;
-    j["material"].update({{"mu", fitted(fr.mu)},
-                          {"beta0", fitted(fr.beta0)},
-                          {"switch_angle_deg", fitted(fr.switch_angle_deg)},
-                          {"switch_cot", fitted(fr.switch_cot)}});
-    j["friction_fit"] = {{"slope", fitted(fr.slope)},
-                         {"chi2", fr.chi2},
-                         {"dof", fr.dof},
-                         {"scale_factor", fr.scale_factor},
-                         {"sliding_shots", fr.sliding_count},
-                         {"rolling_shots", fr.rolling_count},
-                         {"inertia_factor_K", fr.inertia_factor_K}};
-  } else {
-    j["friction_fit"] = {{"error", report.fit.friction.error().message}};
-  }
+  j["friction_fit"] = frictionJson(report, j["material"]);
   j["restitution_mean"] = {
       {"e", fitted(em.e)}, {"scatter", em.scatter},           {"chi2", em.chi2},
       {"dof", em.dof},     {"scale_factor", em.scale_factor}, {"shots", em.count}};
-  if (report.fit.laws) {
-    const auto& laws = *report.fit.laws;
-    json list = json::array();
-    for (const auto& law : laws.fits) {
-      json params = json::object();
-      for (std::size_t i = 0; i < law.parameters.size(); ++i)
-        params[law.parameter_names[i]] = fitted(law.parameters[i]);
-      list.push_back({{"law", restitutionLawName(law.law)},
-                      {"formula", law.formula},
-                      {"parameters", params},
-                      {"chi2", law.chi2},
-                      {"dof", law.dof},
-                      {"bic", law.bic},
-                      {"delta_bic", law.delta_bic}});
-    }
-    j["restitution_laws"] = {{"preferred", restitutionLawName(laws.preferred)},
-                             {"evidence", evidenceName(laws.evidence)},
-                             {"bic_margin", laws.bic_margin},
-                             {"fits", list}};
-  } else {
-    j["restitution_laws"] = {{"error", report.fit.laws.error().message}};
-  }
-  if (report.bootstrap) {
-    const auto& b = *report.bootstrap;
-    j["bootstrap"] = {{"mu_sigma", b.mu_sigma},
-                      {"beta0_sigma", b.beta0_sigma},
-                      {"e_sigma", b.e_sigma},
-                      {"slope_sigma", b.slope_sigma},
-                      {"switch_cot_sigma", b.switch_cot_sigma},
-                      {"resamples_used", b.resamples_used},
-                      {"resamples_failed", b.resamples_failed}};
-  } else {
-    j["bootstrap"] = {{"error", report.bootstrap_error}};
-  }
-  if (report.launch_spin) {
-    const auto& ls = *report.launch_spin;
-    j["launch_spin"] = {
-        {"launch_spin_rad_s", {{"value", ls.per_axis_rad_s}, {"sigma", ls.sigma_rad_s}}},
-        {"rms_per_axis_rad_s", {ls.rms_rad_s.x(), ls.rms_rad_s.y(), ls.rms_rad_s.z()}},
-        {"spins", ls.spins}};
-    if (report.stated_launch_spin_rad_s)
-      j["launch_spin"]["profile_states_rad_s"] = *report.stated_launch_spin_rad_s;
-    if (!report.launch_spin_advice.empty()) j["launch_spin"]["advice"] = report.launch_spin_advice;
-  } else {
-    j["launch_spin"] = {{"error", report.launch_spin_error}};
-  }
-  json used = json::array(), left_out = json::array();
-  std::size_t k = 0;  // index into the fitted shots (regime is per fitted shot)
-  for (const auto& e : entries) {
-    const std::string name = e.id.empty() ? fs::path(e.file).filename().string() : e.id;
-    if (e.shot) {
-      json row = {{"id", name},
-                  {"e", e.shot->e},
-                  {"beta", e.shot->beta},
-                  {"f", e.shot->f},
-                  {"vn_m_s", e.shot->v_n_m_s},
-                  {"vs_m_s", e.shot->v_s_m_s}};
-      if (const auto& fr = report.fit.friction; fr && k < fr->regime.size()) {
-        row["regime"] = fr->regime[k] == CollisionRegime::Sliding ? "sliding" : "rolling";
-        row["beta_weight"] = fr->robust_weight[k];
-      }
-      if (k < report.fit.restitution.robust_weight.size())
-        row["e_weight"] = report.fit.restitution.robust_weight[k];
-      if (!e.excluding_flags.empty()) row["kept_despite_flags"] = e.excluding_flags;
-      ++k;
-      used.push_back(row);
-    } else {
-      json row = {{"id", name}, {"reason", e.excluded_because}};
-      if (!e.excluding_flags.empty()) row["flags"] = e.excluding_flags;
-      left_out.push_back(row);
-    }
-  }
+  j["restitution_laws"] = restitutionLawsJson(report);
+  j["bootstrap"] = bootstrapJson(report);
+  j["launch_spin"] = launchSpinJson(report);
   j["loss"] = robustLossName(report.loss);
   json down = json::array();
   for (const auto& d : report.down_weighted)
     down.push_back({{"id", d.id}, {"beta_weight", d.beta_weight}, {"e_weight", d.e_weight}});
   j["shots_down_weighted"] = down;
-  j["shots_used"] = used;
-  j["shots_left_out"] = left_out;
+  shotsJson(entries, report, j);
   return j.dump(2);
 }
 
