@@ -1253,6 +1253,65 @@ bool circleThrough(const CirclePoint& a, const CirclePoint& b, const CirclePoint
   return std::isfinite(out.r);
 }
 
+// The residuals' robust spread between neighbours along an ordered outline
+// (median |res[i] - res[i-1]| as a sigma of one residual).
+double neighbourSpread(const std::vector<double>& res, std::vector<double>& scratch) {
+  scratch.clear();
+  for (std::size_t i = 1; i < res.size(); ++i) scratch.push_back(std::abs(res[i] - res[i - 1]));
+  std::nth_element(scratch.begin(), scratch.begin() + scratch.size() / 2, scratch.end());
+  return 1.4826 * scratch[scratch.size() / 2] / std::sqrt(2.0);
+}
+
+// RANSAC: of 40 circles through triples of ordered points about a third of
+// the outline apart (a fixed seed), the one most points lie within `band` of
+// (`start` if none); `best` how many.
+Circle bestTripleCircle(const std::vector<CirclePoint>& points, const PointArrays& pa, double band,
+                        const Circle& start, int& best) {
+  const std::size_t n = points.size();
+  std::uint64_t state = 0x9e3779b97f4a7c15ULL ^ n;
+  const auto next = [&state]() {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<std::size_t>(state >> 33);
+  };
+  Circle best_c = start;
+  for (int trial = 0; trial < 40; ++trial) {
+    const std::size_t i = next() % n;
+    const std::size_t j = (i + n / 3 + next() % (n / 6 + 1)) % n;
+    const std::size_t k = (i + 2 * n / 3 + next() % (n / 6 + 1)) % n;
+    Circle t;
+    if (!circleThrough(points[i], points[j], points[k], t)) continue;
+    int count = 0;
+    for (std::size_t m = 0; m < n; ++m) {
+      const double dx = pa.u[m] - t.u, dy = pa.v[m] - t.v;
+      count += std::abs(std::sqrt(dx * dx + dy * dy) - t.r) <= band;
+    }
+    if (count > best) best = count, best_c = t;
+  }
+  return best_c;
+}
+
+// The fit's result: the circle, the points kept, their residual RMS and the
+// parameters' sigmas from the Gauss-Newton normal matrix scaled by chi^2.
+CircleFit fittedCircle(const PointArrays& pa, const Circle& c, const std::vector<double>& res,
+                       const Eigen::Matrix3d& jtj, int kept) {
+  const std::size_t n = res.size();
+  double ss = 0;
+  for (std::size_t i = 0; i < n; ++i) ss += pa.w[i] * res[i] * res[i];
+  CircleFit f;
+  f.u = c.u;
+  f.v = c.v;
+  f.radius = c.r;
+  f.points = kept;
+  f.rejected = static_cast<int>(n) - kept;
+  f.residual_rms = std::sqrt(ss / kept);
+  const double s2 = kept > 3 ? ss / (kept - 3) : 0.0;
+  const Eigen::Matrix3d cov = jtj.inverse() * s2;
+  f.sigma_u = std::sqrt(std::max(0.0, cov(0, 0)));
+  f.sigma_v = std::sqrt(std::max(0.0, cov(1, 1)));
+  f.sigma_radius = std::sqrt(std::max(0.0, cov(2, 2)));
+  return f;
+}
+
 }  // namespace
 
 Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double reject_sigmas,
@@ -1302,32 +1361,11 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   // points (RANSAC) for the one most points lie on, and trim from there.
   if (ordered && n >= 30) {
     if (!fresh) spread = residuals(pa, c, res, scratch);
-    scratch.clear();
-    for (std::size_t i = 1; i < n; ++i) scratch.push_back(std::abs(res[i] - res[i - 1]));
-    std::nth_element(scratch.begin(), scratch.begin() + scratch.size() / 2, scratch.end());
-    const double local = 1.4826 * scratch[scratch.size() / 2] / std::sqrt(2.0);
+    const double local = neighbourSpread(res, scratch);
     if (spread > 2.5 * local + 0.25 * min_reject_px) {
       const double band = std::max(3.0 * local, min_reject_px);
-      std::uint64_t state = 0x9e3779b97f4a7c15ULL ^ n;
-      const auto next = [&state]() {
-        state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-        return static_cast<std::size_t>(state >> 33);
-      };
       int best = -1;
-      Circle best_c = c;
-      for (int trial = 0; trial < 40; ++trial) {
-        const std::size_t i = next() % n;
-        const std::size_t j = (i + n / 3 + next() % (n / 6 + 1)) % n;
-        const std::size_t k = (i + 2 * n / 3 + next() % (n / 6 + 1)) % n;
-        Circle t;
-        if (!circleThrough(points[i], points[j], points[k], t)) continue;
-        int count = 0;
-        for (std::size_t m = 0; m < n; ++m) {
-          const double dx = pa.u[m] - t.u, dy = pa.v[m] - t.v;
-          count += std::abs(std::sqrt(dx * dx + dy * dy) - t.r) <= band;
-        }
-        if (count > best) best = count, best_c = t;
-      }
+      const Circle best_c = bestTripleCircle(points, pa, band, c, best);
       int now = 0;
       for (std::size_t m = 0; m < n; ++m) now += std::abs(res[m]) <= band;
       if (best > now) {
@@ -1343,21 +1381,7 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   }
 
   if (!fresh) residuals(pa, c, res, scratch);
-  double ss = 0;
-  for (std::size_t i = 0; i < n; ++i) ss += pa.w[i] * res[i] * res[i];
-  CircleFit f;
-  f.u = c.u;
-  f.v = c.v;
-  f.radius = c.r;
-  f.points = kept;
-  f.rejected = static_cast<int>(n) - kept;
-  f.residual_rms = std::sqrt(ss / kept);
-  const double s2 = kept > 3 ? ss / (kept - 3) : 0.0;
-  const Eigen::Matrix3d cov = jtj.inverse() * s2;
-  f.sigma_u = std::sqrt(std::max(0.0, cov(0, 0)));
-  f.sigma_v = std::sqrt(std::max(0.0, cov(1, 1)));
-  f.sigma_radius = std::sqrt(std::max(0.0, cov(2, 2)));
-  return f;
+  return fittedCircle(pa, c, res, jtj, kept);
 }
 
 SphereDetector::SphereDetector(SphereDetectorSettings settings) : settings_(settings) {}
