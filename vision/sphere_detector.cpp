@@ -253,51 +253,56 @@ struct Blob {
   int area = 0;                      // cells
 };
 
-// Connected (8-neighbour) blobs of grid cells at or above `threshold`, from
-// runs along the grid rows joined by union-find, with each blob's outline:
-// the ends of its extent in every grid row and column, where they are not on
-// the frame's border, placed half a cell outside the last bright sample.
-std::vector<Blob> findBlobs(const Grid& g, double threshold_level, double seed_level) {
-  // Samples are whole numbers: compare as integers.
-  const int threshold = static_cast<int>(std::ceil(threshold_level));
-  const int seed = static_cast<int>(std::ceil(seed_level));
+// Runs of grid cells at or above a threshold along the grid rows, joined
+// into connected (8-neighbour) sets by union-find.
+struct GridRuns {
   struct Run {
     int y, x0, x1, parent;
   };
   std::vector<Run> runs;
-  std::vector<int> row_first(g.h + 1, 0);
-  const auto find = [&](int i) {
+  std::vector<int> row_first;  // runs of grid row y: [row_first[y], row_first[y + 1])
+
+  int find(int i) {
     while (runs[i].parent != i) i = runs[i].parent = runs[runs[i].parent].parent;
     return i;
-  };
-  for (int y = 0; y < g.h; ++y) {
-    row_first[y] = static_cast<int>(runs.size());
-    const std::uint16_t* row = g.v.data() + static_cast<std::size_t>(y) * g.w;
-    for (int x = 0; x < g.w;) {
-      while (x < g.w && row[x] < threshold) ++x;
-      if (x == g.w) break;
-      const int x0 = x;
-      while (x < g.w && row[x] >= threshold) ++x;
-      const int self = static_cast<int>(runs.size());
-      runs.push_back({y, x0, x - 1, self});
-      if (y == 0) continue;
-      for (int k = row_first[y - 1]; k < row_first[y]; ++k) {
-        if (runs[k].x1 < x0 - 1) continue;
-        if (runs[k].x0 > x) break;
-        const int a = find(k), b = find(self);
-        if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
+  }
+
+  GridRuns(const Grid& g, int threshold) : row_first(g.h + 1, 0) {
+    for (int y = 0; y < g.h; ++y) {
+      row_first[y] = static_cast<int>(runs.size());
+      const std::uint16_t* row = g.v.data() + static_cast<std::size_t>(y) * g.w;
+      for (int x = 0; x < g.w;) {
+        while (x < g.w && row[x] < threshold) ++x;
+        if (x == g.w) break;
+        const int x0 = x;
+        while (x < g.w && row[x] >= threshold) ++x;
+        const int self = static_cast<int>(runs.size());
+        runs.push_back({y, x0, x - 1, self});
+        if (y == 0) continue;
+        for (int k = row_first[y - 1]; k < row_first[y]; ++k) {
+          if (runs[k].x1 < x0 - 1) continue;
+          if (runs[k].x0 > x) break;
+          const int a = find(k), b = find(self);
+          if (a != b) runs[std::max(a, b)].parent = std::min(a, b);
+        }
       }
     }
+    row_first[g.h] = static_cast<int>(runs.size());
   }
-  row_first[g.h] = static_cast<int>(runs.size());
-  std::vector<int> blob_of(runs.size(), -1);
-  std::vector<Blob> blobs;
-  struct Extent {
-    int x0, x1, y0, y1;
-  };
-  std::vector<Extent> box;
+};
+
+// A blob's extent in grid cells.
+struct Extent {
+  int x0, x1, y0, y1;
+};
+
+// The blob of every run (blob_of), each blob's area, seed and extent.
+void labelBlobs(const Grid& g, GridRuns& gr, int seed, std::vector<int>& blob_of,
+                std::vector<Blob>& blobs, std::vector<Extent>& box) {
+  const auto& runs = gr.runs;
+  blob_of.assign(runs.size(), -1);
   for (std::size_t i = 0; i < runs.size(); ++i) {
-    const int root = find(static_cast<int>(i));
+    const int root = gr.find(static_cast<int>(i));
     if (blob_of[root] < 0) {
       blob_of[root] = static_cast<int>(blobs.size());
       blobs.emplace_back();
@@ -318,43 +323,60 @@ std::vector<Blob> findBlobs(const Grid& g, double threshold_level, double seed_l
     e.x0 = std::min(e.x0, runs[i].x0), e.x1 = std::max(e.x1, runs[i].x1);
     e.y1 = std::max(e.y1, runs[i].y);
   }
+}
+
+// Blob b's cells and outline: the ends of its extent in every grid row and
+// column, where they are not on the frame's border, half a cell outside.
+// top, bottom, left, right: scratch, reused from blob to blob.
+void traceBlob(const Grid& g, const GridRuns& gr, const std::vector<int>& blob_of, std::size_t b,
+               const Extent& e, Blob& blob, std::vector<int>& top, std::vector<int>& bottom,
+               std::vector<int>& left, std::vector<int>& right) {
   const double step = g.step, off = g.off;
-  std::vector<int> top, bottom, left, right;
-  for (std::size_t b = 0; b < blobs.size(); ++b) {
-    const Extent& e = box[b];
-    top.assign(e.x1 - e.x0 + 1, -1), bottom.assign(e.x1 - e.x0 + 1, -1);
-    left.assign(e.y1 - e.y0 + 1, -1), right.assign(e.y1 - e.y0 + 1, -1);
-    Blob& blob = blobs[b];
-    for (int y = e.y0; y <= e.y1; ++y)
-      for (int k = row_first[y]; k < row_first[y + 1]; ++k) {
-        if (blob_of[k] != static_cast<int>(b)) continue;
-        const Run& r = runs[k];
-        int& l = left[y - e.y0];
-        int& rr = right[y - e.y0];
-        if (l < 0 || r.x0 < l) l = r.x0;
-        rr = std::max(rr, r.x1);
-        for (int x = r.x0; x <= r.x1; ++x) {
-          int& t = top[x - e.x0];
-          if (t < 0) t = y;
-          bottom[x - e.x0] = y;
-          blob.cells.emplace_back(x * step + off, y * step + off);
-        }
+  top.assign(e.x1 - e.x0 + 1, -1), bottom.assign(e.x1 - e.x0 + 1, -1);
+  left.assign(e.y1 - e.y0 + 1, -1), right.assign(e.y1 - e.y0 + 1, -1);
+  for (int y = e.y0; y <= e.y1; ++y)
+    for (int k = gr.row_first[y]; k < gr.row_first[y + 1]; ++k) {
+      if (blob_of[k] != static_cast<int>(b)) continue;
+      const GridRuns::Run& r = gr.runs[k];
+      int& l = left[y - e.y0];
+      int& rr = right[y - e.y0];
+      if (l < 0 || r.x0 < l) l = r.x0;
+      rr = std::max(rr, r.x1);
+      for (int x = r.x0; x <= r.x1; ++x) {
+        int& t = top[x - e.x0];
+        if (t < 0) t = y;
+        bottom[x - e.x0] = y;
+        blob.cells.emplace_back(x * step + off, y * step + off);
       }
-    for (int y = e.y0; y <= e.y1; ++y) {
-      const int l = left[y - e.y0], r = right[y - e.y0];
-      if (l < 0) continue;
-      const double v = y * step + off;
-      if (l > 0) blob.outline.push_back({l * step + off - 0.5 * step, v});
-      if (r < g.w - 1) blob.outline.push_back({r * step + off + 0.5 * step, v});
     }
-    for (int x = e.x0; x <= e.x1; ++x) {
-      const int t = top[x - e.x0], bt = bottom[x - e.x0];
-      if (t < 0) continue;
-      const double u = x * step + off;
-      if (t > 0) blob.outline.push_back({u, t * step + off - 0.5 * step});
-      if (bt < g.h - 1) blob.outline.push_back({u, bt * step + off + 0.5 * step});
-    }
+  for (int y = e.y0; y <= e.y1; ++y) {
+    const int l = left[y - e.y0], r = right[y - e.y0];
+    if (l < 0) continue;
+    const double v = y * step + off;
+    if (l > 0) blob.outline.push_back({l * step + off - 0.5 * step, v});
+    if (r < g.w - 1) blob.outline.push_back({r * step + off + 0.5 * step, v});
   }
+  for (int x = e.x0; x <= e.x1; ++x) {
+    const int t = top[x - e.x0], bt = bottom[x - e.x0];
+    if (t < 0) continue;
+    const double u = x * step + off;
+    if (t > 0) blob.outline.push_back({u, t * step + off - 0.5 * step});
+    if (bt < g.h - 1) blob.outline.push_back({u, bt * step + off + 0.5 * step});
+  }
+}
+
+// Connected (8-neighbour) blobs of grid cells at or above `threshold`, with
+// each blob's outline (traceBlob).
+std::vector<Blob> findBlobs(const Grid& g, double threshold_level, double seed_level) {
+  // Samples are whole numbers: compare as integers.
+  GridRuns gr(g, static_cast<int>(std::ceil(threshold_level)));
+  std::vector<int> blob_of;
+  std::vector<Blob> blobs;
+  std::vector<Extent> box;
+  labelBlobs(g, gr, static_cast<int>(std::ceil(seed_level)), blob_of, blobs, box);
+  std::vector<int> top, bottom, left, right;
+  for (std::size_t b = 0; b < blobs.size(); ++b)
+    traceBlob(g, gr, blob_of, b, box[b], blobs[b], top, bottom, left, right);
   return blobs;
 }
 
