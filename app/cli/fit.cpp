@@ -51,24 +51,98 @@ collide::Result<std::vector<collide::app::CampaignEntry>> loadEntries(const Opti
   return collide::app::loadCampaignFiles(files, o.include_flagged);
 }
 
-int runFit(const Options& given) {
-  Options o = given;
+// The options' own errors (exit kExitBadInput), and o.dir named for messages.
+bool checkOptions(Options& o) {
   if (o.dirs.empty() && o.manifest.empty()) {
     std::cerr << "collide fit: name a campaign folder (or several), or --manifest LIST\n";
-    return kExitBadInput;
+    return false;
   }
   if (o.dirs.size() + (o.manifest.empty() ? 0 : 1) > 1 && o.out.empty()) {
     std::cerr << "collide fit: a campaign from several folders or a manifest needs --out DIR "
                  "(where fit.json and the plots go)\n";
-    return kExitBadInput;
+    return false;
   }
   o.dir = o.dirs.size() == 1 && o.manifest.empty() ? o.dirs[0]
           : o.manifest.empty()                     ? "the folders' campaign"
                                                    : o.manifest;
   if (o.resamples > 0 && o.resamples < 10) {
     std::cerr << "collide fit: --bootstrap needs at least 10 resamples (or 0 for none)\n";
-    return kExitBadInput;
+    return false;
   }
+  return true;
+}
+
+// fit.json and the plots into `out` (created); false with the error said.
+bool writeReport(const std::string& out, const std::vector<collide::app::CampaignEntry>& entries,
+                 const collide::app::CampaignFitReport& report, std::string& json_path) {
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) {
+    std::cerr << "collide fit: cannot create " << out << ": " << ec.message() << "\n";
+    return false;
+  }
+  json_path = (fs::path(out) / "fit.json").string();
+  if (auto st = writeText(json_path, collide::app::campaignReportJson(entries, report)); !st) {
+    std::cerr << "collide fit: " << st.error().message << "\n";
+    return false;
+  }
+  for (const auto& p : collide::app::campaignPlots(entries, &report)) {
+    if (auto st = collide::app::savePlot(p.plot, (fs::path(out) / p.name).string()); !st) {
+      std::cerr << "collide fit: " << st.error().message << "\n";
+      return false;
+    }
+  }
+  return true;
+}
+
+// The fitted material, its speed law, the bootstrap and launch spin, on stdout.
+void printReport(const collide::app::CampaignFitReport& report) {
+  for (const auto& d : report.down_weighted)
+    std::printf("down-weighted by the %s loss: %s (weight %.2f in the beta fit, %.2f in e)\n",
+                collide::robustLossName(report.loss).c_str(), d.id.c_str(), d.beta_weight,
+                d.e_weight);
+  const auto& e = report.fit.restitution.e;
+  if (const auto& fr = report.fit.friction) {
+    std::printf("mu       %.4f ± %.4f\n", fr->mu.value, fr->mu.sigma);
+    std::printf("beta_0   %.4f ± %.4f\n", fr->beta0.value, fr->beta0.sigma);
+  } else {
+    std::printf("mu, beta_0 not fitted: %s\n", fr.error().message.c_str());
+  }
+  std::printf("e        %.4f ± %.4f (mean of %d shots)\n", e.value, e.sigma,
+              report.fit.restitution.count);
+  if (const auto& fr = report.fit.friction)
+    std::printf(
+        "gamma_0  %.1f ± %.1f deg (incidence angle from head-on: rolling below, sliding above; "
+        "%d sliding, %d rolling shots)\n",
+        fr->switch_angle_deg.value, fr->switch_angle_deg.sigma, fr->sliding_count,
+        fr->rolling_count);
+  if (report.fit.laws) {
+    const auto& laws = *report.fit.laws;
+    std::printf("e(|v_n|) %s law preferred (delta BIC %.1f; evidence: %s)\n",
+                collide::restitutionLawName(laws.preferred).c_str(), laws.bic_margin,
+                collide::evidenceName(laws.evidence).c_str());
+  } else {
+    std::printf("e(|v_n|) not fitted: %s\n", report.fit.laws.error().message.c_str());
+  }
+  if (report.bootstrap)
+    std::printf("bootstrap sigmas: mu %.4f, beta_0 %.4f (%d resamples)\n",
+                report.bootstrap->mu_sigma, report.bootstrap->beta0_sigma,
+                report.bootstrap->resamples_used);
+  if (const auto& ls = report.launch_spin)
+    std::printf(
+        "launchers' spin %.1f ± %.1f rad/s per axis (x %.1f, y %.1f, z %.1f; RMS of %d measured "
+        "pre-impact spins): the rig profile's [analysis] launch_spin_rad_s\n",
+        ls->per_axis_rad_s, ls->sigma_rad_s, ls->rms_rad_s.x(), ls->rms_rad_s.y(),
+        ls->rms_rad_s.z(), ls->spins);
+  else
+    std::printf("launchers' spin not measured: %s\n", report.launch_spin_error.c_str());
+  if (!report.launch_spin_advice.empty())
+    std::printf("note: %s\n", report.launch_spin_advice.c_str());
+}
+
+int runFit(const Options& given) {
+  Options o = given;
+  if (!checkOptions(o)) return kExitBadInput;
   auto entries = loadEntries(o);
   if (!entries) {
     std::cerr << "collide fit: " << entries.error().message << "\n";
@@ -93,64 +167,9 @@ int runFit(const Options& given) {
     return kExitFailure;
   }
   const std::string out = o.out.empty() ? (fs::path(o.dir) / "fit").string() : o.out;
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) {
-    std::cerr << "collide fit: cannot create " << out << ": " << ec.message() << "\n";
-    return kExitFailure;
-  }
-  const std::string json_path = (fs::path(out) / "fit.json").string();
-  if (auto st = writeText(json_path, collide::app::campaignReportJson(*entries, *report)); !st) {
-    std::cerr << "collide fit: " << st.error().message << "\n";
-    return kExitFailure;
-  }
-  for (const auto& p : collide::app::campaignPlots(*entries, &*report)) {
-    if (auto st = collide::app::savePlot(p.plot, (fs::path(out) / p.name).string()); !st) {
-      std::cerr << "collide fit: " << st.error().message << "\n";
-      return kExitFailure;
-    }
-  }
-  for (const auto& d : report->down_weighted)
-    std::printf("down-weighted by the %s loss: %s (weight %.2f in the beta fit, %.2f in e)\n",
-                collide::robustLossName(report->loss).c_str(), d.id.c_str(), d.beta_weight,
-                d.e_weight);
-  const auto& e = report->fit.restitution.e;
-  if (const auto& fr = report->fit.friction) {
-    std::printf("mu       %.4f ± %.4f\n", fr->mu.value, fr->mu.sigma);
-    std::printf("beta_0   %.4f ± %.4f\n", fr->beta0.value, fr->beta0.sigma);
-  } else {
-    std::printf("mu, beta_0 not fitted: %s\n", fr.error().message.c_str());
-  }
-  std::printf("e        %.4f ± %.4f (mean of %d shots)\n", e.value, e.sigma,
-              report->fit.restitution.count);
-  if (const auto& fr = report->fit.friction)
-    std::printf(
-        "gamma_0  %.1f ± %.1f deg (incidence angle from head-on: rolling below, sliding above; "
-        "%d sliding, %d rolling shots)\n",
-        fr->switch_angle_deg.value, fr->switch_angle_deg.sigma, fr->sliding_count,
-        fr->rolling_count);
-  if (report->fit.laws) {
-    const auto& laws = *report->fit.laws;
-    std::printf("e(|v_n|) %s law preferred (delta BIC %.1f; evidence: %s)\n",
-                collide::restitutionLawName(laws.preferred).c_str(), laws.bic_margin,
-                collide::evidenceName(laws.evidence).c_str());
-  } else {
-    std::printf("e(|v_n|) not fitted: %s\n", report->fit.laws.error().message.c_str());
-  }
-  if (report->bootstrap)
-    std::printf("bootstrap sigmas: mu %.4f, beta_0 %.4f (%d resamples)\n",
-                report->bootstrap->mu_sigma, report->bootstrap->beta0_sigma,
-                report->bootstrap->resamples_used);
-  if (const auto& ls = report->launch_spin)
-    std::printf(
-        "launchers' spin %.1f ± %.1f rad/s per axis (x %.1f, y %.1f, z %.1f; RMS of %d measured "
-        "pre-impact spins): the rig profile's [analysis] launch_spin_rad_s\n",
-        ls->per_axis_rad_s, ls->sigma_rad_s, ls->rms_rad_s.x(), ls->rms_rad_s.y(),
-        ls->rms_rad_s.z(), ls->spins);
-  else
-    std::printf("launchers' spin not measured: %s\n", report->launch_spin_error.c_str());
-  if (!report->launch_spin_advice.empty())
-    std::printf("note: %s\n", report->launch_spin_advice.c_str());
+  std::string json_path;
+  if (!writeReport(out, *entries, *report, json_path)) return kExitFailure;
+  printReport(*report);
   std::cout << "wrote " << json_path << " and 5 plots (PNG, SVG) in " << out << "\n";
   return kExitOk;
 }
