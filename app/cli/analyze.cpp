@@ -213,46 +213,80 @@ collide::Status checkCalibratedSize(const std::string& path,
                        " px: calibrate with pictures of the footage's size");
 }
 
-int analyzeFootage(const Options& given) {
-  Options o = given;
+// --diameter-mm, --fps and --diameter2-mm checked (o.fps 0: the file's own);
+// false with the error said.
+bool checkFootageNumbers(Options& o) {
   if (o.diameter_mm == kNotGiven) {
     std::cerr << "collide analyze: --diameter-mm is required with --frames (the spheres' "
                  "diameter in millimetres, e.g. 25.4)\n";
-    return kExitBadInput;
+    return false;
   }
   if (!(o.diameter_mm > 0 && o.diameter_mm < 1000)) {
     std::cerr << "collide analyze: --diameter-mm " << o.diameter_mm
               << ": give the spheres' diameter in millimetres, between 0 and 1000 (e.g. 25.4)\n";
-    return kExitBadInput;
+    return false;
   }
   if (o.fps != kNotGiven && !(o.fps > 0 && o.fps <= 2e7)) {
     std::cerr << "collide analyze: --fps " << o.fps
               << ": give the frame rate the camera recorded at, frames per second (> 0)\n";
-    return kExitBadInput;
+    return false;
   }
   if (o.fps == kNotGiven) o.fps = 0;  // the loaders' "take the file's own"
   if (o.diameter2_mm < 0 || o.diameter2_mm >= 1000) {
     std::cerr << "collide analyze: --diameter2-mm must be a diameter in millimetres\n";
-    return kExitBadInput;
+    return false;
   }
-  collide::vision::AnalysisSettings settings;
+  return true;
+}
+
+// --gravity-dir, --polarity and --range into settings and range; false with
+// the error said.
+bool parseFootageChoices(const Options& o, collide::vision::AnalysisSettings& settings,
+                         collide::vision::FootageRange& range) {
   if (!parseGravity(o.gravity_dir, settings.gravity_dir_image)) {
     std::cerr << "collide analyze: --gravity-dir '" << o.gravity_dir
               << "': use down, up, left, right, or U,V in image axes (u right, v down)\n";
-    return kExitBadInput;
+    return false;
   }
   if (!collide::cli::parsePolarity(o.polarity, settings.polarity)) {
     std::cerr << "collide analyze: --polarity '" << o.polarity
               << "': give auto, dark (silhouettes on a backlight) or bright (lit spheres on a "
                  "dark background)\n";
-    return kExitBadInput;
+    return false;
   }
-  collide::vision::FootageRange range;
   if (!o.range.empty() && !collide::cli::parseFrameRange(o.range, range)) {
     std::cerr << "collide analyze: --range '" << o.range
               << "': give FIRST:LAST frame ids (e.g. -200:300, or -200: or :300)\n";
-    return kExitBadInput;
+    return false;
   }
+  return true;
+}
+
+// --profile's rig profile: the lens the camera was calibrated with (collide
+// calibrate-camera). nullopt when none is given; ok false (the error said)
+// when it cannot be read or holds no [camera.calibration].
+std::optional<collide::hw::RigProfile> footageProfile(const Options& o, bool& ok) {
+  ok = true;
+  if (o.profile.empty()) return std::nullopt;
+  auto loaded = collide::hw::loadRigProfile(o.profile);
+  if (loaded && loaded->camera_calibration) return std::move(*loaded);
+  std::cerr << "collide analyze: --profile "
+            << (loaded ? o.profile +
+                             " has no [camera.calibration]: run collide calibrate-camera "
+                             "... --profile " +
+                             o.profile
+                       : loaded.error().message)
+            << "\n";
+  ok = false;
+  return std::nullopt;
+}
+
+int analyzeFootage(const Options& given) {
+  Options o = given;
+  if (!checkFootageNumbers(o)) return kExitBadInput;
+  collide::vision::AnalysisSettings settings;
+  collide::vision::FootageRange range;
+  if (!parseFootageChoices(o, settings, range)) return kExitBadInput;
   auto loaded = collide::app::loadFootageAt(o.frames, o.fps, range);
   if (!loaded) {
     std::cerr << "collide analyze: " << loaded.error().message << "\n";
@@ -260,21 +294,9 @@ int analyzeFootage(const Options& given) {
   }
   const double file_pixel_size_m = loaded->file_pixel_size_m;
   auto* burst = &loaded->burst;
-  std::optional<collide::hw::RigProfile> profile;
-  if (!o.profile.empty()) {  // the lens the camera was calibrated with (collide calibrate-camera)
-    auto loaded_profile = collide::hw::loadRigProfile(o.profile);
-    if (!loaded_profile || !loaded_profile->camera_calibration) {
-      std::cerr << "collide analyze: --profile "
-                << (loaded_profile ? o.profile +
-                                         " has no [camera.calibration]: run collide "
-                                         "calibrate-camera ... --profile " +
-                                         o.profile
-                                   : loaded_profile.error().message)
-                << "\n";
-      return kExitBadInput;
-    }
-    profile = std::move(*loaded_profile);
-  }
+  bool profile_ok = true;
+  const std::optional<collide::hw::RigProfile> profile = footageProfile(o, profile_ok);
+  if (!profile_ok) return kExitBadInput;
   if (auto st = setExposure(o, profile, *burst); !st) {
     std::cerr << "collide analyze: " << st.error().message << "\n";
     return kExitBadInput;
