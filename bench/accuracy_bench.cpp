@@ -252,13 +252,26 @@ void printShotDetail(const vision::ShotAnalysis& r, const std::array<Sphere, 2>&
           truth.z());
     };
     // Outlines cut by the frame's border in the 11 frames around the trigger
-    // (the impact): the circle then rests on part of the edge.
+    // (the impact): the circle then rests on part of the edge. Dots found
+    // per frame, before and after the collision instant: few dots make for
+    // a poorly conditioned spin.
     int cut = 0;
-    for (const vision::FrameDetections& fd : r.frames)
-      cut += fd.sphere[s] && fd.sphere[s]->cut_by_border && std::abs(fd.frame_id) <= 5;
+    std::array<std::vector<int>, 2> dots_seen;
+    for (const vision::FrameDetections& fd : r.frames) {
+      if (!fd.sphere[s]) continue;
+      cut += fd.sphere[s]->cut_by_border && std::abs(fd.frame_id) <= 5;
+      dots_seen[fd.t_s > r.collision.t_collision_s.value].push_back(
+          static_cast<int>(fd.dots[s].size()));
+    }
+    const auto median = [](std::vector<int> d) {
+      if (d.empty()) return 0;
+      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+      return d[d.size() / 2];
+    };
     std::printf(
-        "  sphere %d: frames %d before, %d after; cut by the border in %d of frames -5..5\n", s + 1,
-        k.frames_before, k.frames_after, cut);
+        "  sphere %d: frames %d before, %d after; median dots per frame %d before, %d after; cut "
+        "by the border in %d of frames -5..5\n",
+        s + 1, k.frames_before, k.frames_after, median(dots_seen[0]), median(dots_seen[1]), cut);
     row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
     row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
     row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
