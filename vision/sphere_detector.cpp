@@ -116,14 +116,19 @@ COLLIDE_AVX2_CLONES GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
 }
 
 // Gauss-Newton on the geometric distances; returns false if it diverges.
-bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out) {
+// With `hold_radius` only the centre moves (c.r stays as given).
+bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out, bool hold_radius) {
   for (int it = 0; it < 25; ++it) {
     const GaussNewtonSums z =
         gaussNewtonSums(p.u.data(), p.v.data(), p.w.data(), p.u.size(), c.u, c.v, c.r);
     Eigen::Matrix3d jtj;
     jtj << z.sxx, z.sxy, z.sx, z.sxy, z.syy, z.sy, z.sx, z.sy, z.n;
     const Eigen::Vector3d jtr(-z.rx, -z.ry, -z.r1);
-    const Eigen::Vector3d step = jtj.ldlt().solve(-jtr);
+    Eigen::Vector3d step = Eigen::Vector3d::Zero();
+    if (hold_radius)
+      step.head<2>() = jtj.topLeftCorner<2, 2>().ldlt().solve(-jtr.head<2>());
+    else
+      step = jtj.ldlt().solve(-jtr);
     if (!step.allFinite()) return false;
     c.u += step[0];
     c.v += step[1];
@@ -1033,27 +1038,31 @@ Grid negativeGrid(Grid g, int max_value) {
 // the outline's shape about the coarse centre (PinholeCamera::outlineShape),
 // fitted, and the circle mapped back: its centre the ellipse's, its radius the
 // mean of the ellipse's semi-axes, as a circle fit reports on a whole ellipse.
+// `held.first` > 0: the radius is not fitted but held there (the ellipse's
+// mean semi-axis with a camera), with standard uncertainty `held.second`.
 Result<CircleFit> fitOutline(std::vector<CirclePoint>& pts, const Circle& about,
-                             const std::optional<PinholeCamera>& camera) {
+                             const std::optional<PinholeCamera>& camera,
+                             std::pair<double, double> held) {
   // Outliers beyond 3.5 robust sigmas and 0.05 px; the points are in order
   // along the outline, so a dent (a run of outliers) is searched for.
-  const auto robustFit = [](const std::vector<CirclePoint>& p) {
-    return fitCircle(p, 3.5, 0.05, true);
+  const auto robustFit = [](const std::vector<CirclePoint>& p, double r, double sigma) {
+    return fitCircle(p, 3.5, 0.05, true, r, sigma);
   };
-  if (!camera) return robustFit(pts);
+  if (!camera) return robustFit(pts, held.first, held.second);
   const Eigen::Matrix2d shape = camera->outlineShape(about.u, about.v);
   const Eigen::Matrix2d to_circle = shape.inverse();
-  if (!to_circle.allFinite()) return robustFit(pts);
+  if (!to_circle.allFinite()) return robustFit(pts, held.first, held.second);
+  const double mean_axis = 0.5 * shape.trace();
   for (CirclePoint& p : pts) {
     const Eigen::Vector2d q = to_circle * Eigen::Vector2d(p.u - about.u, p.v - about.v);
     p = {about.u + q.x(), about.v + q.y()};
   }
-  Result<CircleFit> fit = robustFit(pts);
+  Result<CircleFit> fit = robustFit(pts, held.first / mean_axis, held.second / mean_axis);
   if (!fit) return fit;
   CircleFit& f = *fit;
   const Eigen::Vector2d centre =
       Eigen::Vector2d(about.u, about.v) + shape * Eigen::Vector2d(f.u - about.u, f.v - about.v);
-  const double su = f.sigma_u, sv = f.sigma_v, mean_axis = 0.5 * shape.trace();
+  const double su = f.sigma_u, sv = f.sigma_v;
   f.u = centre.x(), f.v = centre.y();
   f.sigma_u = std::hypot(shape(0, 0) * su, shape(0, 1) * sv);
   f.sigma_v = std::hypot(shape(1, 0) * su, shape(1, 1) * sv);
@@ -1069,6 +1078,7 @@ Result<CircleFit> fitOutline(std::vector<CirclePoint>& pts, const Circle& about,
 // told from its background: an overexposed frame, or nothing bright in it.
 bool levelsAllowSpheres(const Levels& lv, int max_value, FrameSpheres& out) {
   out.background = lv.bg;
+  out.bright = lv.bright;
   out.noise_sigma = lv.sigma;
   out.threshold = lv.threshold;
   out.low_threshold = lv.low;
@@ -1103,9 +1113,12 @@ EdgeContext frameEdgeContext(const Levels& lv, int clip_value, const SphereDetec
 
 // A sphere the coarse grid saw: its circle there, and whether it came from a
 // blob of two touching spheres split in two.
+// With held_radius_px > 0 the radius is held there (a sphere measured again,
+// SphereDetector::measureWithRadius).
 struct Candidate {
   CircleFit coarse;
   bool touching;
+  double held_radius_px = 0, held_radius_sigma_px = 0;
 };
 
 // The blobs' coarse circles of a plausible radius: one per round blob, two
@@ -1147,7 +1160,8 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
                                                   const EdgeContext& ctx, const Levels& lv,
                                                   const SphereDetectorSettings& set, double min_r,
                                                   double max_r, int step, FrameSpheres& out) {
-  Circle c{cand.coarse.u, cand.coarse.v, cand.coarse.radius};
+  const bool hold = cand.held_radius_px > 0;
+  Circle c{cand.coarse.u, cand.coarse.v, hold ? cand.held_radius_px : cand.coarse.radius};
   EdgeContext local = ctx;
   // The coarse circle is good to about half a grid cell.
   local.search = step / 2 + 3 + (cand.touching ? 4 : 0);
@@ -1163,7 +1177,8 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
   std::vector<CirclePoint> pts;
   EdgeStats st;
   edgePoints<T>(img, c, local, pts, st);
-  Result<CircleFit> fit = fitOutline(pts, c, set.camera);
+  Result<CircleFit> fit =
+      fitOutline(pts, c, set.camera, {cand.held_radius_px, cand.held_radius_sigma_px});
   if (!fit || fit->points < 12) {
     ++out.blobs_ignored;
     out.notes.push_back("a blob near (" + std::to_string(static_cast<int>(c.u)) + ", " +
@@ -1228,8 +1243,8 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
   const int clip_value = top_clips ? max_value : std::numeric_limits<int>::max();
   const Levels lv = measureLevels(grid, max_value, clip_value);
   if (!levelsAllowSpheres(lv, max_value, out)) return out;
-  const std::vector<Blob> blobs = findBlobs(grid, lv.low, lv.threshold);
   const EdgeContext ctx = frameEdgeContext(lv, clip_value, set);
+  const std::vector<Blob> blobs = findBlobs(grid, lv.low, lv.threshold);
   for (const Candidate& cand : coarseCandidates(blobs, min_r, max_r, step, out))
     if (auto m = measureCandidate<T>(img, cand, ctx, lv, set, min_r, max_r, step, out))
       out.spheres.push_back(*m);
@@ -1314,8 +1329,10 @@ Circle bestTripleCircle(const std::vector<CirclePoint>& points, const PointArray
 
 // The fit's result: the circle, the points kept, their residual RMS and the
 // parameters' sigmas from the Gauss-Newton normal matrix scaled by chi^2.
+// With a held radius, its standard uncertainty `held_sigma` moves the centre
+// by (dc/dr) sigma: added to the centre's covariance.
 CircleFit fittedCircle(const PointArrays& pa, const Circle& c, const std::vector<double>& res,
-                       const Eigen::Matrix3d& jtj, int kept) {
+                       const Eigen::Matrix3d& jtj, int kept, bool hold_radius, double held_sigma) {
   const std::size_t n = res.size();
   double ss = 0;
   for (std::size_t i = 0; i < n; ++i) ss += pa.w[i] * res[i] * res[i];
@@ -1326,8 +1343,16 @@ CircleFit fittedCircle(const PointArrays& pa, const Circle& c, const std::vector
   f.points = kept;
   f.rejected = static_cast<int>(n) - kept;
   f.residual_rms = std::sqrt(ss / kept);
-  const double s2 = kept > 3 ? ss / (kept - 3) : 0.0;
-  const Eigen::Matrix3d cov = jtj.inverse() * s2;
+  const int free = hold_radius ? 2 : 3;
+  const double s2 = kept > free ? ss / (kept - free) : 0.0;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  if (hold_radius) {
+    const Eigen::Matrix2d a_inv = jtj.topLeftCorner<2, 2>().inverse();
+    const Eigen::Vector2d dc_dr = a_inv * jtj.block<2, 1>(0, 2);
+    cov.topLeftCorner<2, 2>() = a_inv * s2 + dc_dr * dc_dr.transpose() * (held_sigma * held_sigma);
+    cov(2, 2) = held_sigma * held_sigma;
+  } else
+    cov = jtj.inverse() * s2;
   f.sigma_u = std::sqrt(std::max(0.0, cov(0, 0)));
   f.sigma_v = std::sqrt(std::max(0.0, cov(1, 1)));
   f.sigma_radius = std::sqrt(std::max(0.0, cov(2, 2)));
@@ -1337,14 +1362,17 @@ CircleFit fittedCircle(const PointArrays& pa, const Circle& c, const std::vector
 }  // namespace
 
 Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double reject_sigmas,
-                            double min_reject_px, bool ordered) {
+                            double min_reject_px, bool ordered, double held_radius_px,
+                            double held_radius_sigma_px) {
   const std::size_t n = points.size();
   if (n < 5) return fail("circle fit: " + std::to_string(n) + " edge points; need at least 5");
   PointArrays pa(points);  // pa.w: 1 for the points in use
   Circle c;
   if (!kasaFit(pa, c)) return fail("circle fit: the edge points lie on a line");
+  const bool hold = held_radius_px > 0;
+  if (hold) c.r = held_radius_px;
   Eigen::Matrix3d jtj;
-  if (!geometricFit(pa, c, jtj)) return fail("circle fit: did not converge");
+  if (!geometricFit(pa, c, jtj, hold)) return fail("circle fit: did not converge");
   std::vector<double> res(n), scratch;
   scratch.reserve(n);
   int kept = static_cast<int>(n);
@@ -1370,7 +1398,7 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
         fresh = true;
         break;
       }
-      if (!geometricFit(pa, c, jtj)) return fail("circle fit: did not converge");
+      if (!geometricFit(pa, c, jtj, hold)) return fail("circle fit: did not converge");
     }
     return Ok{};
   };
@@ -1392,25 +1420,57 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
       for (std::size_t m = 0; m < n; ++m) now += std::abs(res[m]) <= band;
       if (best > now) {
         c = best_c;
+        if (hold) c.r = held_radius_px;
         for (std::size_t m = 0; m < n; ++m) {
           const double dx = pa.u[m] - c.u, dy = pa.v[m] - c.v;
           pa.w[m] = std::abs(std::sqrt(dx * dx + dy * dy) - c.r) <= band ? 1.0 : 0.0;
         }
-        if (!geometricFit(pa, c, jtj)) return fail("circle fit: did not converge");
+        if (!geometricFit(pa, c, jtj, hold)) return fail("circle fit: did not converge");
         if (Status st = trim(); !st) return st.error();
       }
     }
   }
 
   if (!fresh) residuals(pa, c, res, scratch);
-  return fittedCircle(pa, c, res, jtj, kept);
+  return fittedCircle(pa, c, res, jtj, kept, hold, held_radius_sigma_px);
 }
 
 SphereDetector::SphereDetector(SphereDetectorSettings settings) : settings_(settings) {}
 
+namespace {
+
+bool usableImage(const cv::Mat& image) {
+  return !image.empty() && image.channels() == 1 &&
+         (image.depth() == CV_8U || image.depth() == CV_16U);
+}
+
+// A backlit frame as measured: full scale less each level, saturating
+// (levels above full scale give 0).
+cv::Mat negativeOf(const cv::Mat& image, int max_value) {
+  cv::Mat negative;
+  cv::subtract(cv::Scalar(max_value), image, negative);
+  return negative;
+}
+
+// The frame's levels back from what detect reported (in the frame's own grey
+// levels) to those its spheres were measured against.
+Levels levelsOf(const FrameSpheres& frame, int max_value) {
+  Levels lv;
+  const auto measured = [&](double level) {
+    return frame.dark_spheres ? max_value - level : level;
+  };
+  lv.bg = measured(frame.background);
+  lv.sigma = frame.noise_sigma;
+  lv.bright = measured(frame.bright);
+  lv.threshold = measured(frame.threshold);
+  lv.low = measured(frame.low_threshold);
+  return lv;
+}
+
+}  // namespace
+
 FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
-  if (image.empty() || image.channels() != 1 ||
-      (image.depth() != CV_8U && image.depth() != CV_16U)) {
+  if (!usableImage(image)) {
     FrameSpheres out;
     out.notes.push_back("not a one-channel 8- or 16-bit image");
     return out;
@@ -1429,20 +1489,48 @@ FrameSpheres SphereDetector::detect(const cv::Mat& image, int max_value) const {
     if (bytes) return detectTyped<std::uint8_t>(image, grid, max_value, settings_, true);
     return detectTyped<std::uint16_t>(image, grid, max_value, settings_, true);
   }
-  // Saturating: levels above full scale give 0.
-  cv::Mat negative;
-  cv::subtract(cv::Scalar(max_value), image, negative);
+  const cv::Mat negative = negativeOf(image, max_value);
   const Grid negative_grid = negativeGrid(grid, max_value);
   FrameSpheres out =
       bytes ? detectTyped<std::uint8_t>(negative, negative_grid, max_value, settings_, false)
             : detectTyped<std::uint16_t>(negative, negative_grid, max_value, settings_, false);
   out.dark_spheres = true;
   out.background = max_value - out.background;
+  out.bright = max_value - out.bright;
   out.threshold = max_value - out.threshold;
   out.low_threshold = max_value - out.low_threshold;
   for (SphereMeasurement& m : out.spheres) {
     m.background = max_value - m.background;
     m.rim_level = max_value - m.rim_level;
+  }
+  return out;
+}
+
+std::optional<SphereMeasurement> SphereDetector::measureWithRadius(
+    const cv::Mat& image, int max_value, const FrameSpheres& frame, const SphereMeasurement& m,
+    double radius_px, double radius_sigma_px) const {
+  if (!usableImage(image) || !(radius_px > 0)) return std::nullopt;
+  // Against the levels detect found in this frame (not measured again).
+  const Levels lv = levelsOf(frame, max_value);
+  const bool dark = frame.dark_spheres;
+  const cv::Mat img = dark ? negativeOf(image, max_value) : image;
+  const int clip_value = dark ? std::numeric_limits<int>::max() : max_value;
+  const EdgeContext ctx = frameEdgeContext(lv, clip_value, settings_);
+  const Candidate again{m.circle, m.touching, radius_px, std::max(0.0, radius_sigma_px)};
+  const double min_r = minRadius(settings_, img.cols, img.rows);
+  const double max_r = maxRadius(settings_, img.cols, img.rows);
+  const int step = coarseStep(settings_, img.cols, img.rows);
+  FrameSpheres unused;  // where a rejected outline's note would go
+  std::optional<SphereMeasurement> out =
+      img.depth() == CV_8U ? measureCandidate<std::uint8_t>(img, again, ctx, lv, settings_, min_r,
+                                                            max_r, step, unused)
+                           : measureCandidate<std::uint16_t>(img, again, ctx, lv, settings_, min_r,
+                                                             max_r, step, unused);
+  if (!out) return std::nullopt;
+  out->radius_held = true;
+  if (dark) {
+    out->background = max_value - out->background;
+    out->rim_level = max_value - out->rim_level;
   }
   return out;
 }

@@ -44,6 +44,11 @@
 // are measured as their negative; their levels (background, rim) are
 // reported in the frame's own grey levels.
 //
+// An outline cut by the frame's border is fitted on the arc in view, where a
+// free radius and the centre trade off along the cut; when the radius is
+// known from elsewhere (the same sphere's whole outlines), measureWithRadius
+// fits the centre alone.
+//
 // Limits (issue 12): on shaded 60 px spheres the radius comes out ~0.04-0.07
 // px small (a sqrt-shaped limb is extrapolated only approximately); the
 // whole-image fit of (5) removes that (0.009 px centre, 0.007 px radius RMS
@@ -85,9 +90,14 @@ struct CircleFit {
 /// `ordered` (points in order along the outline) a fit that neighbouring
 /// points disagree with as a group (a long run of outliers on one side) is
 /// replaced by the best circle through triples of points (RANSAC), then trimmed.
+/// With `held_radius_px` > 0 only the centre is fitted, the radius held there;
+/// the radius' own standard uncertainty `held_radius_sigma_px` is carried into
+/// the centre's sigmas (as far as the points' arc lets the radius move it)
+/// and is the fit's sigma_radius.
 /// Errors: fewer than 5 points, collinear points, a fit that does not converge.
 Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double reject_sigmas = 3.5,
-                            double min_reject_px = 0.05, bool ordered = false);
+                            double min_reject_px = 0.05, bool ordered = false,
+                            double held_radius_px = 0, double held_radius_sigma_px = 0);
 
 struct SphereDetectorSettings {
   /// Bright spheres on a dark background (front light), dark silhouettes on a
@@ -135,12 +145,15 @@ struct SphereMeasurement {
   double rim_level = 0;         ///< mean brightness at the limb, grey levels
   int saturated_pixels = 0;     ///< pixels at full scale seen on its profiles
   bool silhouette_fit = false;  ///< the circle is from the whole-image fit (small spheres)
+  /// Only the centre fitted, the radius held (SphereDetector::measureWithRadius).
+  bool radius_held = false;
 };
 
 struct FrameSpheres {
   std::vector<SphereMeasurement> spheres;  ///< sorted by u
   double background = 0;                   ///< grey levels (frame median)
   double noise_sigma = 0;                  ///< grey levels, from the background MAD
+  double bright = 0;               ///< grey levels: the brightest objects' (the spheres') level
   double threshold = 0;            ///< blob seed threshold (between background and brightest)
   double low_threshold = 0;        ///< where a pixel leaves the background (blob extents)
   bool saturated = false;          ///< a large part of the frame at full scale
@@ -166,6 +179,20 @@ class SphereDetector {
   /// an empty or unsupported image gives no spheres and a note.
   /// Thread-safe (const).
   FrameSpheres detect(const cv::Mat& image, int max_value) const;
+
+  /// Sphere `m` (found by detect in `image`, which gave `frame`) measured
+  /// again from its edge profiles, against the frame's levels, with the
+  /// radius held at `radius_px` (with settings().camera the ellipse's mean
+  /// semi-axis), only the centre fitted; the held radius' standard
+  /// uncertainty `radius_sigma_px` enters the centre's sigmas. For an outline
+  /// cut by the frame's border: on the arc left in view, a free radius and
+  /// the centre trade off along the cut, and the radius the whole outlines of
+  /// the same track give pins it. None when the image is unusable or too few
+  /// clean edge points remain. Thread-safe (const).
+  std::optional<SphereMeasurement> measureWithRadius(const cv::Mat& image, int max_value,
+                                                     const FrameSpheres& frame,
+                                                     const SphereMeasurement& m, double radius_px,
+                                                     double radius_sigma_px) const;
 
  private:
   SphereDetectorSettings settings_;
