@@ -696,6 +696,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   auto blobs = selectSphereBlobs(data, diam, set.pixel_size_m);
   if (!blobs) return blobs.error();
   if (auto st = trackSpheres(data, *blobs, diam); !st) return st.error();
+  remeasureCutOutlines(burst, data, diam, set.pixel_size_m, frames->max_value, set.polarity,
+                       set.camera);
   const std::array<double, 2> r_med = trackRadii(data);
   const auto px = pixelSize(set, r_med);
   if (!px) return px.error();

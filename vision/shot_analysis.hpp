@@ -1,6 +1,7 @@
 #pragma once
 // From a burst to a shot's kinematics and collision properties (docs/SPEC.md steps
-// 1-6): spheres and dots in every frame, tracks, trajectory fits, the
+// 1-6): spheres and dots in every frame, tracks (outlines cut by the frame's
+// border measured again with their track's radius), trajectory fits, the
 // collision instant from both sides, spins, then analysis/'s inverse Walton
 // operator. This header is the contract between vision (which implements it)
 // and its users (collide analyze, the GUI, the benchmarks).
@@ -114,6 +115,9 @@ struct AnalysisSettings {
 struct SphereDetection {
   double u_px = 0, v_px = 0, radius_px = 0;
   double sigma_px = 0;  ///< standard uncertainty of the centre, per axis
+  /// The outline runs off the frame: its centre was measured with the radius
+  /// held at the track's (remeasureCutOutlines), whose uncertainty sigma_px
+  /// carries.
   bool cut_by_border = false;
   bool touching = false;  ///< outline merged with the other sphere's
 };

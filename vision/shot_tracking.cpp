@@ -167,11 +167,11 @@ Result<BurstFrames> prepareFrames(const Burst& burst, double fps_setting) {
   return bf;
 }
 
-int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
-                  const std::array<double, 2>& diam, double pixel_size_m, int max_value,
-                  const std::function<void(int, int)>& progress,
-                  SphereDetectorSettings::Polarity polarity,
-                  const std::optional<PinholeCamera>& camera) {
+namespace {
+
+SphereDetector shotDetector(const std::array<double, 2>& diam, double pixel_size_m,
+                            SphereDetectorSettings::Polarity polarity,
+                            const std::optional<PinholeCamera>& camera) {
   SphereDetectorSettings ds;
   ds.polarity = polarity;
   ds.camera = camera;
@@ -180,7 +180,61 @@ int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
     ds.min_radius_px = 0.15 * std::min(diam[0], diam[1]) / pixel_size_m;
     ds.max_radius_px = 1.5 * std::max(diam[0], diam[1]) / pixel_size_m;
   }
-  const SphereDetector detector(ds);
+  return SphereDetector(ds);
+}
+
+// Through a lens an outline's mean semi-axis grows off the optical axis
+// (PinholeCamera::outlineShape): its factor at the circle's place, 1 without
+// a camera.
+double offAxisStretch(const std::optional<PinholeCamera>& camera, const CircleFit& c) {
+  return camera ? 0.5 * camera->outlineShape(c.u, c.v).trace() : 1.0;
+}
+
+// The radius track s has at frame k by its whole (uncut) outlines, px, with
+// its standard uncertainty: a straight line against time through the radii
+// of the (up to) kRadiusFrames whole frames nearest to k (under perspective
+// the size follows the depth), its prediction's standard error from their
+// scatter about it. Their mean when they span no time or are too few for a
+// line; {NaN, NaN} when the track has none. Through a lens the radii are
+// taken without their off-axis stretch, which is then put back at frame k.
+constexpr std::size_t kRadiusFrames = 40;
+
+std::pair<double, double> wholeOutlineRadius(const std::vector<FrameData>& data, int k, int s,
+                                             const std::optional<PinholeCamera>& camera) {
+  std::vector<std::pair<int, int>> near;  // (distance in frames, frame)
+  for (int j = 0; j < static_cast<int>(data.size()); ++j)
+    if (const SphereMeasurement* m = trackAt(data[j], s); m && !m->cut_by_border)
+      near.emplace_back(std::abs(j - k), j);
+  if (near.empty()) return {kNaN, kNaN};
+  const std::size_t n = std::min(near.size(), kRadiusFrames);
+  std::partial_sort(near.begin(), near.begin() + n, near.end());
+  Eigen::VectorXd t(n), r(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    t[i] = data[near[i].second].t - data[k].t;  // so the prediction is the intercept
+    const CircleFit& c = trackAt(data[near[i].second], s)->circle;
+    r[i] = c.radius / offAxisStretch(camera, c);
+  }
+  const double stretch = offAxisStretch(camera, trackAt(data[k], s)->circle);
+  const double t_mean = t.mean(), r_mean = r.mean();
+  const double stt = (t.array() - t_mean).square().sum();
+  if (n < 5 || !(stt > 0)) {
+    const double spread = n > 1 ? std::sqrt((r.array() - r_mean).square().sum() / (n - 1)) : kNaN;
+    return {stretch * r_mean, stretch * spread / std::sqrt(static_cast<double>(n))};
+  }
+  const double slope = ((t.array() - t_mean) * (r.array() - r_mean)).sum() / stt;
+  const double at_k = r_mean - slope * t_mean;
+  const double s2 = (r.array() - r_mean - slope * (t.array() - t_mean)).square().sum() / (n - 2);
+  return {stretch * at_k, stretch * std::sqrt(s2 * (1.0 / n + t_mean * t_mean / stt))};
+}
+
+}  // namespace
+
+int detectSpheres(const Burst& burst, std::vector<FrameData>& data,
+                  const std::array<double, 2>& diam, double pixel_size_m, int max_value,
+                  const std::function<void(int, int)>& progress,
+                  SphereDetectorSettings::Polarity polarity,
+                  const std::optional<PinholeCamera>& camera) {
+  const SphereDetector detector = shotDetector(diam, pixel_size_m, polarity, camera);
   forEachFrame(
       data.size(),
       [&](std::size_t k) {
@@ -300,6 +354,38 @@ Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
     }
   }
   return Ok{};
+}
+
+int remeasureCutOutlines(const Burst& burst, std::vector<FrameData>& data,
+                         const std::array<double, 2>& diam, double pixel_size_m, int max_value,
+                         SphereDetectorSettings::Polarity polarity,
+                         const std::optional<PinholeCamera>& camera) {
+  const SphereDetector detector = shotDetector(diam, pixel_size_m, polarity, camera);
+  std::vector<std::pair<int, int>> cut;  // (frame, track)
+  for (int k = 0; k < static_cast<int>(data.size()); ++k)
+    for (int s = 0; s < 2; ++s)
+      if (const SphereMeasurement* m = trackAt(data[k], s); m && m->cut_by_border)
+        cut.emplace_back(k, s);
+  std::vector<std::pair<double, double>> held(cut.size());  // radius, sigma
+  for (std::size_t i = 0; i < cut.size(); ++i)
+    held[i] = wholeOutlineRadius(data, cut[i].first, cut[i].second, camera);
+  std::vector<std::optional<SphereMeasurement>> again(cut.size());
+  forEachFrame(cut.size(), [&](std::size_t i) {
+    const auto [k, s] = cut[i];
+    const auto [r, sigma] = held[i];
+    if (!std::isfinite(r)) return;
+    again[i] =
+        detector.measureWithRadius(burst.frames[data[k].index].image, max_value, data[k].found,
+                                   *trackAt(data[k], s), r, std::isfinite(sigma) ? sigma : 0.0);
+  });
+  int done = 0;
+  for (std::size_t i = 0; i < cut.size(); ++i) {
+    if (!again[i]) continue;
+    const auto [k, s] = cut[i];
+    data[k].found.spheres[data[k].assigned[s]] = *again[i];
+    ++done;
+  }
+  return done;
 }
 
 std::array<double, 2> trackRadii(const std::vector<FrameData>& data) {

@@ -69,6 +69,23 @@ Result<SphereBlobs> selectSphereBlobs(std::vector<FrameData>& data,
 Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
                     const std::array<double, 2>& diameter_m);
 
+/// Outlines cut by the frame's border, measured again with the radius held
+/// (SphereDetector::measureWithRadius) at what the same track's whole outlines
+/// give there: a line against time through the radii of its 40 whole frames
+/// nearest in time (under perspective the size follows the depth; through a
+/// lens each radius less its off-axis stretch, PinholeCamera::outlineShape),
+/// whose standard error enters the centre's sigmas. On the arc
+/// left in view a free radius and the centre trade off along the cut; a cut
+/// sphere's post-impact track otherwise bends with its radius' noise (lab
+/// imaging, accuracy_bench: a collision instant 146 us late, e off by 0.04).
+/// Settings as detectSpheres; a track without a whole outline, or a frame
+/// whose arc gives too few edge points, keeps its free fit. Returns how many
+/// outlines were measured again.
+int remeasureCutOutlines(const Burst& burst, std::vector<FrameData>& data,
+                         const std::array<double, 2>& diameter_m, double pixel_size_m,
+                         int max_value, SphereDetectorSettings::Polarity polarity,
+                         const std::optional<PinholeCamera>& camera);
+
 /// Median radius of each track, px (frames cut by the border left out when
 /// any remain).
 std::array<double, 2> trackRadii(const std::vector<FrameData>& data);

@@ -89,6 +89,45 @@ TEST(TrackSpheres, EachTrackFollowsItsSphere) {
   for (const double r : s.r_med) EXPECT_NEAR(r, r_true, 0.1);
 }
 
+TEST(RemeasureCutOutlines, CutSpheresGetTheirTracksRadiusAndCentresNoWorse) {
+  // The spheres leave the frame at the ends of the burst: those outlines are
+  // measured again with the radius their track's whole outlines give. Against
+  // the simulation's centres: each within its stated sigma's reach, and no
+  // worse than the free fits over all of them.
+  ShotSpec spec = quick(43);
+  spec.frames_before = 30;
+  spec.frames_after = 45;
+  Staged s = detectAndTrack(spec);
+  std::vector<FrameData> again = s.frames.data;
+  const auto& set = s.shot.settings;
+  const int n = remeasureCutOutlines(s.shot.burst, again, set.diameter_m, set.pixel_size_m,
+                                     s.frames.max_value, set.polarity, set.camera);
+  const double px = s.scale.px, r_true = 0.5 * set.diameter_m[0] / px;
+  double free_ss = 0, held_ss = 0;
+  int held = 0;
+  for (std::size_t k = 0; k < again.size(); ++k)
+    for (int i = 0; i < 2; ++i) {
+      const SphereMeasurement *before = trackAt(s.frames.data[k], i), *m = trackAt(again[k], i);
+      if (!m || !m->radius_held) continue;
+      ++held;
+      ASSERT_TRUE(before->cut_by_border);
+      EXPECT_NEAR(m->circle.radius, r_true, 0.1) << "frame " << k << " sphere " << i;
+      const Vec3& p = s.shot.states[k][i].position_m;
+      const double du = m->circle.u - (s.scale.ou + p.x() / px);
+      const double dv = m->circle.v - (s.scale.ov - p.y() / px);
+      EXPECT_LT(std::abs(du), 4 * m->circle.sigma_u + 0.02) << "frame " << k << " sphere " << i;
+      EXPECT_LT(std::abs(dv), 4 * m->circle.sigma_v + 0.02) << "frame " << k << " sphere " << i;
+      held_ss += du * du + dv * dv;
+      free_ss += std::pow(before->circle.u - (s.scale.ou + p.x() / px), 2) +
+                 std::pow(before->circle.v - (s.scale.ov - p.y() / px), 2);
+    }
+  EXPECT_EQ(held, n);
+  ASSERT_GE(held, 5) << "the shot must have outlines cut by the border";
+  std::printf("%d cut outlines: centre RMS %.4f px free, %.4f px radius held\n", held,
+              std::sqrt(free_ss / held), std::sqrt(held_ss / held));
+  EXPECT_LE(held_ss, free_ss);
+}
+
 // Two spheres as the detector reports them, frame by frame (no images): each
 // moves at constant velocity in the image and takes its new velocity at
 // frame `contact`. Candidates are listed left to right, as the detector does.
