@@ -15,8 +15,10 @@
 //   wall-lab   bench/profiles/wall-lab.toml  the plate through sim-lab's lens and light
 //
 //   build/bench/accuracy_bench [--shots N] [--preset NAME,NAME] [--profile FILE] [--seed S]
-//                              [--verbose] [--detector-bias] [--save-bad DIR]
+//                              [--verbose] [--detector-bias] [--save-bad DIR [--save-shot N]]
 //                              [--reanalyse FILE]
+// (--save-shot N: shot N of each preset is saved to the --save-bad folder too,
+// to be looked at with --reanalyse.)
 //
 // Per preset: RMS and worst errors of e, beta, gamma, velocities and spins
 // over the shots the analysis did not flag; the pulls (error / stated sigma)
@@ -61,6 +63,7 @@ bool g_verbose = false;
 bool g_detector_bias = false;  // --detector-bias
 std::string
     g_save_bad;  // --save-bad DIR: shots flagged or with an error beyond 4 sigma are saved there
+int g_save_shot = -1;  // --save-shot N: shot N is saved there too
 
 void saveBad(const hw::Shot& shot, const std::string& why) {
   if (g_save_bad.empty()) return;
@@ -391,6 +394,7 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
   const double g_err = c.gamma_deg.value - truth.before.gamma_rad * 180 / std::numbers::pi;
   const bool bad = std::abs(e_err) > 4 * c.e.sigma || std::abs(g_err) > 4 * c.gamma_deg.sigma ||
                    (pr.spin && std::abs(b_err) > 4 * c.beta.sigma);
+  if (static_cast<int>(i) == g_save_shot) saveBad(shot, "asked for (--save-shot)");
   if (bad)
     saveBad(shot, "error beyond 4 sigma");
   else if (!flags.empty())
@@ -682,6 +686,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--profile")) custom_profile = argv[i + 1];
     if (!std::strcmp(argv[i], "--seed")) seed = std::strtoull(argv[i + 1], nullptr, 10);
     if (!std::strcmp(argv[i], "--save-bad")) g_save_bad = argv[i + 1];
+    if (!std::strcmp(argv[i], "--save-shot")) g_save_shot = std::atoi(argv[i + 1]);
   }
   for (int i = 1; i + 1 < argc; ++i)
     if (!std::strcmp(argv[i], "--reanalyse")) {
