@@ -539,12 +539,14 @@ Result<JointFit> jointFit(const std::vector<SpinFrame>& frames,
 // does. With few tracks that spread is itself uncertain (its relative
 // standard deviation is about sqrt(2 / (m - 1))), so it is pooled with the
 // fit's covariance by degrees of freedom, the fit counting as kFitPriorDof:
-// 20 tracks give 80 % of the jackknife, 4 tracks 38 %. Empty with fewer than
-// 4 tracks or when fewer than 3 refits converge.
+// 20 tracks give 80 % of the jackknife, 4 tracks 38 %, 3 tracks 29 %. Empty
+// with fewer than 3 tracks or when fewer than 3 refits converge. (Two dots in
+// view for a whole side make 3 or so tracks; from 4 up, such a side kept the
+// fit's covariance alone, 7 of its sigmas short on a lab shot.)
 std::optional<Eigen::Matrix3d> trackJackknife(const std::vector<SpinFrame>& frames,
                                               const std::vector<std::vector<int>>& track_of,
                                               int next_track, const JointFit& fit) {
-  if (fit.tracks < 4) return std::nullopt;
+  if (fit.tracks < 3) return std::nullopt;
   std::vector<Vec3> w;
   for (int t = 0; t < next_track; ++t) {
     if (!fit.has_body[t]) continue;
@@ -581,31 +583,42 @@ namespace {
 // gave (the first fit's start).
 struct Tracks {
   std::vector<std::vector<int>> track_of;
-  int next_track = 0;  // tracks 0 .. next_track - 1
-  int pairs = 0;       // consecutive frames matched
+  int next_track = 0;        // tracks 0 .. next_track - 1
+  int pairs = 0;             // consecutive frames matched
+  std::vector<char> paired;  // paired[k]: frames k and k + 1 matched
   Vec3 sum_w = Vec3::Zero();
   double sum_dt = 0;
 
-  explicit Tracks(const std::vector<SpinFrame>& frames) : track_of(frames.size()) {
+  explicit Tracks(const std::vector<SpinFrame>& frames)
+      : track_of(frames.size()), paired(frames.size(), 0) {
     for (std::size_t k = 0; k < frames.size(); ++k) track_of[k].assign(frames[k].dots.size(), -1);
   }
-  // Frames k and k + 1's matched dots onto one track each.
+  // Frames k and k + 1's matched dots onto one track each. A dot of frame
+  // k + 1 already on a track (from the pair after it) joins the two tracks.
   void chain(std::size_t k, const std::vector<Match>& m) {
+    paired[k] = 1;
     for (const Match& mm : m) {
       int& ta = track_of[k][mm.first];
-      if (ta < 0) ta = next_track++;
-      track_of[k + 1][mm.second] = ta;
+      int& tb = track_of[k + 1][mm.second];
+      if (ta < 0) ta = tb >= 0 ? tb : next_track++;
+      if (tb >= 0 && tb != ta) relabel(tb, ta);
+      tb = ta;
     }
+  }
+  void relabel(int from, int to) {
+    for (auto& frame : track_of) std::replace(frame.begin(), frame.end(), from, to);
   }
 };
 
 // Consecutive frames with at least `min_matches` dots each matched by the
 // rotation between them: predicted from the mean rate so far when there is
-// one, else searched for (searchRotation), then refined on the matches.
+// one, else (with `search`) searched for (searchRotation), then refined on
+// the matches. Pairs an earlier pass matched are kept as they are.
 void matchPairs(const std::vector<SpinFrame>& frames, const SpinOptions& opt, int min_matches,
-                double cos_gate, Tracks& tr) {
-  bool have_pred = false;
+                double cos_gate, bool search, Tracks& tr) {
+  bool have_pred = tr.sum_dt > 0;  // from an earlier pass
   for (std::size_t k = 0; k + 1 < frames.size(); ++k) {
+    if (tr.paired[k]) continue;
     const SpinFrame &a = frames[k], &b = frames[k + 1];
     const double dt = b.t_s - a.t_s;
     if (static_cast<int>(std::min(a.dots.size(), b.dots.size())) < min_matches) continue;
@@ -618,7 +631,8 @@ void matchPairs(const std::vector<SpinFrame>& frames, const SpinOptions& opt, in
       const double need = 0.5 * static_cast<double>(std::min(a.dots.size(), b.dots.size()));
       ok = static_cast<double>(m.size()) >= need && refinePair(a, b, m, rot, cos_gate, min_matches);
     }
-    if (!ok && searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, min_matches, rot)) {
+    if (!ok && search &&
+        searchRotation(a, b, opt.max_rotation_per_frame_rad, cos_gate, min_matches, rot)) {
       m = matchDots(a, b, rot, cos_gate);
       ok = refinePair(a, b, m, rot, cos_gate, min_matches);
     }
@@ -642,8 +656,14 @@ void matchPairs(const std::vector<SpinFrame>& frames, const SpinOptions& opt, in
 Result<Tracks> trackDots(const std::vector<SpinFrame>& frames, const SpinOptions& opt) {
   const double cos_gate = std::cos(opt.match_gate_rad);
   Tracks tr(frames);
-  matchPairs(frames, opt, opt.min_matches, cos_gate, tr);
-  if (tr.pairs == 0 && opt.min_matches > 2) matchPairs(frames, opt, 2, cos_gate, tr);
+  matchPairs(frames, opt, opt.min_matches, cos_gate, true, tr);
+  // Then the pairs with two dots matched: by the rotation the pairs with more
+  // predict when there are any (two dots alone leave the search two
+  // rotations to choose from), else searched for. With two dots in view most
+  // of a side's pairs have only two, and a spin from the one or two pairs
+  // that showed three is too rough to regrow the tracks far from them (a 93
+  // rad/s spin came out at 80).
+  if (opt.min_matches > 2) matchPairs(frames, opt, 2, cos_gate, tr.pairs == 0, tr);
   if (tr.pairs == 0) {
     for (std::size_t k = 0; k + 1 < frames.size(); ++k) {
       const std::vector<Match> m =
