@@ -154,6 +154,12 @@ struct PresetResult {
   // centre along the direction away from the axis (um).
   static constexpr double kBiasBinPx = 60;
   std::map<int, Stat> radius_bias_px, centre_bias_um;
+  // Per track (a sphere on one side of the impact): how much its radius error
+  // changes over the track (a line through it against time, its slope times
+  // the track's span; px), and per side how the two spheres' mean radius
+  // errors differ (px): the two things the profile's radius_systematic_px
+  // bounds.
+  Stat radius_change_px, radius_difference_px;
   // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
   Stat pe_all, pb_all, pg_all;
   // Wall shots: the plate face's direction on the collision plane as the
@@ -177,6 +183,8 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
   if (!set.camera) return;
   const PinholeCamera& cam = *set.camera;
   const hw::TruthRecord& t = *shot.truth;
+  std::array<std::array<std::vector<std::array<double, 2>>, 2>, 2>
+      track;  // [sphere][side]: (t, dr)
   std::map<std::int64_t, std::size_t> by_id;
   for (std::size_t k = 0; k < t.frame_id.size(); ++k) by_id[t.frame_id[k]] = k;
   for (const vision::FrameDetections& fd : r.frames)
@@ -195,9 +203,28 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
       const Eigen::Vector2d dir = away / rho;
       const double radial_um = 1e6 * ((back.x() - c.x()) * dir.x() - (back.y() - c.y()) * dir.y());
       const int bin = static_cast<int>(rho / PresetResult::kBiasBinPx);
-      out.radius_bias_px[bin].add(d->radius_px - apparentRadiusPx(cam, c, radius_m));
+      const double dr = d->radius_px - apparentRadiusPx(cam, c, radius_m);
+      out.radius_bias_px[bin].add(dr);
       out.centre_bias_um[bin].add(radial_um);
+      track[s][fd.t_s > r.collision.t_collision_s.value].push_back({fd.t_s, dr});
     }
+  for (int side = 0; side < 2; ++side) {
+    std::array<double, 2> mean{};
+    int whole = 0;  // tracks with enough frames (one on a wall shot)
+    for (int s = 0; s < 2; ++s) {
+      const auto& p = track[s][side];
+      if (p.size() < 5) continue;
+      ++whole;
+      double st = 0, sr = 0;
+      for (const auto& [ts, dr] : p) st += ts, sr += dr;
+      st /= p.size(), mean[s] = sr / p.size();
+      double stt = 0, str = 0;
+      for (const auto& [ts, dr] : p)
+        stt += (ts - st) * (ts - st), str += (ts - st) * (dr - mean[s]);
+      out.radius_change_px.add(str / stt * (p.back()[0] - p.front()[0]));
+    }
+    if (whole == 2) out.radius_difference_px.add(mean[0] - mean[1]);
+  }
 }
 
 // Where the analysis put the contact, against the truth. At grazing incidence
@@ -565,6 +592,11 @@ void printDetectorBias(const PresetResult& r) {
         bin * PresetResult::kBiasBinPx, (bin + 1) * PresetResult::kBiasBinPx, radius.v.size(),
         radius.mean(), radius.sd(), centre.mean(), centre.sd());
   }
+  std::printf(
+      "     radius error's change along a track: RMS %.3f px over %zu tracks; the two spheres' "
+      "mean radius errors differ by %.3f px RMS over %zu sides\n",
+      r.radius_change_px.rms(), r.radius_change_px.v.size(), r.radius_difference_px.rms(),
+      r.radius_difference_px.v.size());
 }
 
 void printPreset(const PresetResult& r) {
