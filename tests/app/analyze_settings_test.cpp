@@ -28,11 +28,12 @@ hw::Shot shotFiledWith(const std::string& profile) {
 }
 
 TEST(AnalysisSettingsFor, TheProfilesStatedPriorsReachTheAnalysis) {
-  // sim-lab states its one-sided light's contact distance scatter; the
-  // backlit profile its silhouettes' small radius bias; sim.toml neither.
+  // sim-lab states its one-sided light's contact distance scatter and its
+  // measured radius bias changes; the backlit profile its silhouettes' small
+  // radius bias; sim.toml neither.
   const auto lab = analysisSettingsFor(shotFiledWith("config/sim-lab.toml"));
   EXPECT_DOUBLE_EQ(lab.contact_distance_sigma_px, 0.2);
-  EXPECT_DOUBLE_EQ(lab.radius_systematic_px, 0.1);
+  EXPECT_DOUBLE_EQ(lab.radius_systematic_px, 0.05);
   const auto backlit = analysisSettingsFor(shotFiledWith("config/sim-backlit.toml"));
   EXPECT_DOUBLE_EQ(backlit.radius_systematic_px, 0.02);
   EXPECT_DOUBLE_EQ(backlit.out_of_plane_speed_fraction, 0.002);
