@@ -160,6 +160,7 @@ struct PresetResult {
   // errors differ (px): the two things the profile's radius_systematic_px
   // bounds.
   Stat radius_change_px, radius_difference_px;
+  Stat radius_change_noise_px;  ///< the change's standard error from the frames' scatter
   // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
   Stat pe_all, pb_all, pg_all;
   // Wall shots: the plate face's direction on the collision plane as the
@@ -175,6 +176,29 @@ struct PresetResult {
   double worst_shot_ms = 0;
 };
 
+// A track's radius errors (time s, error px): how much they change over its
+// span (a straight line's slope times the span, px), the standard error of
+// that change from the errors' scatter about the line (px), and their mean;
+// none with fewer than 5.
+using RadiusTrack = std::vector<std::array<double, 2>>;
+struct RadiusChange {
+  double change = 0, change_sigma = 0, mean = 0;
+};
+std::optional<RadiusChange> radiusChangeAndMean(const RadiusTrack& p) {
+  const std::size_t n = p.size();
+  if (n < 5) return std::nullopt;
+  double st = 0, sr = 0;
+  for (const auto& [ts, dr] : p) st += ts, sr += dr;
+  st /= n, sr /= n;
+  double stt = 0, str = 0;
+  for (const auto& [ts, dr] : p) stt += (ts - st) * (ts - st), str += (ts - st) * (dr - sr);
+  if (!(stt > 0)) return std::nullopt;
+  const double slope = str / stt, span = p.back()[0] - p.front()[0];
+  double ss = 0;
+  for (const auto& [ts, dr] : p) ss += std::pow(dr - sr - slope * (ts - st), 2);
+  return RadiusChange{slope * span, std::sqrt(ss / (n - 2) / stt) * span, sr};
+}
+
 // The detector's radius and centre in every frame where a sphere was
 // measured whole (neither merged nor cut by the border), against the truth
 // seen through the profile's lens. Shots without a lens are skipped.
@@ -183,8 +207,7 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
   if (!set.camera) return;
   const PinholeCamera& cam = *set.camera;
   const hw::TruthRecord& t = *shot.truth;
-  std::array<std::array<std::vector<std::array<double, 2>>, 2>, 2>
-      track;  // [sphere][side]: (t, dr)
+  std::array<std::array<RadiusTrack, 2>, 2> track;  // [sphere][side]
   std::map<std::int64_t, std::size_t> by_id;
   for (std::size_t k = 0; k < t.frame_id.size(); ++k) by_id[t.frame_id[k]] = k;
   for (const vision::FrameDetections& fd : r.frames)
@@ -209,22 +232,48 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
       track[s][fd.t_s > r.collision.t_collision_s.value].push_back({fd.t_s, dr});
     }
   for (int side = 0; side < 2; ++side) {
-    std::array<double, 2> mean{};
-    int whole = 0;  // tracks with enough frames (one on a wall shot)
-    for (int s = 0; s < 2; ++s) {
-      const auto& p = track[s][side];
-      if (p.size() < 5) continue;
-      ++whole;
-      double st = 0, sr = 0;
-      for (const auto& [ts, dr] : p) st += ts, sr += dr;
-      st /= p.size(), mean[s] = sr / p.size();
-      double stt = 0, str = 0;
-      for (const auto& [ts, dr] : p)
-        stt += (ts - st) * (ts - st), str += (ts - st) * (dr - mean[s]);
-      out.radius_change_px.add(str / stt * (p.back()[0] - p.front()[0]));
-    }
-    if (whole == 2) out.radius_difference_px.add(mean[0] - mean[1]);
+    const auto a = radiusChangeAndMean(track[0][side]), b = radiusChangeAndMean(track[1][side]);
+    for (const auto& c : {a, b})
+      if (c) out.radius_change_px.add(c->change), out.radius_change_noise_px.add(c->change_sigma);
+    if (a && b) out.radius_difference_px.add(a->mean - b->mean);
   }
+}
+
+// A wall shot's sphere in every frame, detected as the wall analysis detects
+// it (the whole outline nearest the expected radius), against the truth seen
+// through the profile's lens: how much the radius error changes along each
+// side's track. Shots without a lens are skipped.
+void addWallDetectorBias(const hw::Shot& shot, PresetResult& out) {
+  const auto set = app::wallAnalysisSettingsFor(shot);
+  if (!set || !set->camera || !(set->pixel_size_m > 0)) return;
+  const PinholeCamera& cam = *set->camera;
+  const hw::TruthRecord& t = *shot.truth;
+  vision::SphereDetectorSettings ds;
+  ds.camera = cam;
+  const vision::SphereDetector detector(ds);
+  const double radius_m = 0.5 * set->diameter_m, r_px = radius_m / set->pixel_size_m;
+  std::map<std::int64_t, std::size_t> by_id;
+  for (std::size_t k = 0; k < t.frame_id.size(); ++k) by_id[t.frame_id[k]] = k;
+  std::array<RadiusTrack, 2> track;
+  for (const vision::Frame& f : shot.burst.frames) {
+    const auto k = by_id.find(f.id);
+    if (!f.good() || k == by_id.end()) continue;
+    const vision::FrameSpheres found =
+        detector.detect(f.image, vision::maxValue(shot.burst.format));
+    const vision::SphereMeasurement* best = nullptr;
+    for (const vision::SphereMeasurement& m : found.spheres)
+      if (std::abs(m.circle.radius - r_px) <= 0.3 * r_px &&
+          (!best || std::abs(m.circle.radius - r_px) < std::abs(best->circle.radius - r_px)))
+        best = &m;
+    if (!best || best->cut_by_border) continue;
+    const Vec3 c = t.states[k->second][0].position_m;
+    const double ts = t.t_s[k->second];
+    track[ts > t.t_collision_s].push_back(
+        {ts, best->circle.radius - apparentRadiusPx(cam, c, radius_m)});
+  }
+  for (const RadiusTrack& side : track)
+    if (const auto c = radiusChangeAndMean(side))
+      out.radius_change_px.add(c->change), out.radius_change_noise_px.add(c->change_sigma);
 }
 
 // Where the analysis put the contact, against the truth. At grazing incidence
@@ -484,6 +533,7 @@ void scoreWallShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double
   }
   addWallLineError(json->value(), *profile->wall, out);
   ++out.analysed;
+  if (g_detector_bias) addWallDetectorBias(shot, out);
   vision::ShotAnalysis r;
   r.collision = results->collision;
   r.sphere = results->sphere;
@@ -582,7 +632,7 @@ const char* verdict(double value, double bound) {
 }
 
 void printDetectorBias(const PresetResult& r) {
-  if (r.radius_bias_px.empty()) return;
+  if (r.radius_bias_px.empty() && r.radius_change_px.v.empty()) return;
   std::printf("   detector against the truth, by distance from the principal point:\n");
   for (const auto& [bin, radius] : r.radius_bias_px) {
     const Stat& centre = r.centre_bias_um.at(bin);
@@ -592,11 +642,18 @@ void printDetectorBias(const PresetResult& r) {
         bin * PresetResult::kBiasBinPx, (bin + 1) * PresetResult::kBiasBinPx, radius.v.size(),
         radius.mean(), radius.sd(), centre.mean(), centre.sd());
   }
+  // The change's systematic part: its RMS less what the frames' own scatter
+  // puts into a line's slope.
+  const double change = r.radius_change_px.rms(), noise = r.radius_change_noise_px.rms();
   std::printf(
-      "     radius error's change along a track: RMS %.3f px over %zu tracks; the two spheres' "
-      "mean radius errors differ by %.3f px RMS over %zu sides\n",
-      r.radius_change_px.rms(), r.radius_change_px.v.size(), r.radius_difference_px.rms(),
-      r.radius_difference_px.v.size());
+      "     radius error's change along a track: RMS %.3f px over %zu tracks (the frames' scatter "
+      "alone: %.3f px; beyond it: %.3f px)",
+      change, r.radius_change_px.v.size(), noise,
+      std::sqrt(std::max(0.0, change * change - noise * noise)));
+  if (!r.radius_difference_px.v.empty())
+    std::printf("; the two spheres' mean radius errors differ by %.3f px RMS over %zu sides",
+                r.radius_difference_px.rms(), r.radius_difference_px.v.size());
+  std::printf("\n");
 }
 
 void printPreset(const PresetResult& r) {
