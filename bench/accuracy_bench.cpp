@@ -53,6 +53,7 @@
 #include "bench/truth_at_contact.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/shot_analysis.hpp"
+#include "vision/wall_shot_analysis.hpp"
 
 using namespace collide;
 using collide::bench::truthAtContact;
@@ -260,11 +261,7 @@ void addWallDetectorBias(const hw::Shot& shot, PresetResult& out) {
     if (!f.good() || k == by_id.end()) continue;
     const vision::FrameSpheres found =
         detector.detect(f.image, vision::maxValue(shot.burst.format));
-    const vision::SphereMeasurement* best = nullptr;
-    for (const vision::SphereMeasurement& m : found.spheres)
-      if (std::abs(m.circle.radius - r_px) <= 0.3 * r_px &&
-          (!best || std::abs(m.circle.radius - r_px) < std::abs(best->circle.radius - r_px)))
-        best = &m;
+    const vision::SphereMeasurement* best = vision::wallSphere(found, r_px);
     if (!best || best->cut_by_border) continue;
     const Vec3 c = t.states[k->second][0].position_m;
     const double ts = t.t_s[k->second];

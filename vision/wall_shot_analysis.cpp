@@ -30,6 +30,22 @@ struct Sample {
   SphereMeasurement m;
 };
 
+}  // namespace
+
+const SphereMeasurement* wallSphere(const FrameSpheres& found, double r_px) {
+  const SphereMeasurement* best = nullptr;
+  for (const SphereMeasurement& m : found.spheres) {
+    if (r_px > 0 && std::abs(m.circle.radius - r_px) > 0.3 * r_px) continue;
+    const bool better =
+        !best || (r_px > 0 ? std::abs(m.circle.radius - r_px) < std::abs(best->circle.radius - r_px)
+                           : m.circle.radius > best->circle.radius);
+    if (better) best = &m;
+  }
+  return best;
+}
+
+namespace {
+
 // The sphere in each good frame: the detection nearest the expected radius
 // (within 30 %), outlines cut by the frame's edge left out.
 std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings& s, double px_m,
@@ -47,14 +63,7 @@ std::vector<Sample> detectSphere(const Burst& burst, const WallAnalysisSettings&
     const Frame& f = burst.frames[i];
     if (!f.good()) continue;
     const FrameSpheres found = detector.detect(f.image, max_value);
-    const SphereMeasurement* best = nullptr;
-    for (const SphereMeasurement& m : found.spheres) {
-      if (r_px > 0 && std::abs(m.circle.radius - r_px) > 0.3 * r_px) continue;
-      const bool better = !best || (r_px > 0 ? std::abs(m.circle.radius - r_px) <
-                                                   std::abs(best->circle.radius - r_px)
-                                             : m.circle.radius > best->circle.radius);
-      if (better) best = &m;
-    }
+    const SphereMeasurement* best = wallSphere(found, r_px);
     if (!best) continue;
     if (best->cut_by_border) {
       ++cut;

@@ -21,6 +21,7 @@
 #include "analysis/walton.hpp"
 #include "vision/frame.hpp"
 #include "vision/render_wall.hpp"
+#include "vision/sphere_detector.hpp"
 #include "vision/spin_fit.hpp"
 
 namespace collide::vision {
@@ -92,6 +93,11 @@ struct WallShotAnalysis {
   std::vector<std::string> quality_flags;  ///< as ShotAnalysis; "no_spin_before", ...
   std::vector<std::string> notes;
 };
+
+/// The wall shot's sphere among a frame's detections: the one nearest the
+/// expected radius `r_px` (within 30 % of it), or with r_px = 0 (the scale
+/// unknown, footage) the largest; null when there is none.
+const SphereMeasurement* wallSphere(const FrameSpheres& found, double r_px);
 
 /// Analyses one wall burst, in stages: the sphere in each frame at the
 /// working scale; the face (given or found); the flight on each side fitted
