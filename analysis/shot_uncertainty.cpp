@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numbers>
+#include <utility>
 
 namespace collide {
 namespace {
@@ -19,7 +21,7 @@ Vec3 drawVec(const Vec3& mean, const Eigen::Matrix3d& cov, std::mt19937_64& rng,
 }  // namespace
 
 PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vector2d& drift_m_s,
-                     double offset_m, std::mt19937_64& rng, bool nominal) {
+                     double offset_m, std::mt19937_64& rng, bool nominal, unsigned sources) {
   std::normal_distribution<double> nd;
   PlaneTrack d;
   d.t_ref = f.tRef_s();
@@ -31,11 +33,13 @@ PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vect
     if (!cov.allFinite()) continue;
     const Eigen::LLT<Eigen::MatrixXd> llt(cov);
     if (llt.info() != Eigen::Success) continue;
-    Eigen::VectorXd z(np);
-    for (int i = 0; i < np; ++i) z[i] = nd(rng);
-    d.c[k].head(np) += llt.matrixL() * z;
+    if (sources & kFitNoise) {
+      Eigen::VectorXd z(np);
+      for (int i = 0; i < np; ++i) z[i] = nd(rng);
+      d.c[k].head(np) += llt.matrixL() * z;
+    }
     d.c[k][1] += drift_m_s[k];
-    d.c[k][0] += offset_m * nd(rng);
+    if (sources & kPositionOffset) d.c[k][0] += offset_m * nd(rng);
   }
   return d;
 }
@@ -47,7 +51,8 @@ std::array<double, 2> drawDriftPair(double sigma_before, double sigma_after, std
           sigma_after * (far_after - contact) / std::numbers::sqrt2};
 }
 
-ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
+ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, unsigned sources) {
+  const auto drawn = [&](UncertaintySource s) { return !nominal && (sources & s); };
   ShotDraw o;
   std::array<std::array<PlaneTrack, 2>, 2> d;
   std::array<double, 2> rate_before{0, 0};  // each sphere's pre-impact depth-rate deviate
@@ -55,16 +60,17 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   std::array<std::array<Eigen::Vector2d, 2>, 2> drift;
   for (int s = 0; s < 2; ++s)
     for (int k = 0; k < 2; ++k) {
-      const auto pair = nominal ? std::array<double, 2>{0, 0}
-                                : drawDriftPair(in.drift[s][0], in.drift[s][1], rng);
+      const auto pair = drawn(kCentreDrift) ? drawDriftPair(in.drift[s][0], in.drift[s][1], rng)
+                                            : std::array<double, 2>{0, 0};
       drift[s][0][k] = pair[0], drift[s][1][k] = pair[1];
     }
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], drift[s][side], in.offset[s],
-                             rng, nominal);
+                             rng, nominal, sources);
       const DepthCoupling& c = in.depth[s][side];
-      if (nominal || (c.per_rate.isZero() && c.per_offset.isZero())) continue;  // no depth
+      if (!drawn(kOutOfPlane) || (c.per_rate.isZero() && c.per_offset.isZero()))
+        continue;  // no depth
       std::normal_distribution<double> nd;
       const double rate = nd(rng), offset = nd(rng);
       for (int k = 0; k < 2; ++k)
@@ -72,8 +78,9 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
       if (side == 0) rate_before[s] = rate;
     }
   const double contact =
-      nominal ? in.contact
-              : in.contact + in.contact_sigma * std::normal_distribution<double>()(rng);
+      drawn(kContactDistance)
+          ? in.contact + in.contact_sigma * std::normal_distribution<double>()(rng)
+          : in.contact;
   const double tb = nominal ? in.t_before : contactTime(d[0][0], d[1][0], contact, in.t_before);
   const double ta = nominal ? in.t_after : contactTime(d[0][1], d[1][1], contact, in.t_after);
   o.t_c = in.w_before * tb + (1 - in.w_before) * ta;
@@ -82,7 +89,7 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   for (int s = 0; s < 2; ++s) {
     st.position_m[s] = d[s][0].pos(o.t_c);
     o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
-    const double z = nominal ? 0.0 : std::normal_distribution<double>()(rng);
+    const double z = drawn(kOutOfPlane) ? std::normal_distribution<double>()(rng) : 0.0;
     if (const auto& vz = in.vz_before[s]) {
       const double shared = std::clamp(in.vz_before_shared[s], 0.0, (*vz)[1]);
       o.v_before[s].z() =
@@ -90,8 +97,8 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
     } else
       o.v_before[s].z() = in.vz_fraction * o.v_before[s].norm() * z;
     o.v_after[s] = Vec3(d[s][1].vel(o.t_c).x(), d[s][1].vel(o.t_c).y(), 0);
-    o.w_before[s] = drawVec(in.spin[s][0], in.spin_cov[s][0], rng, nominal);
-    o.w_after[s] = drawVec(in.spin[s][1], in.spin_cov[s][1], rng, nominal);
+    o.w_before[s] = drawVec(in.spin[s][0], in.spin_cov[s][0], rng, !drawn(kSpins));
+    o.w_after[s] = drawVec(in.spin[s][1], in.spin_cov[s][1], rng, !drawn(kSpins));
   }
   st.v_before = o.v_before;
   st.v_after = o.v_after;
@@ -103,7 +110,8 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
   for (int s = 0; s < 2; ++s) inv.spin_change_cov[s] = in.spin_cov[s][0] + in.spin_cov[s][1];
   inv.nz_sigma = in.nz_sigma;
   const double sz = std::max(in.nz_sigma, 1e-6);
-  inv.nz_prior = in.nz_mean + (nominal ? 0.0 : sz * std::normal_distribution<double>()(rng));
+  inv.nz_prior =
+      in.nz_mean + (drawn(kLineOfCentresZ) ? sz * std::normal_distribution<double>()(rng) : 0.0);
   o.inverse = invertShot(st, inv);
   o.v_after = o.inverse.v_after;
   o.ok = o.inverse.ok;
@@ -112,22 +120,25 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal) {
 
 void Spread::add(double x) {
   if (!std::isfinite(x)) return;
-  s += x, s2 += x * x, ++n;
+  ++n;
+  const double d = x - mean;
+  mean += d / n;
+  m2 += d * (x - mean);
 }
 
 double Spread::sigma() const {
   if (n < 2) return std::numeric_limits<double>::quiet_NaN();
-  const double m = s / n;
-  return std::sqrt(std::max(0.0, (s2 - n * m * m) / (n - 1)));
+  return std::sqrt(std::max(0.0, m2 / (n - 1)));
 }
 
-ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t seed) {
+ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t seed,
+                              unsigned sources) {
   ShotUncertainty u;
   std::mt19937_64 rng(seed);
   u.nominal = evaluateShot(model, rng, true);
   if (!u.nominal.ok) return u;
   for (int i = 0; i < draws; ++i) {
-    const ShotDraw o = evaluateShot(model, rng, false);
+    const ShotDraw o = evaluateShot(model, rng, false, sources);
     if (!o.ok) continue;
     const WaltonMeasurement& m = o.inverse.m;
     u.e.add(m.e), u.beta.add(m.beta), u.beta_from_impulse.add(m.beta_from_impulse), u.f.add(m.f);
@@ -142,6 +153,23 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
         u.v_before[s][k].add(o.v_before[s][k]), u.v_after[s][k].add(o.v_after[s][k]);
   }
   return u;
+}
+
+std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws, std::uint64_t seed) {
+  static constexpr std::pair<UncertaintySource, const char*> kRows[] = {
+      {kFitNoise, "trajectory_fits"},         {kCentreDrift, "centre_drift"},
+      {kOutOfPlane, "out_of_plane"},          {kPositionOffset, "position_offset"},
+      {kContactDistance, "contact_distance"}, {kSpins, "spins"},
+      {kLineOfCentresZ, "line_of_centres_z"}};
+  static_assert(std::size(kRows) == 7 && kEverySource == (1u << 7) - 1, "a row per source");
+  std::vector<ErrorBudgetRow> rows;
+  for (const auto& [source, name] : kRows) {
+    const ShotUncertainty u = propagateShot(model, draws, seed, source);
+    if (!u.nominal.ok) return {};
+    // NaN where the quantity is (beta without spins).
+    rows.push_back({source, name, u.e.sigma(), u.beta.sigma(), u.gamma_deg.sigma()});
+  }
+  return rows;
 }
 
 }  // namespace collide

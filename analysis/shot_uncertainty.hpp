@@ -9,6 +9,7 @@
 #include <array>
 #include <optional>
 #include <random>
+#include <vector>
 
 #include "analysis/contact.hpp"
 #include "analysis/shot_inverse.hpp"
@@ -72,12 +73,28 @@ struct ShotDraw {
   bool ok = false;
 };
 
+/// The inputs the Monte Carlo draws, grouped by where their error comes
+/// from: the rows of an error budget (errorBudget). Bit flags; a draw with
+/// some left out takes those at their measured values.
+enum UncertaintySource : unsigned {
+  kFitNoise = 1u << 0,         ///< the trajectory fits' coefficients: the centres' scatter
+  kCentreDrift = 1u << 1,      ///< the centres' slow wander (dots, lamp): ShotModel::drift
+  kOutOfPlane = 1u << 2,       ///< depth errors in the velocities (depth) and v_z before impact
+  kPositionOffset = 1u << 3,   ///< the centres' systematic offset: ShotModel::offset
+  kContactDistance = 1u << 4,  ///< ShotModel::contact_sigma
+  kSpins = 1u << 5,            ///< the measured (or unknown) spins: spin_cov
+  kLineOfCentresZ = 1u << 6,   ///< n_z's prior or size measurement: nz_sigma
+};
+constexpr unsigned kEverySource = (1u << 7) - 1;
+
 /// A trajectory fit's coefficients, drawn from their covariance (times
 /// `inflation`) plus a systematic position offset per axis, and shifted in
 /// velocity by `drift_m_s` (per axis, drawn by the caller: drawDriftPair);
-/// the fit's own coefficients when `nominal`.
+/// the fit's own coefficients when `nominal`. `sources`: kFitNoise for the
+/// coefficients, kPositionOffset for the offset (the drift is always added).
 PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vector2d& drift_m_s,
-                     double offset_m, std::mt19937_64& rng, bool nominal);
+                     double offset_m, std::mt19937_64& rng, bool nominal,
+                     unsigned sources = kEverySource);
 
 /// One draw, on one axis, of the systematic velocity errors a slow wander of
 /// the measured centre (the dots' pull on the outline) gives one sphere's
@@ -90,13 +107,15 @@ PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vect
 /// sigma, show -0.4 (docs/benchmarks.md, session 30).
 std::array<double, 2> drawDriftPair(double sigma_before, double sigma_after, std::mt19937_64& rng);
 
-/// The shot from one draw of every input (or the nominal values): collision
-/// instant, velocities and spins there, Walton's inverse.
-ShotDraw evaluateShot(const ShotModel& model, std::mt19937_64& rng, bool nominal);
+/// The shot from one draw of every input in `sources` (or the nominal
+/// values): collision instant, velocities and spins there, Walton's inverse.
+ShotDraw evaluateShot(const ShotModel& model, std::mt19937_64& rng, bool nominal,
+                      unsigned sources = kEverySource);
 
-/// Running standard deviation of the finite values added.
+/// Running standard deviation of the finite values added (Welford's update:
+/// no cancellation when the spread is tiny against the mean).
 struct Spread {
-  double s = 0, s2 = 0;
+  double mean = 0, m2 = 0;
   int n = 0;
   void add(double x);
   double sigma() const;  ///< NaN below two values
@@ -114,8 +133,28 @@ struct ShotUncertainty {
   std::array<std::array<Spread, 3>, 2> v_before, v_after;  ///< [sphere][axis]
 };
 
-/// Nominal evaluation, then `draws` random ones from a generator seeded with
-/// `seed` (fixed: the same shot gives the same sigmas).
-ShotUncertainty propagateShot(const ShotModel& model, int draws = 300, std::uint64_t seed = 12345);
+/// Nominal evaluation, then `draws` random ones (of the inputs in `sources`)
+/// from a generator seeded with `seed` (fixed: the same shot gives the same
+/// sigmas).
+ShotUncertainty propagateShot(const ShotModel& model, int draws = 300, std::uint64_t seed = 12345,
+                              unsigned sources = kEverySource);
+
+/// One row of an error budget: e's, beta's and gamma's standard deviations
+/// (gamma in degrees) when only `source` is drawn.
+struct ErrorBudgetRow {
+  UncertaintySource source{};
+  const char* name = "";  ///< as the results JSON names it, e.g. "trajectory_fits"
+  double e = 0, beta = 0, gamma_deg = 0;
+};
+
+/// What each group of inputs contributes to the stated sigmas: the
+/// propagation again with one source at a time (the same draws and seed as
+/// propagateShot), every source in kEverySource order. The sources are drawn
+/// independently of each other, so their squares add up to about the whole
+/// sigma's square (exactly only where the inverse is linear). Costs 7
+/// propagations: asked for, not done on every shot (AnalysisSettings::
+/// error_budget).
+std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws = 300,
+                                        std::uint64_t seed = 12345);
 
 }  // namespace collide
