@@ -57,9 +57,16 @@ vision::AnalysisSettings analysisSettingsFor(const hw::Shot& shot) {
 
 namespace {
 
+vision::AnalysisSettings settingsFor(const hw::Shot& shot, const AnalyzeFolderOptions& options) {
+  vision::AnalysisSettings s = analysisSettingsFor(shot);
+  s.error_budget = options.error_budget;
+  return s;
+}
+
 // Shared by one-file and folder analysis; `store_mutex` serialises the writes
 // (the catalog is one SQLite file) while the analyses run in parallel.
-AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mutex& store_mutex) {
+AnalyzeOutcome analyzeOne(const std::string& path, const AnalyzeFolderOptions& options,
+                          std::mutex& store_mutex) {
   AnalyzeOutcome out;
   out.file = path;
   auto shot = readShot(path, {.contained = true});
@@ -73,7 +80,7 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
     out.message = "failed shot (" + shot->failure_reason + "): nothing to analyse";
     return out;
   }
-  if (skip_analysed && !shot->results_json.empty()) {
+  if (options.skip_analysed && !shot->results_json.empty()) {
     out.skipped = true;
     out.message = "already analysed";
     return out;
@@ -87,7 +94,7 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
       out.message = wall->error().message;
       out.unmeasurable = true;
     }
-  } else if (auto analysis = vision::analyzeBurst(shot->burst, analysisSettingsFor(*shot));
+  } else if (auto analysis = vision::analyzeBurst(shot->burst, settingsFor(*shot, options));
              analysis) {
     out.results_json = resultsToJson(*analysis);
     out.analysed = true;
@@ -112,9 +119,9 @@ AnalyzeOutcome analyzeOne(const std::string& path, bool skip_analysed, std::mute
 
 }  // namespace
 
-AnalyzeOutcome analyzeShotFile(const std::string& path) {
+AnalyzeOutcome analyzeShotFile(const std::string& path, bool error_budget) {
   std::mutex m;
-  return analyzeOne(path, false, m);
+  return analyzeOne(path, {.error_budget = error_budget}, m);
 }
 
 Result<AnalyzeFolderReport> analyzeFolder(const std::string& dir,
@@ -141,7 +148,7 @@ AnalyzeFolderReport analyzeFiles(const std::vector<std::string>& files,
   int done = 0;
   auto worker = [&] {
     for (std::size_t i; !cancel.stop_requested() && (i = next++) < files.size();) {
-      AnalyzeOutcome o = analyzeOne(files[i], options.skip_analysed, store_mutex);
+      AnalyzeOutcome o = analyzeOne(files[i], options, store_mutex);
       std::lock_guard lock(progress_mutex);
       report.outcomes[i] = std::move(o);
       ++done;

@@ -54,11 +54,14 @@ struct AnalyzeOutcome {
 /// catalog row. A failed shot (status failed) is skipped: it has no collision.
 /// When the analysis itself fails, failedResultsJson is stored and the
 /// outcome says why (analysed = false). Never throws.
-AnalyzeOutcome analyzeShotFile(const std::string& path);
+/// `error_budget`: the results also say what each input contributes to the
+/// sigmas (vision::AnalysisSettings::error_budget).
+AnalyzeOutcome analyzeShotFile(const std::string& path, bool error_budget = false);
 
 struct AnalyzeFolderOptions {
   int jobs = 0;                ///< worker threads; 0 = one per core
   bool skip_analysed = false;  ///< leave shots that already have results
+  bool error_budget = false;   ///< vision::AnalysisSettings::error_budget
 };
 struct AnalyzeFolderReport {
   std::vector<AnalyzeOutcome> outcomes;  ///< in file-name order

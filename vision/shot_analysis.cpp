@@ -628,6 +628,15 @@ InversePass inversePass(const InverseInputs& in, CollisionFits fits, DepthFits d
   return p;
 }
 
+// The pass' Monte Carlo inputs pointing at its own fits: the model was built
+// on the fits where the pass was made, and the pass has been moved since.
+ShotModel boundModel(const InversePass& p) {
+  ShotModel m = p.model;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) m.fit[s][side] = &p.fits.fit[s][side]->fit;
+  return m;
+}
+
 // With the lens, the post-impact depths held to the v_z the impulse gives
 // (the first pass' inverse, appendix B), and the fits and the inverse again.
 // The first pass stands when there is nothing to hold or the second fails.
@@ -749,6 +758,12 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   const InstantAgreement instants = instantAgreement(pass.fits, u, set, pass.scale.px);
   fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, instants);
   withoutUnmeasuredSpins(out.collision, spins);
+  if (set.error_budget) {
+    out.error_budget = errorBudget(boundModel(pass));
+    // beta's rows only where beta is stated (both spins measured).
+    if (!std::isfinite(out.collision.beta.value))
+      for (ErrorBudgetRow& r : out.error_budget) r.beta = std::nan("");
+  }
   fillFrames(out, burst, data, spins);
 
   // ---- quality flags

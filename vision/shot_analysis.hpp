@@ -19,6 +19,7 @@
 
 #include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
+#include "analysis/shot_uncertainty.hpp"
 #include "analysis/trajectory.hpp"
 #include "analysis/types.hpp"
 #include "analysis/walton.hpp"
@@ -105,6 +106,10 @@ struct AnalysisSettings {
   /// Which way round the spheres are lit (SphereDetectorSettings::polarity):
   /// auto-detected per frame unless forced (`--polarity`).
   SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto;
+  /// Also work out what each group of inputs contributes to the sigmas of e,
+  /// beta and gamma (ShotAnalysis::error_budget; `--error-budget`). Seven more
+  /// Monte Carlo propagations: off unless asked for.
+  bool error_budget = false;
   /// Optional progress callback (frames detected, total), called on the
   /// calling thread with the count increasing and last equal to total (frames
   /// are detected in parallel, so not every count is reported); may be empty.
@@ -226,6 +231,11 @@ struct ShotAnalysis {
   ///  "gravity_scale_mismatch": a free fit's fall differs from g by > 10 % (and
   ///    5 sigma): the pixel size, a diameter or the frame rate is wrong.
   std::vector<std::string> quality_flags;
+  /// With AnalysisSettings::error_budget: the sigmas of e, beta and gamma
+  /// with one group of inputs drawn at a time (analysis/shot_uncertainty.hpp
+  /// errorBudget), in quadrature about the collision's sigmas. Empty when not
+  /// asked for.
+  std::vector<ErrorBudgetRow> error_budget;
   /// Sentences explaining flags and what was set aside (e.g. why a spin could
   /// not be had, the fall rate behind gravity_scale_mismatch).
   std::vector<std::string> notes;

@@ -56,6 +56,7 @@ struct Options {
   std::optional<long> index;
   std::optional<long> chunk;
   std::string profile;  // --frames: a rig profile whose [camera.calibration] gives the lens
+  bool error_budget = false;
 };
 
 std::string pm(const collide::vision::Measured& m, int decimals) {
@@ -69,14 +70,33 @@ std::string pm(const collide::vision::Measured& m, int decimals) {
   return buf;
 }
 
-// One line per shot: what a physicist scans first.
+// The error budget (--error-budget) under the summary: one row per source
+// that contributes, its sigmas of e, beta and gamma.
+std::string budgetTable(const collide::app::ShotResults& r) {
+  if (r.error_budget.empty()) return "";
+  const auto cell = [](double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%10.2g", v);
+    return std::isfinite(v) ? std::string(buf) : std::string(9, ' ') + "-";
+  };
+  std::string out = "\n    sigma by source             e      beta  gamma (deg)";
+  for (const auto& row : r.error_budget) {
+    if (!(row.e > 0) && !(row.beta > 0) && !(row.gamma_deg > 0)) continue;  // nothing drawn
+    char name[32];
+    std::snprintf(name, sizeof name, "\n    %-18s", row.source.c_str());
+    out += name + cell(row.e) + cell(row.beta) + cell(row.gamma_deg);
+  }
+  return out;
+}
+
+// One line per shot: what a physicist scans first (and the error budget when asked for).
 std::string summaryLine(const collide::app::ShotResults& r) {
   const auto& c = r.collision;
   std::string flags;
   for (const auto& f : r.quality_flags) flags += (flags.empty() ? "" : ",") + f;
   return "e " + pm(c.e, 4) + "  beta " + pm(c.beta, 3) + "  f " + pm(c.f, 3) + "  gamma " +
          pm(c.gamma_deg, 1) + " deg  vn " + pm(c.vn_m_s, 3) + " m/s  vs " + pm(c.vs_m_s, 3) +
-         " m/s" + (flags.empty() ? "" : "  [" + flags + "]");
+         " m/s" + (flags.empty() ? "" : "  [" + flags + "]") + budgetTable(r);
 }
 
 std::string describe(const collide::app::AnalyzeOutcome& o) {
@@ -320,7 +340,15 @@ int analyzeFootage(const Options& given) {
     // Its lens, plane pixel size and [analysis] priors, as for the rig's own shots.
     collide::app::applyProfileToAnalysis(*profile, settings);
   }
-  if (o.wall || !o.wall_line.empty()) return analyzeWallFootage(o, *burst, file_pixel_size_m);
+  if (o.wall || !o.wall_line.empty()) {
+    if (o.error_budget) {
+      std::cerr << "collide analyze: --error-budget is for two-sphere shots; a sphere-on-wall "
+                   "analysis has none (leave it out with --wall / --wall-line)\n";
+      return kExitBadInput;
+    }
+    return analyzeWallFootage(o, *burst, file_pixel_size_m);
+  }
+  settings.error_budget = o.error_budget;
   collide::cli::ProgressBar bar("frames", static_cast<int>(burst->frames.size()));
   if (isatty(fileno(stderr))) settings.progress = [&](int done, int) { bar.update(done); };
   auto analysis = collide::vision::analyzeBurst(*burst, settings);
@@ -343,7 +371,7 @@ int analyzeShots(const Options& o) {
     if (stop.interrupted()) break;
     std::error_code ec;
     if (fs::is_directory(path, ec)) {
-      collide::app::AnalyzeFolderOptions fo{o.jobs, o.skip_analysed};
+      collide::app::AnalyzeFolderOptions fo{o.jobs, o.skip_analysed, o.error_budget};
       std::unique_ptr<collide::cli::ProgressBar> bar;
       auto report = collide::app::analyzeFolder(
           path, fo,
@@ -362,7 +390,7 @@ int analyzeShots(const Options& o) {
                 << (report->cancelled ? " (stopped on request)" : "") << "\n";
       failed += report->failed;
     } else if (fs::is_regular_file(path, ec)) {
-      auto out = collide::app::analyzeShotFile(path);
+      auto out = collide::app::analyzeShotFile(path, o.error_budget);
       std::cout << describe(out) << "\n";
       if (!out.analysed && !out.skipped && !out.unmeasurable) ++failed;
     } else {
@@ -428,7 +456,7 @@ int analyzeManifest(const Options& o) {
   std::unique_ptr<collide::cli::ProgressBar> bar;
   const auto start = std::chrono::steady_clock::now();
   auto report = collide::app::analyzeFiles(
-      files, {o.jobs, o.skip_analysed},
+      files, {o.jobs, o.skip_analysed, o.error_budget},
       [&](int done, int n, const collide::app::AnalyzeOutcome& last) {
         if (!isatty(fileno(stderr))) return;
         if (!bar) bar = std::make_unique<collide::cli::ProgressBar>("analyze", n);
@@ -489,6 +517,11 @@ void setupAnalyze(CLI::App& sub, std::function<int()>& run) {
                  "calibrate-camera) is the lens the footage was filmed through; its [analysis] "
                  "priors (alignment, radius systematic) are used too");
   sub.add_option("--json", o->json_out, "Write the results JSON here (default: stdout)");
+  sub.add_flag("--error-budget", o->error_budget,
+               "Also say what each input (trajectory fits, centre drift, out-of-plane motion, "
+               "contact distance, spins, ...) contributes to the sigmas of e, beta and gamma: "
+               "printed under each shot and stored as \"error_budget\" (two-sphere shots; "
+               "slower)");
   sub.add_option("--gravity-dir", o->gravity_dir,
                  "Gravity in the image: down (default), up, left, right, or U,V");
   sub.add_option("--polarity", o->polarity,

@@ -87,6 +87,33 @@ const json& member(const json& obj, const char* key) {
   return it != obj.end() && it->is_object() ? *it : empty;
 }
 
+// "error_budget": an array of {"source": name, "e", "beta", "gamma_deg"};
+// none when missing.
+Result<std::vector<ErrorBudgetLine>> readErrorBudget(const json& j) {
+  std::vector<ErrorBudgetLine> out;
+  auto it = j.find("error_budget");
+  if (it == j.end() || it->is_null()) return out;
+  const std::string bad =
+      "results JSON: error_budget is not an array of {\"source\", \"e\", "
+      "\"beta\", \"gamma_deg\"} objects";
+  if (!it->is_array()) return fail(bad);
+  for (const json& row : *it) {
+    if (!row.is_object()) return fail(bad);
+    auto source = row.find("source");
+    if (source == row.end() || !source->is_string()) return fail(bad);
+    ErrorBudgetLine line{source->get<std::string>()};
+    const std::string where = "error_budget[" + line.source + "].";
+    for (auto [key, field] : {std::pair{"e", &line.e}, std::pair{"beta", &line.beta},
+                              std::pair{"gamma_deg", &line.gamma_deg}}) {
+      auto v = readNumber(row, key, where);
+      if (!v) return v.error();
+      *field = *v;
+    }
+    out.push_back(std::move(line));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
@@ -136,6 +163,15 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
   }
   j["collision"] = collision;
   j["uncertainty"] = uncertainty;
+  if (!a.error_budget.empty()) {
+    json budget = json::array();
+    for (const ErrorBudgetRow& r : a.error_budget)
+      budget.push_back({{"source", r.name},
+                        {"e", number(r.e)},
+                        {"beta", number(r.beta)},
+                        {"gamma_deg", number(r.gamma_deg)}});
+    j["error_budget"] = budget;
+  }
   return j.dump(indent);
 }
 
@@ -202,6 +238,9 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
       *field = std::isfinite(*v) ? static_cast<int>(*v) : 0;
     }
   }
+  auto budget = readErrorBudget(j);
+  if (!budget) return budget.error();
+  r.error_budget = std::move(*budget);
   return r;
 }
 

@@ -16,6 +16,8 @@
 //                  "t_collision_before_s", "t_collision_after_s"},
 //    "uncertainty": {same keys as "collision" (standard uncertainties),
 //                    "sphere1"/"sphere2": {same vector keys}},
+//    "error_budget": [{"source": "trajectory_fits", "e", "beta", "gamma_deg"}, ...]
+//                    (only when asked for: the sigmas with one source drawn),
 //    "error": "why the analysis failed" (only then; the rest may be missing)}
 //
 // sphere1 is the sphere on the left before impact. Axes: x right, y up, z
@@ -39,6 +41,12 @@ std::string resultsToJson(const vision::ShotAnalysis& analysis, int indent = 2);
 /// "analysis_failed", so the catalog shows it and nothing else is lost.
 std::string failedResultsJson(const std::string& reason);
 
+/// One row of the results' error budget (vision::ShotAnalysis::error_budget).
+struct ErrorBudgetLine {
+  std::string source;                     ///< e.g. "trajectory_fits"
+  double e = 0, beta = 0, gamma_deg = 0;  ///< sigmas with only it drawn (NaN: unknown)
+};
+
 /// The results read back (for fits, tables and the GUI).
 struct ShotResults {
   std::optional<std::string> error;  ///< set when the analysis failed
@@ -46,6 +54,7 @@ struct ShotResults {
   std::array<vision::SphereKinematics, 2> sphere;
   vision::CollisionProperties collision;  ///< NaN where the JSON has null
   std::vector<std::string> quality_flags;
+  std::vector<ErrorBudgetLine> error_budget;  ///< empty unless the analysis was asked for it
 };
 /// Errors: not JSON, not an object, another schema, a key of the wrong type
 /// (named, e.g. "collision.e").

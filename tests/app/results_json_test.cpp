@@ -149,6 +149,41 @@ TEST(ResultsJson, BadJsonNamesTheProblem) {
   EXPECT_NE(r.error().message.find("collide analyze"), std::string::npos) << r.error().message;
 }
 
+// The error budget: written in its order when the analysis made one, read
+// back row by row (NaN as null), absent otherwise; a malformed one is named.
+TEST(ResultsJson, ErrorBudgetIsWrittenWhenAskedForAndReadBack) {
+  auto a = sample();
+  EXPECT_FALSE(nlohmann::json::parse(resultsToJson(a)).contains("error_budget"));
+  auto r = parseResultsJson(resultsToJson(a));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->error_budget.empty());
+
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  a.error_budget = {{kFitNoise, "trajectory_fits", 0.0021, 0.013, 0.15},
+                    {kSpins, "spins", 1e-5, nan, 0.42}};
+  const auto j = nlohmann::json::parse(resultsToJson(a));
+  ASSERT_EQ(j["error_budget"].size(), 2u);
+  EXPECT_EQ(j["error_budget"][0]["source"], "trajectory_fits");
+  EXPECT_TRUE(j["error_budget"][1]["beta"].is_null());
+  r = parseResultsJson(resultsToJson(a));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->error_budget.size(), 2u);
+  EXPECT_EQ(r->error_budget[0].source, "trajectory_fits");
+  EXPECT_EQ(r->error_budget[0].e, 0.0021);
+  EXPECT_EQ(r->error_budget[0].beta, 0.013);
+  EXPECT_EQ(r->error_budget[0].gamma_deg, 0.15);
+  EXPECT_EQ(r->error_budget[1].source, "spins");
+  EXPECT_TRUE(std::isnan(r->error_budget[1].beta));
+  EXPECT_EQ(r->error_budget[1].gamma_deg, 0.42);
+
+  for (const char* bad : {R"({"error_budget": {"spins": 1}})", R"({"error_budget": [{"e": 1}]})",
+                          R"({"error_budget": [{"source": "spins", "e": "big"}]})"}) {
+    r = parseResultsJson(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.error().message.find("error_budget"), std::string::npos) << r.error().message;
+  }
+}
+
 TEST(ResultsJson, CampaignShotCarriesTheSigmas) {
   auto a = sample();
   a.collision.vn_m_s = {-1.2, 0.01};
