@@ -69,8 +69,7 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, u
       d[s][side] = drawTrack(*in.fit[s][side], in.inflation[s][side], drift[s][side], in.offset[s],
                              rng, nominal, sources);
       const DepthCoupling& c = in.depth[s][side];
-      if (!drawn(kOutOfPlane) || (c.per_rate.isZero() && c.per_offset.isZero()))
-        continue;  // no depth
+      if (!drawn(kDepth) || (c.per_rate.isZero() && c.per_offset.isZero())) continue;  // no depth
       std::normal_distribution<double> nd;
       const double rate = nd(rng), offset = nd(rng);
       for (int k = 0; k < 2; ++k)
@@ -89,7 +88,7 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, u
   for (int s = 0; s < 2; ++s) {
     st.position_m[s] = d[s][0].pos(o.t_c);
     o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
-    const double z = drawn(kOutOfPlane) ? std::normal_distribution<double>()(rng) : 0.0;
+    const double z = drawn(kOutOfPlaneSpeed) ? std::normal_distribution<double>()(rng) : 0.0;
     if (const auto& vz = in.vz_before[s]) {
       const double shared = std::clamp(in.vz_before_shared[s], 0.0, (*vz)[1]);
       o.v_before[s].z() =
@@ -157,11 +156,15 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
 
 std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws, std::uint64_t seed) {
   static constexpr std::pair<UncertaintySource, const char*> kRows[] = {
-      {kFitNoise, "trajectory_fits"},         {kCentreDrift, "centre_drift"},
-      {kOutOfPlane, "out_of_plane"},          {kPositionOffset, "position_offset"},
-      {kContactDistance, "contact_distance"}, {kSpins, "spins"},
+      {kFitNoise, "trajectory_fits"},
+      {kCentreDrift, "centre_drift"},
+      {kDepth, "depth"},
+      {kOutOfPlaneSpeed, "out_of_plane_speed"},
+      {kPositionOffset, "position_offset"},
+      {kContactDistance, "contact_distance"},
+      {kSpins, "spins"},
       {kLineOfCentresZ, "line_of_centres_z"}};
-  static_assert(std::size(kRows) == 7 && kEverySource == (1u << 7) - 1, "a row per source");
+  static_assert(std::size(kRows) == 8 && kEverySource == (1u << 8) - 1, "a row per source");
   std::vector<ErrorBudgetRow> rows;
   for (const auto& [source, name] : kRows) {
     const ShotUncertainty u = propagateShot(model, draws, seed, source);

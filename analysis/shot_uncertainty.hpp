@@ -79,13 +79,15 @@ struct ShotDraw {
 enum UncertaintySource : unsigned {
   kFitNoise = 1u << 0,         ///< the trajectory fits' coefficients: the centres' scatter
   kCentreDrift = 1u << 1,      ///< the centres' slow wander (dots, lamp): ShotModel::drift
-  kOutOfPlane = 1u << 2,       ///< depth errors in the velocities (depth) and v_z before impact
-  kPositionOffset = 1u << 3,   ///< the centres' systematic offset: ShotModel::offset
-  kContactDistance = 1u << 4,  ///< ShotModel::contact_sigma
-  kSpins = 1u << 5,            ///< the measured (or unknown) spins: spin_cov
-  kLineOfCentresZ = 1u << 6,   ///< n_z's prior or size measurement: nz_sigma
+  kDepth = 1u << 2,            ///< depth errors moving the centres (depth), and the v_z they
+                               ///< share (vz_before_shared)
+  kOutOfPlaneSpeed = 1u << 3,  ///< v_z before impact, the rest: its prior or size measurement
+  kPositionOffset = 1u << 4,   ///< the centres' systematic offset: ShotModel::offset
+  kContactDistance = 1u << 5,  ///< ShotModel::contact_sigma
+  kSpins = 1u << 6,            ///< the measured (or unknown) spins: spin_cov
+  kLineOfCentresZ = 1u << 7,   ///< n_z's prior or size measurement: nz_sigma
 };
-constexpr unsigned kEverySource = (1u << 7) - 1;
+constexpr unsigned kEverySource = (1u << 8) - 1;
 
 /// A trajectory fit's coefficients, drawn from their covariance (times
 /// `inflation`) plus a systematic position offset per axis, and shifted in
@@ -151,7 +153,7 @@ struct ErrorBudgetRow {
 /// propagation again with one source at a time (the same draws and seed as
 /// propagateShot), every source in kEverySource order. The sources are drawn
 /// independently of each other, so their squares add up to about the whole
-/// sigma's square (exactly only where the inverse is linear). Costs 7
+/// sigma's square (exactly only where the inverse is linear). Costs 8
 /// propagations: asked for, not done on every shot (AnalysisSettings::
 /// error_budget).
 std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws = 300,

@@ -107,7 +107,7 @@ struct AnalysisSettings {
   /// auto-detected per frame unless forced (`--polarity`).
   SphereDetectorSettings::Polarity polarity = SphereDetectorSettings::Polarity::Auto;
   /// Also work out what each group of inputs contributes to the sigmas of e,
-  /// beta and gamma (ShotAnalysis::error_budget; `--error-budget`). Seven more
+  /// beta and gamma (ShotAnalysis::error_budget; `--error-budget`). Eight more
   /// Monte Carlo propagations: off unless asked for.
   bool error_budget = false;
   /// Optional progress callback (frames detected, total), called on the

@@ -203,14 +203,15 @@ TEST(ErrorBudget, EachRowIsWhatItsSourceContributes) {
     const ShotUncertainty whole = propagateShot(s.model, 200, 4000 + i);
     const std::vector<ErrorBudgetRow> rows = errorBudget(s.model, 200, 4000 + i);
     ASSERT_TRUE(whole.nominal.ok);
-    ASSERT_EQ(rows.size(), 7u);
+    ASSERT_EQ(rows.size(), 8u);
     const double e_err = whole.nominal.inverse.m.e - 0.97;
     double sum2 = 0;
     for (const ErrorBudgetRow& r : rows) {
       sum2 += r.e * r.e;
       if (r.source == kFitNoise) fits_pulls += std::pow(e_err / r.e, 2);
       // Nothing to draw: no drift, depth coupling, v_z prior or offset here.
-      if (r.source == kCentreDrift || r.source == kOutOfPlane || r.source == kPositionOffset)
+      if (r.source == kCentreDrift || r.source == kDepth || r.source == kOutOfPlaneSpeed ||
+          r.source == kPositionOffset)
         EXPECT_LT(r.e, 1e-9) << r.name;
       else
         EXPECT_GT(r.e, 0.0) << r.name;

@@ -150,7 +150,7 @@ TEST_F(CliAnalyze, ErrorBudgetSaysWhatEachSigmaIsMadeOf) {
   ASSERT_TRUE(shot.ok()) << shot.error().message;
   auto r = collide::app::parseResultsJson(shot->results_json);
   ASSERT_TRUE(r.ok()) << r.error().message;
-  ASSERT_EQ(r->error_budget.size(), 7u);
+  ASSERT_EQ(r->error_budget.size(), 8u);
   double e2 = 0, g2 = 0;
   for (const auto& row : r->error_budget) e2 += row.e * row.e, g2 += row.gamma_deg * row.gamma_deg;
   const auto& c = r->collision;
