@@ -511,6 +511,13 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
     std::printf("\n");
     if (g_verbose) printShotDetail(r, tb, ta, spheres);
     if (g_verbose && spheres == 2) printContactDetail(r, *shot.truth, tb);
+    if (!r.error_budget.empty()) {
+      std::printf("  sigma by source (e / beta / gamma deg):");
+      for (const ErrorBudgetRow& row : r.error_budget)
+        if (row.e > 0 || row.beta > 0 || row.gamma_deg > 0)
+          std::printf(" %s %.2g / %.2g / %.2g", row.name, row.e, row.beta, row.gamma_deg);
+      std::printf("\n");
+    }
   }
 }
 
