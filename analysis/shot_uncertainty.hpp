@@ -150,7 +150,7 @@ struct ErrorBudgetRow {
 };
 
 /// What each group of inputs contributes to the stated sigmas: the
-/// propagation again with one source at a time (the same draws and seed as
+/// propagation again with one source at a time (from the same seed as
 /// propagateShot), every source in kEverySource order. The sources are drawn
 /// independently of each other, so their squares add up to about the whole
 /// sigma's square (exactly only where the inverse is linear). Costs 8
