@@ -138,6 +138,15 @@ void printReport(const collide::app::CampaignFitReport& report) {
     std::printf("launchers' spin not measured: %s\n", report.launch_spin_error.c_str());
   if (!report.launch_spin_advice.empty())
     std::printf("note: %s\n", report.launch_spin_advice.c_str());
+  if (!report.error_budget.empty()) {
+    std::printf(
+        "sigma by source, RMS over %d shots analysed with --error-budget:\n"
+        "    source                      e      beta  gamma (deg)\n",
+        report.error_budget_shots);
+    for (const auto& r : report.error_budget)
+      if (r.e > 0 || r.beta > 0 || r.gamma_deg > 0)
+        std::printf("    %-18s %10.2g %9.2g %10.2g\n", r.source.c_str(), r.e, r.beta, r.gamma_deg);
+  }
 }
 
 int runFit(const Options& given) {

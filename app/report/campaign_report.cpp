@@ -1,6 +1,7 @@
 #include "app/report/campaign_report.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -148,6 +149,35 @@ std::string launchSpinAdvice(const CampaignFitReport& r) {
   return buf;
 }
 
+// report.error_budget: per source, the RMS over the fitted shots that carry
+// one of each quantity's finite sigma.
+void addErrorBudget(const std::vector<CampaignEntry>& entries, CampaignFitReport& report) {
+  std::vector<ErrorBudgetLine>& rows = report.error_budget;
+  std::vector<std::array<int, 3>> counts;
+  for (const auto& e : entries) {
+    if (!e.shot || !e.results || e.results->error_budget.empty()) continue;
+    ++report.error_budget_shots;
+    for (const ErrorBudgetLine& line : e.results->error_budget) {
+      auto it = std::find_if(rows.begin(), rows.end(),
+                             [&](const ErrorBudgetLine& r) { return r.source == line.source; });
+      if (it == rows.end()) {
+        it = rows.insert(rows.end(), {line.source});
+        counts.push_back({0, 0, 0});
+      }
+      std::array<int, 3>& n = counts[static_cast<std::size_t>(it - rows.begin())];
+      const std::array<double, 3> v{line.e, line.beta, line.gamma_deg};
+      const std::array<double*, 3> sum{&it->e, &it->beta, &it->gamma_deg};
+      for (int q = 0; q < 3; ++q)
+        if (std::isfinite(v[q])) *sum[q] += v[q] * v[q], ++n[q];
+    }
+  }
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::array<double*, 3> sum{&rows[i].e, &rows[i].beta, &rows[i].gamma_deg};
+    for (int q = 0; q < 3; ++q)
+      *sum[q] = counts[i][q] > 0 ? std::sqrt(*sum[q] / counts[i][q]) : std::nan("");
+  }
+}
+
 }  // namespace
 
 Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& entries,
@@ -164,6 +194,7 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
     report.launch_spin_error = spread.error().message;
   report.stated_launch_spin_rad_s = statedLaunchSpin(entries);
   report.launch_spin_advice = launchSpinAdvice(report);
+  addErrorBudget(entries, report);
   std::size_t k = 0;  // index into the fitted shots
   for (const auto& e : entries) {
     if (!e.shot) continue;
@@ -393,6 +424,11 @@ json restitutionLawsJson(const CampaignFitReport& report) {
           {"fits", list}};
 }
 
+// JSON has no NaN: an unknown is null.
+json finiteOrNull(double v) {
+  return std::isfinite(v) ? json(v) : json(nullptr);
+}
+
 json bootstrapJson(const CampaignFitReport& report) {
   if (!report.bootstrap) return {{"error", report.bootstrap_error}};
   const auto& b = *report.bootstrap;
@@ -469,6 +505,15 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
   for (const auto& d : report.down_weighted)
     down.push_back({{"id", d.id}, {"beta_weight", d.beta_weight}, {"e_weight", d.e_weight}});
   j["shots_down_weighted"] = down;
+  if (!report.error_budget.empty()) {
+    json rows = json::array();
+    for (const ErrorBudgetLine& r : report.error_budget)
+      rows.push_back({{"source", r.source},
+                      {"e", finiteOrNull(r.e)},
+                      {"beta", finiteOrNull(r.beta)},
+                      {"gamma_deg", finiteOrNull(r.gamma_deg)}});
+    j["error_budget"] = {{"shots", report.error_budget_shots}, {"rms_by_source", rows}};
+  }
   shotsJson(entries, report, j);
   return j.dump(2);
 }

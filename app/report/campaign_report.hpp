@@ -74,6 +74,12 @@ struct CampaignFitReport {
   /// Set when that stated value and the measured one disagree beyond the
   /// measurement's 3 sigma and by more than 20 %: what to set it to, and why.
   std::string launch_spin_advice;
+  /// What the fitted shots' sigmas are made of: per source, the RMS of its
+  /// sigmas of e, beta and gamma over the fitted shots whose results carry an
+  /// error budget (`collide analyze --error-budget`; NaN where none states
+  /// one). Empty when no shot does.
+  std::vector<ErrorBudgetLine> error_budget;
+  int error_budget_shots = 0;  ///< how many shots that RMS is over
 };
 
 /// The pre-impact spins of both spheres of every analysed shot whose spins

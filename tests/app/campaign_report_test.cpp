@@ -227,6 +227,72 @@ TEST_F(CampaignReportTest, MeasuresTheLaunchersSpinFromThePreImpactSpins) {
   EXPECT_THAT(run.out, ::testing::HasSubstr("[analysis] launch_spin_rad_s"));
 }
 
+// Shots analysed with --error-budget: the fit says what the fitted shots'
+// sigmas are made of, per source the RMS over the fitted shots that carry a
+// budget (worked out here by hand); a shot left out (flagged) and shots
+// without one do not count; an unknown (null) beta is left out of beta's.
+TEST(CampaignReport, SaysWhatTheShotsSigmasAreMadeOf) {
+  testing::ScratchDir dir;
+  std::mt19937 rng(9);
+  const auto withBudget = [](const std::string& results, double fits_e, double depth_e,
+                             nlohmann::json depth_beta) {
+    auto j = nlohmann::json::parse(results);
+    j["error_budget"] = {
+        {{"source", "trajectory_fits"}, {"e", fits_e}, {"beta", 0.01}, {"gamma_deg", 0.1}},
+        {{"source", "depth"}, {"e", depth_e}, {"beta", depth_beta}, {"gamma_deg", 0.2}}};
+    return j.dump();
+  };
+  for (int i = 0; i < 12; ++i) {
+    testing::ShotSpec spec;
+    spec.id = idFor(i);
+    spec.frames = 2;
+    auto shot = testing::makeShot(spec);
+    shot.results_json = resultsAt(5.0 + 75.0 * i / 11.0, rng);
+    if (i == 0) shot.results_json = withBudget(shot.results_json, 0.001, 0.003, 0.02);
+    if (i == 1) shot.results_json = withBudget(shot.results_json, 0.002, 0.001, nullptr);
+    if (i == 2) shot.results_json = withBudget(shot.results_json, 0.002, 0.001, 0.04);
+    ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+  }
+  testing::ShotSpec flagged;
+  flagged.id = idFor(12);
+  auto f = testing::makeShot(flagged);
+  f.results_json = withBudget(resultsAt(30.0, rng, {"collision_instant_disagree"}), 0.5, 0.5, 0.5);
+  ASSERT_TRUE(saveShot(dir.path(), f).ok());
+
+  auto entries = loadCampaign(dir.path());
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  auto report = fitCampaignFolder(*entries, 0, 3);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  EXPECT_EQ(report->error_budget_shots, 3);
+  ASSERT_EQ(report->error_budget.size(), 2u);
+  const ErrorBudgetLine &fits = report->error_budget[0], &depth = report->error_budget[1];
+  EXPECT_EQ(fits.source, "trajectory_fits");
+  EXPECT_NEAR(fits.e, std::sqrt((1 + 4 + 4) / 3.0) * 1e-3, 1e-12);
+  EXPECT_NEAR(fits.gamma_deg, 0.1, 1e-12);
+  EXPECT_EQ(depth.source, "depth");
+  EXPECT_NEAR(depth.e, std::sqrt((9 + 1 + 1) / 3.0) * 1e-3, 1e-12);
+  EXPECT_NEAR(depth.beta, std::sqrt((0.02 * 0.02 + 0.04 * 0.04) / 2), 1e-12);  // null left out
+
+  const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+  EXPECT_EQ(j["error_budget"]["shots"], 3);
+  EXPECT_EQ(j["error_budget"]["rms_by_source"][1]["source"], "depth");
+  auto run = testing::runCollide("fit " + testing::q(dir.path()) + " --bootstrap 0", dir);
+  EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_THAT(run.out, ::testing::HasSubstr("sigma by source, RMS over 3 shots"));
+  EXPECT_THAT(run.out, ::testing::HasSubstr("trajectory_fits"));
+
+  // No shot with a budget: none in the report or its JSON.
+  testing::ScratchDir plain;
+  ASSERT_NO_FATAL_FAILURE(saveSweep(plain.path(), 12, 5.0, 80.0, rng));
+  auto plain_entries = loadCampaign(plain.path());
+  ASSERT_TRUE(plain_entries.ok());
+  auto plain_report = fitCampaignFolder(*plain_entries, 0, 3);
+  ASSERT_TRUE(plain_report.ok()) << plain_report.error().message;
+  EXPECT_TRUE(plain_report->error_budget.empty());
+  EXPECT_FALSE(nlohmann::json::parse(campaignReportJson(*plain_entries, *plain_report))
+                   .contains("error_budget"));
+}
+
 // The shots' recorded profile states the prior; when it is far from what the
 // launchers measure (config/sim.toml with 50 rad/s where the spins are drawn
 // with 10), `collide fit` says what to set; near it (10), nothing.
