@@ -424,11 +424,6 @@ json restitutionLawsJson(const CampaignFitReport& report) {
           {"fits", list}};
 }
 
-// JSON has no NaN: an unknown is null.
-json finiteOrNull(double v) {
-  return std::isfinite(v) ? json(v) : json(nullptr);
-}
-
 json bootstrapJson(const CampaignFitReport& report) {
   if (!report.bootstrap) return {{"error", report.bootstrap_error}};
   const auto& b = *report.bootstrap;
@@ -505,15 +500,9 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
   for (const auto& d : report.down_weighted)
     down.push_back({{"id", d.id}, {"beta_weight", d.beta_weight}, {"e_weight", d.e_weight}});
   j["shots_down_weighted"] = down;
-  if (!report.error_budget.empty()) {
-    json rows = json::array();
-    for (const ErrorBudgetLine& r : report.error_budget)
-      rows.push_back({{"source", r.source},
-                      {"e", finiteOrNull(r.e)},
-                      {"beta", finiteOrNull(r.beta)},
-                      {"gamma_deg", finiteOrNull(r.gamma_deg)}});
-    j["error_budget"] = {{"shots", report.error_budget_shots}, {"rms_by_source", rows}};
-  }
+  if (!report.error_budget.empty())
+    j["error_budget"] = {{"shots", report.error_budget_shots},
+                         {"rms_by_source", errorBudgetJson(report.error_budget)}};
   shotsJson(entries, report, j);
   return j.dump(2);
 }

@@ -116,6 +116,16 @@ Result<std::vector<ErrorBudgetLine>> readErrorBudget(const json& j) {
 
 }  // namespace
 
+json errorBudgetJson(const std::vector<ErrorBudgetLine>& rows) {
+  json out = json::array();
+  for (const ErrorBudgetLine& r : rows)
+    out.push_back({{"source", r.source},
+                   {"e", number(r.e)},
+                   {"beta", number(r.beta)},
+                   {"gamma_deg", number(r.gamma_deg)}});
+  return out;
+}
+
 std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
   json j;
   j["schema"] = kResultsSchema;
@@ -164,13 +174,10 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
   j["collision"] = collision;
   j["uncertainty"] = uncertainty;
   if (!a.error_budget.empty()) {
-    json budget = json::array();
+    std::vector<ErrorBudgetLine> rows;
     for (const ErrorBudgetRow& r : a.error_budget)
-      budget.push_back({{"source", r.name},
-                        {"e", number(r.e)},
-                        {"beta", number(r.beta)},
-                        {"gamma_deg", number(r.gamma_deg)}});
-    j["error_budget"] = budget;
+      rows.push_back({r.name, r.e, r.beta, r.gamma_deg});
+    j["error_budget"] = errorBudgetJson(rows);
   }
   return j.dump(indent);
 }

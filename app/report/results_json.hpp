@@ -23,6 +23,7 @@
 // sphere1 is the sphere on the left before impact. Axes: x right, y up, z
 // towards the camera. Times from the first analysed frame.
 #include <array>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,6 +47,10 @@ struct ErrorBudgetLine {
   std::string source;                     ///< e.g. "trajectory_fits"
   double e = 0, beta = 0, gamma_deg = 0;  ///< sigmas with only it drawn (NaN: unknown)
 };
+
+/// Rows as the results JSON and the campaign fit write them: an array of
+/// {"source", "e", "beta", "gamma_deg"} (NaN as null).
+nlohmann::json errorBudgetJson(const std::vector<ErrorBudgetLine>& rows);
 
 /// The results read back (for fits, tables and the GUI).
 struct ShotResults {
