@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "vision/avx2_clones.hpp"
+#include "vision/select.hpp"
 #include "vision/silhouette_fit.hpp"
 
 namespace collide::vision {
@@ -1264,19 +1265,19 @@ namespace {
 
 // Residuals of every point from circle c; returns the robust (MAD) standard
 // deviation of those in use.
+// (`scratch` two buffers of kthSmallest's.)
 double residuals(const PointArrays& p, const Circle& c, std::vector<double>& res,
-                 std::vector<double>& scratch) {
-  scratch.clear();
+                 std::array<std::vector<double>, 2>& scratch) {
+  std::vector<double>& absr = scratch[0];
+  absr.clear();
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double dx = p.u[i] - c.u, dy = p.v[i] - c.v;
     res[i] = std::sqrt(dx * dx + dy * dy) - c.r;
   }
   for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.w[i] > 0) scratch.push_back(std::abs(res[i]));
-  if (scratch.empty()) return 0;
-  const std::size_t mid = scratch.size() / 2;
-  std::nth_element(scratch.begin(), scratch.begin() + mid, scratch.end());
-  return 1.4826 * scratch[mid];
+    if (p.w[i] > 0) absr.push_back(std::abs(res[i]));
+  if (absr.empty()) return 0;
+  return 1.4826 * kthSmallest(absr.data(), absr.size(), absr.size() / 2, scratch[1]);
 }
 
 // The circle through three points; false if they are (nearly) collinear.
@@ -1292,11 +1293,13 @@ bool circleThrough(const CirclePoint& a, const CirclePoint& b, const CirclePoint
 
 // The residuals' robust spread between neighbours along an ordered outline
 // (median |res[i] - res[i-1]| as a sigma of one residual).
-double neighbourSpread(const std::vector<double>& res, std::vector<double>& scratch) {
-  scratch.clear();
-  for (std::size_t i = 1; i < res.size(); ++i) scratch.push_back(std::abs(res[i] - res[i - 1]));
-  std::nth_element(scratch.begin(), scratch.begin() + scratch.size() / 2, scratch.end());
-  return 1.4826 * scratch[scratch.size() / 2] / std::sqrt(2.0);
+double neighbourSpread(const std::vector<double>& res,
+                       std::array<std::vector<double>, 2>& scratch) {
+  std::vector<double>& diff = scratch[0];
+  diff.clear();
+  for (std::size_t i = 1; i < res.size(); ++i) diff.push_back(std::abs(res[i] - res[i - 1]));
+  return 1.4826 * kthSmallest(diff.data(), diff.size(), diff.size() / 2, scratch[1]) /
+         std::sqrt(2.0);
 }
 
 // RANSAC: of 40 circles through triples of ordered points about a third of
@@ -1373,8 +1376,9 @@ Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double rejec
   if (hold) c.r = held_radius_px;
   Eigen::Matrix3d jtj;
   if (!geometricFit(pa, c, jtj, hold)) return fail("circle fit: did not converge");
-  std::vector<double> res(n), scratch;
-  scratch.reserve(n);
+  std::vector<double> res(n);
+  std::array<std::vector<double>, 2> scratch;
+  scratch[0].reserve(n), scratch[1].reserve(n);
   int kept = static_cast<int>(n);
   // Drops points beyond the rejection limit and refits until nothing changes.
   double spread = 0;   // robust sigma of the residuals
