@@ -842,68 +842,115 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   return any_root;
 }
 
-// Sums over n inside samples, the first `first` pixels inside the edge, of
-// the shape's terms (depth, its square, its root) and of their derivatives by
-// the edge's position; the terms a zero coefficient leaves out are not summed.
-struct DepthSums {
-  double f0 = 0, f1 = 0, f2 = 0, d0 = 0, d1 = 0, d2 = 0;
+// The edges of screened profiles are solved four at a time, one profile per
+// lane: per profile, the window's sum S of (p - out), the inside samples'
+// mean level above background, the line's geometry and the shape; the
+// covered length L is solved for by Newton (below), and what is left per
+// profile (its checks) is done one at a time.
+struct EdgeLanes {
+  static constexpr int kLanes = 4;
+  double len[kLanes], level[kLanes], sum[kLanes], above[kLanes], in_off[kLanes];
+  double g[kLanes], h[kLanes], b0[kLanes], b1[kLanes], b2[kLanes];
+  bool ok[kLanes];  // false: Newton's slope was not positive (no edge)
 };
-COLLIDE_AVX2_CLONES DepthSums depthSums(double first, int n, double g, double h, bool quad,
-                                        bool root) {
-  Lanes f0{}, f1{}, f2{}, d0{}, d1{}, d2{};
-  for (int k = 0; k < (n + 3) / 4; ++k) {
-    COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in);
-    const Lanes slope = g - 2 * h * along;
-    f0 += in ? dd : Lanes{}, d0 += in ? slope : Lanes{};
-    if (quad) f1 += in ? dd * dd : Lanes{}, d1 += in ? 2 * dd * slope : Lanes{};
-    if (root) {
-      Lanes sd;
-      for (int l = 0; l < 4; ++l) sd[l] = std::sqrt(dd[l]);
-      f2 += in ? sd : Lanes{}, d2 += in ? 0.5 * slope / sd : Lanes{};
+
+// The window [a - 0.5, b + 0.5] holds the whole transition: the sum S of
+// (p - out) over it is the integral of D - out over the covered length L
+// (the edge at b + 0.5 - L). The level A above background follows from the
+// inside samples' mean once their depths (L + j - 1/2 along the line) are
+// known, so S = A(L) L + integral of the shape is solved for L by Newton,
+// each lane until its step is below 1e-3 px or after `iterations` steps.
+// A term of the shape whose coefficient is zero adds exactly nothing; the
+// square roots are left out when no lane's shape has that term.
+COLLIDE_AVX2_CLONES void solveCoveredLengths(EdgeLanes& e, int n_in, int iterations, bool root) {
+  const Lanes g = COLLIDE_LOAD_LANES(e.g), h = COLLIDE_LOAD_LANES(e.h);
+  const Lanes b0 = COLLIDE_LOAD_LANES(e.b0), b1 = COLLIDE_LOAD_LANES(e.b1),
+              b2 = COLLIDE_LOAD_LANES(e.b2);
+  const Lanes sum = COLLIDE_LOAD_LANES(e.sum), above = COLLIDE_LOAD_LANES(e.above);
+  const Lanes in_off = COLLIDE_LOAD_LANES(e.in_off);
+  Lanes len = COLLIDE_LOAD_LANES(e.len), level{};
+  Lanes sg{}, h5g{};
+  for (int l = 0; l < EdgeLanes::kLanes; ++l) sg[l] = std::sqrt(g[l]);
+  h5g = h / (5 * g);
+  LaneMask active = len == len, bad = len != len;  // all lanes, none
+  const double inv_n = 1.0 / n_in;
+  for (int it = 0; it < iterations; ++it) {
+    Lanes f0{}, f1{}, f2{}, d0{}, d1{}, d2{};
+    for (int j = 0; j < n_in; ++j) {
+      const Lanes along = len + in_off + static_cast<double>(j);
+      Lanes dd = g * along - h * along * along;
+      dd = dd > 1e-6 ? dd : Lanes{} + 1e-6;
+      const Lanes slope = g - 2 * h * along;
+      f0 += dd, d0 += slope;
+      f1 += dd * dd, d1 += 2 * dd * slope;
+      if (root) {
+        Lanes sd;
+        for (int l = 0; l < EdgeLanes::kLanes; ++l) sd[l] = std::sqrt(dd[l]);
+        f2 += sd, d2 += 0.5 * slope / sd;
+      }
     }
+    const Lanes lvl = above - (b0 * (f0 * inv_n) + b1 * (f1 * inv_n) + b2 * (f2 * inv_n));
+    const Lanes l2 = len * len, l3 = l2 * len;
+    Lanes rl{};
+    for (int l = 0; l < EdgeLanes::kLanes; ++l) rl[l] = root ? std::sqrt(len[l]) : 0.0;
+    const Lanes i0 = 0.5 * g * l2 - h * l3 / 3;
+    const Lanes i1 = g * g * l3 / 3 - 0.5 * g * h * l2 * l2 + h * h * l2 * l3 / 5;
+    const Lanes i2 = sg * (2.0 / 3.0 * len * rl - h5g * l2 * rl);
+    const Lanes f = lvl * len + (b0 * i0 + b1 * i1 + b2 * i2) - sum;
+    Lanes dep = g * len - h * len * len;
+    dep = dep > 1e-6 ? dep : Lanes{} + 1e-6;
+    Lanes rdep{};
+    for (int l = 0; l < EdgeLanes::kLanes; ++l) rdep[l] = root ? std::sqrt(dep[l]) : 0.0;
+    const Lanes df = lvl - len * (b0 * (d0 * inv_n) + b1 * (d1 * inv_n) + b2 * (d2 * inv_n)) +
+                     (b0 * dep + b1 * (dep * dep) + b2 * rdep);
+    bad |= active & ~(df > 0);
+    active &= df > 0;
+    Lanes step = f / (df > 0 ? df : Lanes{} + 1.0);
+    step = step < -1.0 ? Lanes{} - 1.0 : step;
+    step = step > 1.0 ? Lanes{} + 1.0 : step;
+    Lanes next = len - step;
+    next = next > 0.05 ? next : Lanes{} + 0.05;
+    len = active ? next : len;
+    level = active ? lvl : level;
+    active &= (step < 0 ? -step : step) >= 1e-3;
+    bool any = false;
+    for (int l = 0; l < EdgeLanes::kLanes; ++l) any |= active[l] != 0;
+    if (!any) break;
   }
-  return {COLLIDE_TOTAL(f0), COLLIDE_TOTAL(f1), COLLIDE_TOTAL(f2),
-          COLLIDE_TOTAL(d0), COLLIDE_TOTAL(d1), COLLIDE_TOTAL(d2)};
+  for (int l = 0; l < EdgeLanes::kLanes; ++l) {
+    e.len[l] = len[l];
+    e.level[l] = level[l];
+    e.ok[l] = bad[l] == 0;
+  }
 }
 
-// The edge of one screened profile, in profile coordinates (sample i's centre
-// at i); NaN if unusable.
-double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeStats* st) {
+// One profile's part of a lane: its window sum and levels, its geometry and
+// shape.
+void loadLane(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeLanes& e, int l) {
   const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
-  const ShapeVec& sh = pr.shape;
-  const double g = pr.g, h = 0.5 * (1 - g * g) / ctx.radius, sg = std::sqrt(g);
-  // The window [a - 0.5, b + 0.5] holds the whole transition: the sum S of
-  // (p - out) over it is the integral of D - out over the covered length L
-  // (the edge at b + 0.5 - L). The level A above background follows from the
-  // inside samples' mean once their depths (L + j - 1/2 along the line) are
-  // known, so S = A(L) L + integral of the shape is solved for L by Newton.
   double sum = 0;
   for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
-  // Terms of the shape whose coefficient is zero are left out (exactly: they
-  // add nothing), which spares the square roots on a smooth shape.
-  const bool quad = ctx.quadratic && sh(1) != 0, root = sh(2) != 0;
-  double len = pr.len0, level = 0;
-  for (int it = 0, iterations = st ? 4 : 2; it < iterations; ++it) {
-    const DepthSums z = depthSums(len + pr.in_off, ctx.n_in, g, h, quad, root);
-    const ShapeVec fbar = ShapeVec(z.f0, z.f1, z.f2) / ctx.n_in;
-    const ShapeVec dfbar = ShapeVec(z.d0, z.d1, z.d2) / ctx.n_in;
-    level = pr.mean_in - pr.out - sh.dot(fbar);  // at the limb, above background
-    const double l2 = len * len, l3 = l2 * len;
-    const ShapeVec integral(
-        0.5 * g * l2 - h * l3 / 3,
-        quad ? g * g * l3 / 3 - 0.5 * g * h * l2 * l2 + h * h * l2 * l3 / 5 : 0.0,
-        root ? sg * (2.0 / 3.0 * len * std::sqrt(len) - h / (5 * g) * l2 * std::sqrt(len)) : 0.0);
-    const double f = level * len + sh.dot(integral) - sum;
-    const double df =
-        level - len * sh.dot(dfbar) + sh.dot(shapeBasis(depthAlong(len, g, h), ctx.quadratic));
-    if (!(df > 0)) return std::nan("");
-    const double step = std::clamp(f / df, -1.0, 1.0);
-    len = std::max(0.05, len - step);
-    if (std::abs(step) < 1e-3) break;
-  }
-  if (!(len > 0.05 && len < b - a + 1.0)) return std::nan("");
+  e.sum[l] = sum;
+  e.above[l] = pr.mean_in - pr.out;
+  e.len[l] = pr.len0;
+  e.in_off[l] = pr.in_off;
+  e.g[l] = pr.g;
+  e.h[l] = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
+  e.b0[l] = pr.shape(0);
+  e.b1[l] = ctx.quadratic ? pr.shape(1) : 0.0;
+  e.b2[l] = pr.shape(2);
+}
+
+// The edge of a profile from its lane's solution, in profile coordinates
+// (sample i's centre at i); NaN if unusable.
+double acceptEdge(const Profile& pr, const EdgeContext& ctx, const EdgeLanes& e, int l,
+                  EdgeStats* st) {
+  const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
+  const double len = e.len[l], level = e.level[l];
+  if (!e.ok[l] || !(len > 0.05 && len < b - a + 1.0)) return std::nan("");
   // The model's level at the window's inner end must be a sphere's.
-  const double end = level + sh.dot(shapeBasis(depthAlong(len, g, h), ctx.quadratic));
+  const double dep = std::max(1e-6, e.g[l] * len - e.h[l] * len * len);
+  const double end = level + e.b0[l] * dep + e.b1[l] * dep * dep + e.b2[l] * std::sqrt(dep);
   if (!(end > pr.thr - pr.out)) return std::nan("");
   if (st) {
     st->sum_out += pr.out;
@@ -913,11 +960,38 @@ double edgeOfProfile(const float* p, const Profile& pr, const EdgeContext& ctx, 
   return b + 0.5 - len;
 }
 
+// The edges of every screened profile into x (NaN for one not screened or
+// unusable), `iterations` Newton steps at most; `st` counts the accepted
+// ones' levels, in profile order.
+void profileEdges(const std::vector<float>& samples, int len, const std::vector<Profile>& profiles,
+                  const EdgeContext& ctx, int iterations, EdgeStats* st, std::vector<double>& x) {
+  x.assign(profiles.size(), std::nan(""));
+  std::size_t k = 0;
+  while (k < profiles.size()) {
+    EdgeLanes e;
+    std::size_t index[EdgeLanes::kLanes];
+    int used = 0;
+    bool root = false;
+    for (; k < profiles.size() && used < EdgeLanes::kLanes; ++k) {
+      if (!profiles[k].ok) continue;
+      loadLane(samples.data() + k * len, profiles[k], ctx, e, used);
+      root |= profiles[k].shape(2) != 0;
+      index[used++] = k;
+    }
+    if (used == 0) break;
+    for (int l = used; l < EdgeLanes::kLanes; ++l)  // spare lanes: a copy of the first
+      loadLane(samples.data() + index[0] * len, profiles[index[0]], ctx, e, l);
+    solveCoveredLengths(e, ctx.n_in, iterations, root);
+    for (int l = 0; l < used; ++l) x[index[l]] = acceptEdge(profiles[index[l]], ctx, e, l, st);
+  }
+}
+
 template <class T>
 void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
                 std::vector<CirclePoint>& pts, EdgeStats& st) {
   std::vector<Profile> profiles;
   std::vector<float> samples;
+  std::vector<double> edges;
   int len = 0, margin = 0;
   profiles.reserve(static_cast<std::size_t>(6 * c.r) + 8);
   samples.reserve(profiles.capacity() * 40);
@@ -934,10 +1008,11 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   if (root) {
     std::array<double, kSectors> shift{};
     std::array<int, kSectors> count{};
+    profileEdges(samples, len, profiles, ctx, 2, nullptr, edges);
     for (std::size_t k = 0; k < profiles.size(); ++k) {
       const Profile& pr = profiles[k];
       if (!pr.ok) continue;
-      const double x = edgeOfProfile(samples.data() + k * len, pr, ctx, nullptr);
+      const double x = edges[k];
       if (std::isnan(x)) continue;
       shift[pr.bin] += pr.c + ctx.hw + 0.5 - x - pr.len0;
       ++count[pr.bin];
@@ -957,10 +1032,11 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
     }
     fitShading(profiles, ctx);
   }
+  profileEdges(samples, len, profiles, ctx, 4, &st, edges);
   for (std::size_t k = 0; k < profiles.size(); ++k) {
     const Profile& pr = profiles[k];
     if (!pr.ok) continue;
-    const double x = edgeOfProfile(samples.data() + k * len, pr, ctx, &st);
+    const double x = edges[k];
     if (std::isnan(x)) continue;
     // The pixel row averages the limb over its height; on a curved limb that
     // mean lies inside the circle by x''/24 = 1/(24 R g^3): put it back.
