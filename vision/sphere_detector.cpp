@@ -493,9 +493,6 @@ using ShapeMat = Eigen::Matrix<double, kShape, kShape>;
 inline double depthAlong(double along, double g, double h) {
   return std::max(1e-6, g * along - h * along * along);
 }
-inline ShapeVec shapeBasis(double delta, bool quadratic) {
-  return ShapeVec(delta, quadratic ? delta * delta : 0.0, std::sqrt(delta));
-}
 
 // One line across the limb, sampled from outside to inside.
 struct Profile {
@@ -949,7 +946,7 @@ double acceptEdge(const Profile& pr, const EdgeContext& ctx, const EdgeLanes& e,
   const double len = e.len[l], level = e.level[l];
   if (!e.ok[l] || !(len > 0.05 && len < b - a + 1.0)) return std::nan("");
   // The model's level at the window's inner end must be a sphere's.
-  const double dep = std::max(1e-6, e.g[l] * len - e.h[l] * len * len);
+  const double dep = depthAlong(len, e.g[l], e.h[l]);
   const double end = level + e.b0[l] * dep + e.b1[l] * dep * dep + e.b2[l] * std::sqrt(dep);
   if (!(end > pr.thr - pr.out)) return std::nan("");
   if (st) {
