@@ -598,64 +598,76 @@ void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
 
 // The centred shape regressors of a profile's inside samples, their Gram
 // matrix and products with the samples, for depths measured from the edge at
-// pr.len0 from the window's end.
-// (Vectorised below four samples at a time: depths of at most kMaxInside
-// inside samples.)
+// pr.len0 from the window's end. Four profiles at a time, one per lane of
+// a vector (their samples are the same count, n_in, at most kMaxInside).
 constexpr int kMaxInside = 16;
+constexpr int kMomentLanes = 4;
 
-// The depths (depthAlong) of n inside samples at first + j pixels along the
-// line (j = 0 .. n - 1), four lanes of block k, and which lanes hold a sample.
-#define COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in)        \
-  const Lanes along = kLaneIndex + (4.0 * (k) + (first));              \
-  const LaneMask in = kLaneIndex + 4.0 * (k) < static_cast<double>(n); \
-  Lanes dd = (g)*along - (h)*along * along;                            \
-  dd = dd > 1e-6 ? dd : Lanes{} + 1e-6
-
+// Per lane: the first inside sample's depth offset, the line's geometry, the
+// samples' mean and the samples themselves (sample j of lane l at y[j][l]).
+struct MomentLanes {
+  double first[kMomentLanes], g[kMomentLanes], h[kMomentLanes], mean[kMomentLanes];
+  double y[kMaxInside][kMomentLanes];
+};
 struct ShapeSums {
-  double g00 = 0, g01 = 0, g02 = 0, g11 = 0, g12 = 0, g22 = 0, c0 = 0, c1 = 0, c2 = 0, yy = 0;
+  Lanes g00, g01, g02, g11, g12, g22, c0, c1, c2, yy;
 };
 
-// The centred regressors' sums of shapeMoments for the n samples y (their
-// mean y_mean), whose first lies `first` pixels inside the edge.
-COLLIDE_AVX2_CLONES ShapeSums shapeSums(const float* y, double y_mean, int n, double first,
-                                        double g, double h, bool quadratic) {
-  constexpr int kBlocks = kMaxInside / 4;
-  Lanes fa[kBlocks], fb[kBlocks], fc[kBlocks], ys[kBlocks];
+// The depth of sample j below the limb is depthAlong(first + j) (at least
+// 1e-6); the regressors are (depth, depth^2 when quadratic, sqrt(depth)),
+// centred on their means over the n samples, as the samples are on theirs.
+COLLIDE_AVX2_CLONES ShapeSums shapeSums(const MomentLanes& m, int n, bool quadratic) {
+  const Lanes first = COLLIDE_LOAD_LANES(m.first), g = COLLIDE_LOAD_LANES(m.g),
+              h = COLLIDE_LOAD_LANES(m.h), mean = COLLIDE_LOAD_LANES(m.mean);
+  Lanes fa[kMaxInside], fb[kMaxInside], fc[kMaxInside];
   Lanes sa{}, sb{}, sc{};
-  const int blocks = (n + 3) / 4;
-  for (int k = 0; k < blocks; ++k) {
-    COLLIDE_INSIDE_DEPTHS(k, first, n, g, h, along, dd, in);
-    Lanes root;
-    for (int l = 0; l < 4; ++l) {
-      root[l] = std::sqrt(dd[l]);
-      ys[k][l] = 4 * k + l < n ? y[4 * k + l] - y_mean : 0.0;
-    }
-    fa[k] = in ? dd : Lanes{};
-    fb[k] = in && quadratic ? dd * dd : Lanes{};
-    fc[k] = in ? root : Lanes{};
-    sa += fa[k], sb += fb[k], sc += fc[k];
+  for (int j = 0; j < n; ++j) {
+    const Lanes along = first + static_cast<double>(j);
+    Lanes dd = g * along - h * along * along;
+    dd = dd > 1e-6 ? dd : Lanes{} + 1e-6;
+    for (int l = 0; l < kMomentLanes; ++l) fc[j][l] = std::sqrt(dd[l]);
+    fa[j] = dd;
+    fb[j] = quadratic ? dd * dd : Lanes{};
+    sa += fa[j], sb += fb[j], sc += fc[j];
   }
-  const double ma = COLLIDE_TOTAL(sa) / n, mb = COLLIDE_TOTAL(sb) / n, mc = COLLIDE_TOTAL(sc) / n;
-  Lanes g00{}, g01{}, g02{}, g11{}, g12{}, g22{}, c0{}, c1{}, c2{}, yy{};
-  for (int k = 0; k < blocks; ++k) {
-    const LaneMask in = kLaneIndex + 4.0 * k < static_cast<double>(n);
-    const Lanes a = in ? fa[k] - ma : Lanes{}, b = in ? fb[k] - mb : Lanes{},
-                c = in ? fc[k] - mc : Lanes{}, y = ys[k];
-    g00 += a * a, g01 += a * b, g02 += a * c, g11 += b * b, g12 += b * c, g22 += c * c;
-    c0 += y * a, c1 += y * b, c2 += y * c, yy += y * y;
+  const double inv_n = 1.0 / n;
+  const Lanes ma = sa * inv_n, mb = sb * inv_n, mc = sc * inv_n;
+  ShapeSums z{};
+  for (int j = 0; j < n; ++j) {
+    const Lanes a = fa[j] - ma, b = fb[j] - mb, c = fc[j] - mc;
+    const Lanes y = COLLIDE_LOAD_LANES(m.y[j]) - mean;
+    z.g00 += a * a, z.g01 += a * b, z.g02 += a * c, z.g11 += b * b, z.g12 += b * c;
+    z.g22 += c * c;
+    z.c0 += y * a, z.c1 += y * b, z.c2 += y * c, z.yy += y * y;
   }
-  return {COLLIDE_TOTAL(g00), COLLIDE_TOTAL(g01), COLLIDE_TOTAL(g02), COLLIDE_TOTAL(g11),
-          COLLIDE_TOTAL(g12), COLLIDE_TOTAL(g22), COLLIDE_TOTAL(c0),  COLLIDE_TOTAL(c1),
-          COLLIDE_TOTAL(c2),  COLLIDE_TOTAL(yy)};
+  return z;
 }
 
-void shapeMoments(const float* p, const EdgeContext& ctx, Profile& pr) {
-  const double h = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
-  const ShapeSums z =
-      shapeSums(p + pr.c + 2, pr.mean_in, ctx.n_in, pr.len0 + pr.in_off, pr.g, h, ctx.quadratic);
-  pr.gram << z.g00, z.g01, z.g02, z.g01, z.g11, z.g12, z.g02, z.g12, z.g22;
-  pr.cross = ShapeVec(z.c0, z.c1, z.c2);
-  pr.yy = z.yy;
+// shapeSums for the profiles listed in `which` (indices into profiles).
+void shapeMoments(const std::vector<float>& samples, int len, const EdgeContext& ctx,
+                  const std::vector<std::size_t>& which, std::vector<Profile>& profiles) {
+  for (std::size_t k = 0; k < which.size(); k += kMomentLanes) {
+    const std::size_t used = std::min<std::size_t>(kMomentLanes, which.size() - k);
+    MomentLanes m;
+    for (std::size_t l = 0; l < kMomentLanes; ++l) {
+      const std::size_t i = which[k + std::min(l, used - 1)];  // spare lanes: a copy
+      const Profile& pr = profiles[i];
+      const float* y = samples.data() + i * len + pr.c + 2;
+      m.first[l] = pr.len0 + pr.in_off;
+      m.g[l] = pr.g;
+      m.h[l] = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
+      m.mean[l] = pr.mean_in;
+      for (int j = 0; j < ctx.n_in; ++j) m.y[j][l] = y[j];
+    }
+    const ShapeSums z = shapeSums(m, ctx.n_in, ctx.quadratic);
+    for (std::size_t l = 0; l < used; ++l) {
+      Profile& pr = profiles[which[k + l]];
+      pr.gram << z.g00[l], z.g01[l], z.g02[l], z.g01[l], z.g11[l], z.g12[l], z.g02[l], z.g12[l],
+          z.g22[l];
+      pr.cross = ShapeVec(z.c0[l], z.c1[l], z.c2[l]);
+      pr.yy = z.yy[l];
+    }
+  }
 }
 
 // Finds the edge's crossing on one profile against the profile's own levels
@@ -735,7 +747,6 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
   pr.out = out / ctx.n_out;
   pr.mean_in = mean;
   pr.ok = true;
-  shapeMoments(p, ctx, pr);
 }
 
 // The shape (b1, b2, b3) by least squares over the usable profiles of a
@@ -993,8 +1004,12 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   profiles.reserve(static_cast<std::size_t>(6 * c.r) + 8);
   samples.reserve(profiles.capacity() * 40);
   sampleProfiles<T>(img, c, ctx, profiles, samples, len, margin, st);
-  for (std::size_t k = 0; k < profiles.size(); ++k)
+  std::vector<std::size_t> screened;
+  for (std::size_t k = 0; k < profiles.size(); ++k) {
     screenProfile(samples.data() + k * len, len, margin, ctx, profiles[k], st);
+    if (profiles[k].ok) screened.push_back(k);
+  }
+  shapeMoments(samples, len, ctx, screened, profiles);
   const bool root = fitShading(profiles, ctx);
   // The shape was read at depths from the level crossing, which a limb
   // much darker than the sphere just inside puts too deep: measure the edge,
@@ -1005,6 +1020,7 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   if (root) {
     std::array<double, kSectors> shift{};
     std::array<int, kSectors> count{};
+    std::vector<std::size_t> shifted;
     profileEdges(samples, len, profiles, ctx, 2, nullptr, edges);
     for (std::size_t k = 0; k < profiles.size(); ++k) {
       const Profile& pr = profiles[k];
@@ -1025,8 +1041,9 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
       }
       if (n == 0) continue;
       pr.len0 += sum / n;
-      shapeMoments(samples.data() + k * len, ctx, pr);
+      shifted.push_back(k);
     }
+    shapeMoments(samples, len, ctx, shifted, profiles);
     fitShading(profiles, ctx);
   }
   profileEdges(samples, len, profiles, ctx, 4, &st, edges);
