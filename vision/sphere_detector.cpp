@@ -28,7 +28,13 @@ using LanesAt =
 // different calling convention in each build.)
 #define COLLIDE_LOAD_LANES(p) (static_cast<Lanes>(*reinterpret_cast<const LanesAt*>(p)))
 #define COLLIDE_TOTAL(a) (((a)[0] + (a)[1]) + ((a)[2] + (a)[3]))
-constexpr Lanes kLaneIndex = {0, 1, 2, 3};
+// Eight floats as one value (one AVX2 instruction, two in the baseline
+// build), for the per-profile loops that single precision serves.
+using FLanes = float __attribute__((vector_size(8 * sizeof(float))));
+using FLaneMask = std::int32_t __attribute__((vector_size(8 * sizeof(float))));
+using FLanesAt =
+    float __attribute__((vector_size(8 * sizeof(float)), aligned(alignof(float)), may_alias));
+#define COLLIDE_LOAD_FLANES(p) (static_cast<FLanes>(*reinterpret_cast<const FLanesAt*>(p)))
 
 struct Circle {
   double u = 0, v = 0, r = 0;
@@ -598,44 +604,46 @@ void sampleProfiles(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
 
 // The centred shape regressors of a profile's inside samples, their Gram
 // matrix and products with the samples, for depths measured from the edge at
-// pr.len0 from the window's end. Four profiles at a time, one per lane of
-// a vector (their samples are the same count, n_in, at most kMaxInside).
+// pr.len0 from the window's end. Eight profiles at a time, one per lane of a
+// single-precision vector (their samples are the same count, n_in, at most
+// kMaxInside; a profile's eight sums of products of centred values keep
+// single precision's 1e-7, and are added up in double from there on).
 constexpr int kMaxInside = 16;
-constexpr int kMomentLanes = 4;
+constexpr int kMomentLanes = 8;
 
 // Per lane: the first inside sample's depth offset, the line's geometry, the
 // samples' mean and the samples themselves (sample j of lane l at y[j][l]).
 struct MomentLanes {
-  double first[kMomentLanes], g[kMomentLanes], h[kMomentLanes], mean[kMomentLanes];
-  double y[kMaxInside][kMomentLanes];
+  float first[kMomentLanes], g[kMomentLanes], h[kMomentLanes], mean[kMomentLanes];
+  float y[kMaxInside][kMomentLanes];
 };
 struct ShapeSums {
-  Lanes g00, g01, g02, g11, g12, g22, c0, c1, c2, yy;
+  FLanes g00, g01, g02, g11, g12, g22, c0, c1, c2, yy;
 };
 
 // The depth of sample j below the limb is depthAlong(first + j) (at least
 // 1e-6); the regressors are (depth, depth^2 when quadratic, sqrt(depth)),
 // centred on their means over the n samples, as the samples are on theirs.
 COLLIDE_AVX2_CLONES ShapeSums shapeSums(const MomentLanes& m, int n, bool quadratic) {
-  const Lanes first = COLLIDE_LOAD_LANES(m.first), g = COLLIDE_LOAD_LANES(m.g),
-              h = COLLIDE_LOAD_LANES(m.h), mean = COLLIDE_LOAD_LANES(m.mean);
-  Lanes fa[kMaxInside], fb[kMaxInside], fc[kMaxInside];
-  Lanes sa{}, sb{}, sc{};
+  const FLanes first = COLLIDE_LOAD_FLANES(m.first), g = COLLIDE_LOAD_FLANES(m.g),
+               h = COLLIDE_LOAD_FLANES(m.h), mean = COLLIDE_LOAD_FLANES(m.mean);
+  FLanes fa[kMaxInside], fb[kMaxInside], fc[kMaxInside];
+  FLanes sa{}, sb{}, sc{};
   for (int j = 0; j < n; ++j) {
-    const Lanes along = first + static_cast<double>(j);
-    Lanes dd = g * along - h * along * along;
-    dd = dd > 1e-6 ? dd : Lanes{} + 1e-6;
+    const FLanes along = first + static_cast<float>(j);
+    FLanes dd = g * along - h * along * along;
+    dd = dd > 1e-6f ? dd : FLanes{} + 1e-6f;
     for (int l = 0; l < kMomentLanes; ++l) fc[j][l] = std::sqrt(dd[l]);
     fa[j] = dd;
-    fb[j] = quadratic ? dd * dd : Lanes{};
+    fb[j] = quadratic ? dd * dd : FLanes{};
     sa += fa[j], sb += fb[j], sc += fc[j];
   }
-  const double inv_n = 1.0 / n;
-  const Lanes ma = sa * inv_n, mb = sb * inv_n, mc = sc * inv_n;
+  const float inv_n = 1.0f / n;
+  const FLanes ma = sa * inv_n, mb = sb * inv_n, mc = sc * inv_n;
   ShapeSums z{};
   for (int j = 0; j < n; ++j) {
-    const Lanes a = fa[j] - ma, b = fb[j] - mb, c = fc[j] - mc;
-    const Lanes y = COLLIDE_LOAD_LANES(m.y[j]) - mean;
+    const FLanes a = fa[j] - ma, b = fb[j] - mb, c = fc[j] - mc;
+    const FLanes y = COLLIDE_LOAD_FLANES(m.y[j]) - mean;
     z.g00 += a * a, z.g01 += a * b, z.g02 += a * c, z.g11 += b * b, z.g12 += b * c;
     z.g22 += c * c;
     z.c0 += y * a, z.c1 += y * b, z.c2 += y * c, z.yy += y * y;
@@ -653,10 +661,10 @@ void shapeMoments(const std::vector<float>& samples, int len, const EdgeContext&
       const std::size_t i = which[k + std::min(l, used - 1)];  // spare lanes: a copy
       const Profile& pr = profiles[i];
       const float* y = samples.data() + i * len + pr.c + 2;
-      m.first[l] = pr.len0 + pr.in_off;
-      m.g[l] = pr.g;
-      m.h[l] = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
-      m.mean[l] = pr.mean_in;
+      m.first[l] = static_cast<float>(pr.len0 + pr.in_off);
+      m.g[l] = static_cast<float>(pr.g);
+      m.h[l] = static_cast<float>(0.5 * (1 - pr.g * pr.g) / ctx.radius);
+      m.mean[l] = static_cast<float>(pr.mean_in);
       for (int j = 0; j < ctx.n_in; ++j) m.y[j][l] = y[j];
     }
     const ShapeSums z = shapeSums(m, ctx.n_in, ctx.quadratic);
@@ -850,15 +858,17 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   return any_root;
 }
 
-// The edges of screened profiles are solved four at a time, one profile per
-// lane: per profile, the window's sum S of (p - out), the inside samples'
-// mean level above background, the line's geometry and the shape; the
-// covered length L is solved for by Newton (below), and what is left per
-// profile (its checks) is done one at a time.
+// The edges of screened profiles are solved eight at a time, one profile per
+// lane of a single-precision vector (ample: the edge is wanted to 1e-3 px,
+// single precision keeps the window's sums, ~1e4, to 1e-3 and the lengths to
+// 1e-6 px): per profile, the window's sum S of (p - out), the inside
+// samples' mean level above background, the line's geometry and the shape;
+// the covered length L is solved for by Newton (below), and what is left per
+// profile (its checks) is done one at a time, in double precision.
 struct EdgeLanes {
-  static constexpr int kLanes = 4;
-  double len[kLanes], level[kLanes], sum[kLanes], above[kLanes], in_off[kLanes];
-  double g[kLanes], h[kLanes], b0[kLanes], b1[kLanes], b2[kLanes];
+  static constexpr int kLanes = 8;
+  float len[kLanes], level[kLanes], sum[kLanes], above[kLanes], in_off[kLanes];
+  float g[kLanes], h[kLanes], b0[kLanes], b1[kLanes], b2[kLanes];
   bool ok[kLanes];  // false: Newton's slope was not positive (no edge)
 };
 
@@ -871,61 +881,63 @@ struct EdgeLanes {
 // A term of the shape whose coefficient is zero adds exactly nothing; the
 // square roots are left out when no lane's shape has that term.
 COLLIDE_AVX2_CLONES void solveCoveredLengths(EdgeLanes& e, int n_in, int iterations, bool root) {
-  const Lanes g = COLLIDE_LOAD_LANES(e.g), h = COLLIDE_LOAD_LANES(e.h);
-  const Lanes b0 = COLLIDE_LOAD_LANES(e.b0), b1 = COLLIDE_LOAD_LANES(e.b1),
-              b2 = COLLIDE_LOAD_LANES(e.b2);
-  const Lanes sum = COLLIDE_LOAD_LANES(e.sum), above = COLLIDE_LOAD_LANES(e.above);
-  const Lanes in_off = COLLIDE_LOAD_LANES(e.in_off);
-  Lanes len = COLLIDE_LOAD_LANES(e.len), level{};
-  Lanes sg{}, h5g{};
-  for (int l = 0; l < EdgeLanes::kLanes; ++l) sg[l] = std::sqrt(g[l]);
-  h5g = h / (5 * g);
-  LaneMask active = len == len, bad = len != len;  // all lanes, none
-  const double inv_n = 1.0 / n_in;
+  constexpr int kL = EdgeLanes::kLanes;
+  const FLanes g = COLLIDE_LOAD_FLANES(e.g), h = COLLIDE_LOAD_FLANES(e.h);
+  const FLanes b0 = COLLIDE_LOAD_FLANES(e.b0), b1 = COLLIDE_LOAD_FLANES(e.b1),
+               b2 = COLLIDE_LOAD_FLANES(e.b2);
+  const FLanes sum = COLLIDE_LOAD_FLANES(e.sum), above = COLLIDE_LOAD_FLANES(e.above);
+  const FLanes in_off = COLLIDE_LOAD_FLANES(e.in_off);
+  FLanes len = COLLIDE_LOAD_FLANES(e.len), level{};
+  FLanes sg{};
+  for (int l = 0; l < kL; ++l) sg[l] = std::sqrt(g[l]);
+  const FLanes h5g = h / (5 * g);
+  FLaneMask active = len == len, bad = len != len;  // all lanes, none
+  const float inv_n = 1.0f / n_in;
+  const FLanes tiny = FLanes{} + 1e-6f, one = FLanes{} + 1.0f;
   for (int it = 0; it < iterations; ++it) {
-    Lanes f0{}, f1{}, f2{}, d0{}, d1{}, d2{};
+    FLanes f0{}, f1{}, f2{}, d0{}, d1{}, d2{};
     for (int j = 0; j < n_in; ++j) {
-      const Lanes along = len + in_off + static_cast<double>(j);
-      Lanes dd = g * along - h * along * along;
-      dd = dd > 1e-6 ? dd : Lanes{} + 1e-6;
-      const Lanes slope = g - 2 * h * along;
+      const FLanes along = len + in_off + static_cast<float>(j);
+      FLanes dd = g * along - h * along * along;
+      dd = dd > 1e-6f ? dd : tiny;
+      const FLanes slope = g - 2 * h * along;
       f0 += dd, d0 += slope;
       f1 += dd * dd, d1 += 2 * dd * slope;
       if (root) {
-        Lanes sd;
-        for (int l = 0; l < EdgeLanes::kLanes; ++l) sd[l] = std::sqrt(dd[l]);
-        f2 += sd, d2 += 0.5 * slope / sd;
+        FLanes sd;
+        for (int l = 0; l < kL; ++l) sd[l] = std::sqrt(dd[l]);
+        f2 += sd, d2 += 0.5f * slope / sd;
       }
     }
-    const Lanes lvl = above - (b0 * (f0 * inv_n) + b1 * (f1 * inv_n) + b2 * (f2 * inv_n));
-    const Lanes l2 = len * len, l3 = l2 * len;
-    Lanes rl{};
-    for (int l = 0; l < EdgeLanes::kLanes; ++l) rl[l] = root ? std::sqrt(len[l]) : 0.0;
-    const Lanes i0 = 0.5 * g * l2 - h * l3 / 3;
-    const Lanes i1 = g * g * l3 / 3 - 0.5 * g * h * l2 * l2 + h * h * l2 * l3 / 5;
-    const Lanes i2 = sg * (2.0 / 3.0 * len * rl - h5g * l2 * rl);
-    const Lanes f = lvl * len + (b0 * i0 + b1 * i1 + b2 * i2) - sum;
-    Lanes dep = g * len - h * len * len;
-    dep = dep > 1e-6 ? dep : Lanes{} + 1e-6;
-    Lanes rdep{};
-    for (int l = 0; l < EdgeLanes::kLanes; ++l) rdep[l] = root ? std::sqrt(dep[l]) : 0.0;
-    const Lanes df = lvl - len * (b0 * (d0 * inv_n) + b1 * (d1 * inv_n) + b2 * (d2 * inv_n)) +
-                     (b0 * dep + b1 * (dep * dep) + b2 * rdep);
+    const FLanes lvl = above - (b0 * (f0 * inv_n) + b1 * (f1 * inv_n) + b2 * (f2 * inv_n));
+    const FLanes l2 = len * len, l3 = l2 * len;
+    FLanes rl{};
+    for (int l = 0; l < kL; ++l) rl[l] = root ? std::sqrt(len[l]) : 0.0f;
+    const FLanes i0 = 0.5f * g * l2 - h * l3 / 3;
+    const FLanes i1 = g * g * l3 / 3 - 0.5f * g * h * l2 * l2 + h * h * l2 * l3 / 5;
+    const FLanes i2 = sg * (2.0f / 3.0f * len * rl - h5g * l2 * rl);
+    const FLanes f = lvl * len + (b0 * i0 + b1 * i1 + b2 * i2) - sum;
+    FLanes dep = g * len - h * len * len;
+    dep = dep > 1e-6f ? dep : tiny;
+    FLanes rdep{};
+    for (int l = 0; l < kL; ++l) rdep[l] = root ? std::sqrt(dep[l]) : 0.0f;
+    const FLanes df = lvl - len * (b0 * (d0 * inv_n) + b1 * (d1 * inv_n) + b2 * (d2 * inv_n)) +
+                      (b0 * dep + b1 * (dep * dep) + b2 * rdep);
     bad |= active & ~(df > 0);
     active &= df > 0;
-    Lanes step = f / (df > 0 ? df : Lanes{} + 1.0);
-    step = step < -1.0 ? Lanes{} - 1.0 : step;
-    step = step > 1.0 ? Lanes{} + 1.0 : step;
-    Lanes next = len - step;
-    next = next > 0.05 ? next : Lanes{} + 0.05;
+    FLanes step = f / (df > 0 ? df : one);
+    step = step < -1.0f ? -one : step;
+    step = step > 1.0f ? one : step;
+    FLanes next = len - step;
+    next = next > 0.05f ? next : FLanes{} + 0.05f;
     len = active ? next : len;
     level = active ? lvl : level;
-    active &= (step < 0 ? -step : step) >= 1e-3;
+    active &= (step < 0 ? -step : step) >= 1e-3f;
     bool any = false;
-    for (int l = 0; l < EdgeLanes::kLanes; ++l) any |= active[l] != 0;
+    for (int l = 0; l < kL; ++l) any |= active[l] != 0;
     if (!any) break;
   }
-  for (int l = 0; l < EdgeLanes::kLanes; ++l) {
+  for (int l = 0; l < kL; ++l) {
     e.len[l] = len[l];
     e.level[l] = level[l];
     e.ok[l] = bad[l] == 0;
@@ -938,15 +950,15 @@ void loadLane(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeLan
   const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
   double sum = 0;
   for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
-  e.sum[l] = sum;
-  e.above[l] = pr.mean_in - pr.out;
-  e.len[l] = pr.len0;
-  e.in_off[l] = pr.in_off;
-  e.g[l] = pr.g;
-  e.h[l] = 0.5 * (1 - pr.g * pr.g) / ctx.radius;
-  e.b0[l] = pr.shape(0);
-  e.b1[l] = ctx.quadratic ? pr.shape(1) : 0.0;
-  e.b2[l] = pr.shape(2);
+  e.sum[l] = static_cast<float>(sum);
+  e.above[l] = static_cast<float>(pr.mean_in - pr.out);
+  e.len[l] = static_cast<float>(pr.len0);
+  e.in_off[l] = static_cast<float>(pr.in_off);
+  e.g[l] = static_cast<float>(pr.g);
+  e.h[l] = static_cast<float>(0.5 * (1 - pr.g * pr.g) / ctx.radius);
+  e.b0[l] = static_cast<float>(pr.shape(0));
+  e.b1[l] = static_cast<float>(ctx.quadratic ? pr.shape(1) : 0.0);
+  e.b2[l] = static_cast<float>(pr.shape(2));
 }
 
 // The edge of a profile from its lane's solution, in profile coordinates
@@ -955,7 +967,7 @@ double acceptEdge(const Profile& pr, const EdgeContext& ctx, const EdgeLanes& e,
                   EdgeStats* st) {
   const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
   const double len = e.len[l], level = e.level[l];
-  if (!e.ok[l] || !(len > 0.05 && len < b - a + 1.0)) return std::nan("");
+  if (!e.ok[l] || !(len > 0.05f && len < b - a + 1.0)) return std::nan("");
   // The model's level at the window's inner end must be a sphere's.
   const double dep = depthAlong(len, e.g[l], e.h[l]);
   const double end = level + e.b0[l] * dep + e.b1[l] * dep * dep + e.b2[l] * std::sqrt(dep);
@@ -1631,6 +1643,6 @@ std::optional<SphereMeasurement> SphereDetector::measureWithRadius(
 
 #undef COLLIDE_LOAD_LANES
 #undef COLLIDE_TOTAL
-#undef COLLIDE_INSIDE_DEPTHS
+#undef COLLIDE_LOAD_FLANES
 
 }  // namespace collide::vision
