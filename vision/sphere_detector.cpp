@@ -234,9 +234,20 @@ Levels measureLevels(const Grid& grid, int max_value, int clip_value) {
   const auto deviation = [&](int b) {
     return std::min(static_cast<int>(std::abs(b + 0.5 - med_bin)), bins - 1);
   };
-  std::vector<int> dev(std::max(deviation(first), deviation(last)) + 1, 0);
-  for (int b = first; b <= last; ++b) dev[deviation(b)] += hist[b];
-  const double mad = quantile(dev, 0.5) * width;
+  // The bins near the median first: a bin farther than kNear from it has a
+  // deviation of kNear - 1 or more, so when the median deviation is found
+  // below that, the far bins (most of a lit frame's range) cannot change it.
+  constexpr int kNear = 64;
+  const int mid = static_cast<int>(med_bin);
+  const auto madOver = [&](int lo, int hi, double& found) {
+    std::vector<int> dev(std::max(deviation(lo), deviation(hi)) + 1, 0);
+    for (int b = lo; b <= hi; ++b) dev[deviation(b)] += hist[b];
+    found = quantile(dev, 0.5);
+  };
+  double mad_bins = 0;
+  madOver(std::max(first, mid - kNear), std::min(last, mid + kNear), mad_bins);
+  if (!(mad_bins < kNear - 2)) madOver(first, last, mad_bins);
+  const double mad = mad_bins * width;
   l.sigma = std::max(1.4826 * mad, 0.3 * width);
   // Brightest level: the 3rd largest sample (one or two hot pixels aside).
   int seen = 0;

@@ -703,6 +703,28 @@ TEST(SphereDetector, TwelveAndSixteenBitFrames) {
   }
 }
 
+// The frame's noise (FrameSpheres::noise_sigma, from the MAD of the
+// background's samples) against the Gaussian sigma the renderer drew, on
+// 12-bit frames with a bright sphere spreading the histogram over most of
+// its range: quiet (a MAD of a few levels), and loud enough (250 levels) that
+// its MAD is found only well beyond the 64 levels nearest the median.
+TEST(SphereDetector, TheFramesNoiseIsMeasuredQuietOrLoud) {
+  for (const double sigma : {3.0, 250.0}) {
+    RenderSettings rs;
+    rs.format = PixelFormat::Mono12;
+    rs.background_level = 0.25;  // 1024 levels: 4 sigmas above black at the loudest
+    rs.noise_grey = sigma;
+    rs.noise_seed = 23;
+    SphereView v;
+    v.centre_px = {300.4, 220.6};
+    v.radius_px = 40;  // 1.6 % of the samples: the MAD about 2.5 % high
+    const FrameSpheres f =
+        SphereDetector().detect(Renderer(rs).render({v}, 1), maxValue(PixelFormat::Mono12));
+    EXPECT_NEAR(f.noise_sigma, sigma, 0.06 * sigma) << "noise " << sigma;
+    EXPECT_GT(f.bright - f.background, 0.4 * maxValue(PixelFormat::Mono12));
+  }
+}
+
 TEST(SphereDetector, ThesisImagingSmallSpheres) {
   // 240 x 192 pixels, 37 px spheres, noise 1.5 grey levels, 200 us of motion blur at 2 m/s.
   std::mt19937_64 rng(19);
