@@ -9,7 +9,7 @@
 #include <optional>
 
 #include "vision/avx2_clones.hpp"
-#include "vision/select.hpp"
+#include "vision/kth_smallest.hpp"
 #include "vision/silhouette_fit.hpp"
 
 namespace collide::vision {

@@ -2,7 +2,7 @@
 // elsewhere): the same value at every rank, for sizes around the insertion
 // sort's cut-off and well beyond it, with distinct values, many ties, all
 // values equal, sorted and reversed input.
-#include "vision/select.hpp"
+#include "vision/kth_smallest.hpp"
 
 #include <gtest/gtest.h>
 
