@@ -7,8 +7,17 @@
 // (The ray-cast renderer has its own, GCC-only, switch: COLLIDE_SIMD_CLONES in
 // vision/render_trace.hpp.)
 
+//
+// COLLIDE_INLINE_KERNEL before a small loop kernel called from a cloned
+// function puts it inside each clone (built for that clone's instruction
+// set), rather than behind a clone of its own: a call through the loader's
+// choice costs an indirect call per use and keeps the kernel from being
+// optimised with its caller (5 % of the sphere detector's time).
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #define COLLIDE_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#define COLLIDE_INLINE_KERNEL inline __attribute__((always_inline))
 #else
 #define COLLIDE_AVX2_CLONES
+#define COLLIDE_INLINE_KERNEL inline
 #endif

@@ -97,11 +97,11 @@ bool kasaFit(const PointArrays& p, Circle& out) {
 struct GaussNewtonSums {
   double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0, n = 0, rx = 0, ry = 0, r1 = 0;
 };
-COLLIDE_AVX2_CLONES GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
-                                                    const double* __restrict pv,
-                                                    const double* __restrict pw,
-                                                    std::size_t n_padded, double cu, double cv,
-                                                    double cr) {
+COLLIDE_INLINE_KERNEL GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
+                                                      const double* __restrict pv,
+                                                      const double* __restrict pw,
+                                                      std::size_t n_padded, double cu, double cv,
+                                                      double cr) {
   Lanes sxx{}, sxy{}, syy{}, sx{}, sy{}, sn{}, rx{}, ry{}, r1{};
   const Lanes one = Lanes{} + 1.0;
   for (std::size_t i = 0; i < n_padded; i += PointArrays::kLanes) {
@@ -124,7 +124,8 @@ COLLIDE_AVX2_CLONES GaussNewtonSums gaussNewtonSums(const double* __restrict pu,
 
 // Gauss-Newton on the geometric distances; returns false if it diverges.
 // With `hold_radius` only the centre moves (c.r stays as given).
-bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out, bool hold_radius) {
+COLLIDE_AVX2_CLONES bool geometricFit(const PointArrays& p, Circle& c, Eigen::Matrix3d& jtj_out,
+                                      bool hold_radius) {
   for (int it = 0; it < 25; ++it) {
     const GaussNewtonSums z =
         gaussNewtonSums(p.u.data(), p.v.data(), p.w.data(), p.u.size(), c.u, c.v, c.r);
@@ -635,7 +636,7 @@ struct ShapeSums {
 // The depth of sample j below the limb is depthAlong(first + j) (at least
 // 1e-6); the regressors are (depth, depth^2 when quadratic, sqrt(depth)),
 // centred on their means over the n samples, as the samples are on theirs.
-COLLIDE_AVX2_CLONES ShapeSums shapeSums(const MomentLanes& m, int n, bool quadratic) {
+COLLIDE_INLINE_KERNEL ShapeSums shapeSums(const MomentLanes& m, int n, bool quadratic) {
   const FLanes first = COLLIDE_LOAD_FLANES(m.first), g = COLLIDE_LOAD_FLANES(m.g),
                h = COLLIDE_LOAD_FLANES(m.h), mean = COLLIDE_LOAD_FLANES(m.mean);
   FLanes fa[kMaxInside], fb[kMaxInside], fc[kMaxInside];
@@ -663,8 +664,9 @@ COLLIDE_AVX2_CLONES ShapeSums shapeSums(const MomentLanes& m, int n, bool quadra
 }
 
 // shapeSums for the profiles listed in `which` (indices into profiles).
-void shapeMoments(const std::vector<float>& samples, int len, const EdgeContext& ctx,
-                  const std::vector<std::size_t>& which, std::vector<Profile>& profiles) {
+COLLIDE_AVX2_CLONES void shapeMoments(const std::vector<float>& samples, int len,
+                                      const EdgeContext& ctx, const std::vector<std::size_t>& which,
+                                      std::vector<Profile>& profiles) {
   for (std::size_t k = 0; k < which.size(); k += kMomentLanes) {
     const std::size_t used = std::min<std::size_t>(kMomentLanes, which.size() - k);
     MomentLanes m;
@@ -891,7 +893,7 @@ struct EdgeLanes {
 // each lane until its step is below 1e-3 px or after `iterations` steps.
 // A term of the shape whose coefficient is zero adds exactly nothing; the
 // square roots are left out when no lane's shape has that term.
-COLLIDE_AVX2_CLONES void solveCoveredLengths(EdgeLanes& e, int n_in, int iterations, bool root) {
+COLLIDE_INLINE_KERNEL void solveCoveredLengths(EdgeLanes& e, int n_in, int iterations, bool root) {
   constexpr int kL = EdgeLanes::kLanes;
   const FLanes g = COLLIDE_LOAD_FLANES(e.g), h = COLLIDE_LOAD_FLANES(e.h);
   const FLanes b0 = COLLIDE_LOAD_FLANES(e.b0), b1 = COLLIDE_LOAD_FLANES(e.b1),
@@ -957,7 +959,8 @@ COLLIDE_AVX2_CLONES void solveCoveredLengths(EdgeLanes& e, int n_in, int iterati
 
 // One profile's part of a lane: its window sum and levels, its geometry and
 // shape.
-void loadLane(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeLanes& e, int l) {
+COLLIDE_INLINE_KERNEL void loadLane(const float* p, const Profile& pr, const EdgeContext& ctx,
+                                    EdgeLanes& e, int l) {
   const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
   double sum = 0;
   for (int i = a; i <= b; ++i) sum += p[i] - pr.out;
@@ -974,8 +977,8 @@ void loadLane(const float* p, const Profile& pr, const EdgeContext& ctx, EdgeLan
 
 // The edge of a profile from its lane's solution, in profile coordinates
 // (sample i's centre at i); NaN if unusable.
-double acceptEdge(const Profile& pr, const EdgeContext& ctx, const EdgeLanes& e, int l,
-                  EdgeStats* st) {
+COLLIDE_INLINE_KERNEL double acceptEdge(const Profile& pr, const EdgeContext& ctx,
+                                        const EdgeLanes& e, int l, EdgeStats* st) {
   const int a = pr.c - 1 - ctx.hw, b = pr.c + ctx.hw;
   const double len = e.len[l], level = e.level[l];
   if (!e.ok[l] || !(len > 0.05f && len < b - a + 1.0)) return std::nan("");
@@ -994,8 +997,9 @@ double acceptEdge(const Profile& pr, const EdgeContext& ctx, const EdgeLanes& e,
 // The edges of every screened profile into x (NaN for one not screened or
 // unusable), `iterations` Newton steps at most; `st` counts the accepted
 // ones' levels, in profile order.
-void profileEdges(const std::vector<float>& samples, int len, const std::vector<Profile>& profiles,
-                  const EdgeContext& ctx, int iterations, EdgeStats* st, std::vector<double>& x) {
+COLLIDE_AVX2_CLONES void profileEdges(const std::vector<float>& samples, int len,
+                                      const std::vector<Profile>& profiles, const EdgeContext& ctx,
+                                      int iterations, EdgeStats* st, std::vector<double>& x) {
   x.assign(profiles.size(), std::nan(""));
   std::size_t k = 0;
   while (k < profiles.size()) {
