@@ -7,10 +7,10 @@
 //
 // Frames: 640 x 480 Mono8, two dotted 120 px spheres at random places, front-lit
 // rim, 200 us of motion blur at ~2 m/s, noise 2 grey levels (what config/sim.toml's
-// camera draws); the *Lab cases: sim-lab's imaging (labFrames, labImaging; Shot200Lab a whole
-// 200-frame shot drawn so). Counters: fps (frames per second),
-// centre_err_px (RMS per axis over every sphere of the frame set), found (fraction of spheres
-// found).
+// camera draws); the *Lab cases: sim-lab's imaging (labFrames, simLabImaging in
+// tests/vision/shot_fixture.hpp; Shot200Lab a whole 200-frame shot drawn so). Counters: fps (frames
+// per second), centre_err_px (RMS per axis over every sphere of the frame set), found (fraction of
+// spheres found).
 #include <benchmark/benchmark.h>
 #include <malloc.h>
 
@@ -88,31 +88,6 @@ const FrameSet& frames(int width, int height, double radius, double noise) {
 // right limbs), a glossy highlight, shot/read noise, fixed-pattern noise, hot
 // pixels, 150 us of exposure at ~2 m/s; two dotted 120 px spheres, ray-cast
 // orthographically so the true centres are exact.
-// sim-lab.toml's lamp and sensor, orthographic (true centres exact), 2.1167e-4 m
-// pixels with the origin at the centre of a 640 x 480 frame.
-Imaging labImaging() {
-  Imaging im;
-  const double pixel = 2.1167e-4;
-  im.optics.pixel_size_m = pixel;
-  im.optics.origin_u_px = 319.5;
-  im.optics.origin_v_px = 239.5;
-  im.lighting.lamp_direction = Vec3(-0.55, 0.45, 0.70).normalized();
-  im.lighting.ambient = 0.12;
-  im.lighting.sphere_albedo = 0.80;
-  im.lighting.dot_albedo = 0.06;
-  im.lighting.specular_strength = 0.30;
-  im.lighting.specular_exponent = 80.0;
-  im.lighting.backdrop_level = 0.07;
-  im.sensor.vignetting_falloff = 0.10;
-  im.sensor.prnu = 0.008;
-  im.sensor.dsnu = 0.002;
-  im.sensor.hot_pixel_fraction = 0.0002;
-  im.sensor.hot_pixel_level = 0.4;
-  im.sensor.full_well_e = 20000;
-  im.sensor.read_noise_e = 15;
-  im.sensor.adc_bits = 10;
-  return im;
-}
 
 const FrameSet& labFrames() {
   static FrameSet fs;
@@ -124,7 +99,7 @@ const FrameSet& labFrames() {
   rs.format = PixelFormat::Mono12;
   rs.exposure_s = 150e-6;
   const double pixel = 2.1167e-4, radius_m = 0.0127;
-  rs.imaging = labImaging();
+  rs.imaging = testing::simLabImaging();
   const Renderer renderer(rs);
   fs.radius = radius_m / pixel;
   fs.dots.reserve(64);
@@ -392,7 +367,7 @@ void BM_Shot200(benchmark::State& state) {
   analyseShot(state, shot);
 }
 
-// The same shot drawn with sim-lab's lamp and sensor (labImaging: one-sided
+// The same shot drawn with sim-lab's lamp and sensor (simLabImaging: one-sided
 // light with a highlight, 10 bits in Mono12, shot, read and fixed-pattern
 // noise, hot pixels, 150 us exposure): the imaging issue 12's speed targets
 // name.
@@ -401,7 +376,7 @@ void BM_Shot200Lab(benchmark::State& state) {
     testing::ShotSpec spec = shot200Spec();
     spec.format = PixelFormat::Mono12;
     spec.exposure_us = 150;
-    spec.imaging = labImaging();
+    spec.imaging = testing::simLabImaging();
     return testing::simulateShot(spec);
   }();
   analyseShot(state, shot);

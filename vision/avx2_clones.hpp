@@ -16,8 +16,12 @@
 // calling convention of its own to differ between the builds); a clone
 // should call nothing else in its hot loop that is built for the baseline
 // (one such call per profile made the detector twice as slow).
+//
+// COLLIDE_NO_CLONES (defined for collide_vision_baseline, vision/CMakeLists.txt)
+// builds everything for the baseline only: the test vision/clones_agree runs
+// a simulated shot through both builds and requires the same numbers.
 
-#if defined(__x86_64__) && defined(__GNUC__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(COLLIDE_NO_CLONES)
 #define COLLIDE_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
 #define COLLIDE_INLINE_KERNEL inline __attribute__((always_inline))
 #else

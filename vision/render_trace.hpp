@@ -25,7 +25,8 @@
 // built twice, for AVX2 (8 floats a vector) and for the baseline (SSE2, 4),
 // and the loader picks the one the processor runs. Without FMA both give the
 // same bits: each element sees the same operations in the same order.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// (COLLIDE_NO_CLONES: baseline only, as vision/avx2_clones.hpp says.)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(COLLIDE_NO_CLONES)
 #define COLLIDE_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define COLLIDE_SIMD_CLONES

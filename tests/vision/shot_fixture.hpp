@@ -73,6 +73,34 @@ inline Vec3 randomUnitVec(std::mt19937_64& rng) {
   return Vec3(nd(rng), nd(rng), nd(rng)).normalized();
 }
 
+/// config/sim-lab.toml's lamp and sensor (one-sided light with a highlight,
+/// 10 bits, shot, read and fixed-pattern noise, hot pixels), orthographic (true
+/// centres exact), ShotSpec's 2.1167e-4 m pixels with the origin at the centre
+/// of a 640 x 480 frame.
+inline Imaging simLabImaging() {
+  Imaging im;
+  const double pixel = 2.1167e-4;
+  im.optics.pixel_size_m = pixel;
+  im.optics.origin_u_px = 319.5;
+  im.optics.origin_v_px = 239.5;
+  im.lighting.lamp_direction = Vec3(-0.55, 0.45, 0.70).normalized();
+  im.lighting.ambient = 0.12;
+  im.lighting.sphere_albedo = 0.80;
+  im.lighting.dot_albedo = 0.06;
+  im.lighting.specular_strength = 0.30;
+  im.lighting.specular_exponent = 80.0;
+  im.lighting.backdrop_level = 0.07;
+  im.sensor.vignetting_falloff = 0.10;
+  im.sensor.prnu = 0.008;
+  im.sensor.dsnu = 0.002;
+  im.sensor.hot_pixel_fraction = 0.0002;
+  im.sensor.hot_pixel_level = 0.4;
+  im.sensor.full_well_e = 20000;
+  im.sensor.read_noise_e = 15;
+  im.sensor.adc_bits = 10;
+  return im;
+}
+
 /// A shot whose spheres touch between frames -1 and 0, in the middle of the image.
 inline SimulatedShot simulateShot(const ShotSpec& spec) {
   std::mt19937_64 rng(spec.seed);
