@@ -100,28 +100,58 @@ Result<TrajectoryFit> fitTrajectory(const Eigen::VectorXd& times_s,
   design.col(1) = tau.matrix();
   if (!fixed) design.col(2) = tau.square().matrix();
 
-  TrajectoryFit fit;
-  fit.dims_ = dims;
-  fit.t_ref_s_ = t_ref_s;
-  fit.t_first_s_ = times_s.minCoeff();
-  fit.t_last_s_ = times_s.maxCoeff();
-  fit.acceleration_fixed_ = fixed;
-  for (int k = 0; k < dims; ++k) {
-    Eigen::VectorXd y = positions_m.col(k);
-    double half_acc = 0.0;
-    if (fixed) {
-      // Known acceleration: subtract its quadratic term and fit the straight line that is left.
-      half_acc = 0.5 * (*options.fixed_acceleration_m_s2)[k];
-      y.array() -= half_acc * tau.square();
+  // The fit with a known acceleration (and the drag's change along the
+  // track, its rate `jerk` and the rate's rate `snap`) taken out of the
+  // positions, or the acceleration fitted.
+  const auto fitWith = [&](const Vec3& acceleration, const Vec3& jerk,
+                           const Vec3& snap) -> Result<TrajectoryFit> {
+    TrajectoryFit fit;
+    fit.dims_ = dims;
+    fit.t_ref_s_ = t_ref_s;
+    fit.t_first_s_ = times_s.minCoeff();
+    fit.t_last_s_ = times_s.maxCoeff();
+    fit.acceleration_fixed_ = fixed;
+    for (int k = 0; k < dims; ++k) {
+      Eigen::VectorXd y = positions_m.col(k);
+      double half_acc = 0.0;
+      if (fixed) {
+        // Known acceleration: subtract its quadratic term (and the drag's
+        // change, its cubic one) and fit the straight line that is left.
+        half_acc = 0.5 * acceleration[k];
+        y.array() -= half_acc * tau.square() + jerk[k] / 6.0 * tau.cube() +
+                     snap[k] / 24.0 * tau.square().square();
+      }
+      auto axis = weightedLeastSquares(design, y, weights,
+                                       std::string("trajectory ") + kAxisName[k] + " positions");
+      if (!axis) return axis.error();
+      fit.coef_[k].head(params) = axis->coefficients;
+      fit.cov_[k].topLeftCorner(params, params) = axis->covariance;
+      if (fixed) fit.coef_[k][2] = half_acc;
+      fit.residual_rms_m_[k] = axis->residualRms();
+      fit.axis_fit_[k] = std::move(axis).value();
     }
-    auto axis = weightedLeastSquares(design, y, weights,
-                                     std::string("trajectory ") + kAxisName[k] + " positions");
-    if (!axis) return axis.error();
-    fit.coef_[k].head(params) = axis->coefficients;
-    fit.cov_[k].topLeftCorner(params, params) = axis->covariance;
-    if (fixed) fit.coef_[k][2] = half_acc;
-    fit.residual_rms_m_[k] = axis->residualRms();
-    fit.axis_fit_[k] = std::move(axis).value();
+    return fit;
+  };
+  const Vec3 known = fixed ? *options.fixed_acceleration_m_s2 : Vec3::Zero();
+  auto fit = fitWith(known, Vec3::Zero(), Vec3::Zero());
+  if (!fit || !fixed || !options.drag || !options.drag->acts()) return fit;
+  // The drag at the fitted velocity, and its first and second rates of
+  // change from points half the track's reach either side of t_ref (the
+  // velocity turns under gravity along the track); twice, the second time
+  // from the velocity the drag's own fit gives (the first is off by half the
+  // speed the drag took: 0.1 % of the drag).
+  const double h = 0.5 * std::max(times_s.maxCoeff() - t_ref_s, t_ref_s - times_s.minCoeff());
+  for (int pass = 0; pass < 2; ++pass) {
+    const TrajectoryFit& prev = *fit;
+    const auto dragAt = [&](double t) {
+      return options.drag->acceleration(prev.velocityAt_m_s(t).value);
+    };
+    const Vec3 a0 = dragAt(t_ref_s), up = dragAt(t_ref_s + h), down = dragAt(t_ref_s - h);
+    const Vec3 jerk = h > 0 ? Vec3((up - down) / (2 * h)) : Vec3::Zero();
+    const Vec3 snap = h > 0 ? Vec3((up - 2 * a0 + down) / (h * h)) : Vec3::Zero();
+    auto next = fitWith(known + a0, jerk, snap);
+    if (!next) return next.error();
+    fit = std::move(next);
   }
   return fit;
 }

@@ -24,6 +24,7 @@ std::optional<vision::WallAnalysisSettings> wallAnalysisSettingsFor(const hw::Sh
   s.out_of_plane_speed_fraction = profile->analysis.launch_out_of_plane_fraction;
   s.unknown_spin_sigma_rad_s = profile->analysis.launch_spin_rad_s;
   s.radius_systematic_px = profile->analysis.radius_systematic_px;
+  s.air_density_kg_m3 = profile->analysis.air_density_kg_m3;
   // The lens, as the two-sphere analysis takes it.
   s.camera = recordedLens(*profile);
   return s;

@@ -32,6 +32,7 @@ Result<LaunchPlan> planWallLaunch(const RigProfile& p, const std::array<double, 
     return fail("launcher " + l.name + ": exit speed " + num(v[0]) + " m/s must be > 0");
   FlightSetup setup;
   setup.material = p.spheres.material;
+  setup.air_density_kg_m3 = p.analysis.air_density_kg_m3;
   setup.wall = p.wall;
   for (int i = 0; i < 2; ++i) {
     Sphere& s = setup.spheres[i];
@@ -87,7 +88,9 @@ Result<LaunchPlan> planLaunch(const RigProfile& p, const std::array<double, 2>& 
       return fail("launcher " + l.name +
                   ": the meet point lies behind its muzzle: check "
                   "launcher.exit_m, launcher.direction and geometry.meet_point_m");
-    travel_s[i] = distance / v[i];
+    // Slowed by the air on the way (gravity bends the path, not the time).
+    const AirDrag air{p.spheres.diameter_m[i], p.spheres.mass_kg[i], p.analysis.air_density_kg_m3};
+    travel_s[i] = air.travelTime_s(distance, v[i]);
   }
   const double longest = std::max(travel_s[0], travel_s[1]);
   for (int i = 0; i < 2; ++i) plan.valve_open_s[i] = longest - travel_s[i];
@@ -95,6 +98,7 @@ Result<LaunchPlan> planLaunch(const RigProfile& p, const std::array<double, 2>& 
   // Then the real flight, with gravity, for the contact instant and place.
   FlightSetup setup;
   setup.material = p.spheres.material;
+  setup.air_density_kg_m3 = p.analysis.air_density_kg_m3;
   for (int i = 0; i < 2; ++i) {
     Sphere& s = setup.spheres[i];
     s.mass_kg = p.spheres.mass_kg[i];

@@ -512,6 +512,8 @@ Status parseSimulation(const SettingsTable& t, RigProfile& p) {
                            r.number("restitution_ref_speed_m_s", 1.0, {.gt = 0.0}));
   COLLIDE_ASSIGN_OR_RETURN(s.restitution_exponent,
                            r.number("restitution_exponent", 0.0, {.ge = 0.0, .le = 5.0}));
+  COLLIDE_ASSIGN_OR_RETURN(s.air_density_kg_m3, r.number("air_density_kg_m3", kAirDensity_kg_m3,
+                                                         {.ge = 0.0, .le = 2.0}));
   return r.finish("[simulation]");
 }
 
@@ -532,6 +534,9 @@ Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
   COLLIDE_ASSIGN_OR_RETURN(
       a.radius_systematic_px,
       r.number("radius_systematic_px", a.radius_systematic_px, {.ge = 0.0, .le = 2.0}));
+  COLLIDE_ASSIGN_OR_RETURN(
+      a.air_density_kg_m3,
+      r.number("air_density_kg_m3", a.air_density_kg_m3, {.ge = 0.0, .le = 2.0}));
   return r.finish("[analysis]");
 }
 

@@ -125,6 +125,7 @@ Status SimWorld::launch(const std::vector<ValveEvent>& events) {
     setup.wall = profile_.wall;  // a wall rig: launcher 2 never fires
     setup.restitution_of_vn = restitutionLaw();
     const SimulationProfile& sim = profile_.simulation;
+    setup.air_density_kg_m3 = sim.air_density_kg_m3;
     std::normal_distribution<double> unit(0.0, 1.0);
     std::uniform_real_distribution<double> spin_rate(sim.spin_at_exit_rad_s[0],
                                                      sim.spin_at_exit_rad_s[1]);

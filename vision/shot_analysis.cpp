@@ -587,7 +587,7 @@ struct InverseInputs {
   bool dark;
   double contact;
   const std::vector<FrameData>& data;
-  Vec3 gravity;
+  FreeFlight flight;
   double frame_dt;
 };
 
@@ -646,8 +646,7 @@ InversePass withHeldDepths(const InverseInputs& in, InversePass first) {
   if (!holdDepthsToImpulse(held, first.u, first.fits.t_split)) return first;
   PixelScale held_scale = first.scale;
   setDepths(held_scale, held, first.fits.t_split);
-  auto refit = fitCollision(in.data, held_scale, in.contact, in.gravity, in.set.fix_gravity,
-                            in.exposure_s, in.frame_dt);
+  auto refit = fitCollision(in.data, held_scale, in.contact, in.flight, in.exposure_s, in.frame_dt);
   if (!refit) return first;
   InversePass second = inversePass(in, std::move(*refit), std::move(held), std::move(held_scale));
   return second.u.nominal.ok ? second : first;
@@ -676,6 +675,17 @@ Result<DepthFits> fitDepths(ShotAnalysis& out, const std::vector<FrameData>& dat
       if (const auto& d = depth[s][side])
         out.sphere[s].vz_from_size_m_s[side] = Measured{d->vz_m_s, d->vz_sigma_m_s};
   return depth;
+}
+
+// Gravity along the image's gravity direction, known or fitted; with it
+// known, each sphere's air drag where its mass is given (without the mass the
+// drag's size is unknown: a vacuum).
+FreeFlight freeFlight(const AnalysisSettings& set, const Vec3& gravity) {
+  FreeFlight f{gravity, set.fix_gravity, {}};
+  for (int s = 0; s < 2; ++s)
+    if (set.air_density_kg_m3 > 0 && set.mass_kg[s] > 0)
+      f.drag[s] = AirDrag{set.diameter_m[s], set.mass_kg[s], set.air_density_kg_m3};
+  return f;
 }
 
 // no_spin_before / no_spin_after, with a note saying why, per sphere and side.
@@ -720,19 +730,18 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   Eigen::Vector2d gdir(set.gravity_dir_image[0], set.gravity_dir_image[1]);
   if (!(gdir.norm() > 0)) return fail("gravity_dir_image must be a non-zero direction");
   gdir.normalize();
-  const Vec3 gravity(kG * gdir.x(), -kG * gdir.y(), 0.0);
+  const FreeFlight flight = freeFlight(set, Vec3(kG * gdir.x(), -kG * gdir.y(), 0.0));
 
   // ---- trajectory fits on each side, the two collision instants
   const double contact = 0.5 * (diam[0] + diam[1]);
-  auto fits = fitCollision(data, scale, contact, gravity, set.fix_gravity, burst.exposure_us * 1e-6,
-                           frames->frame_dt);
+  auto fits =
+      fitCollision(data, scale, contact, flight, burst.exposure_us * 1e-6, frames->frame_dt);
   if (!fits) return fits.error();
 
   // ---- out-of-plane motion from the apparent size (when the camera's distance
   // is known); with the lens, the fits again with each centre at its depth
   auto depth = fitDepths(out, data, *fits, scale, set, r_med, [&] {
-    return fitCollision(data, scale, contact, gravity, set.fix_gravity, burst.exposure_us * 1e-6,
-                        frames->frame_dt);
+    return fitCollision(data, scale, contact, flight, burst.exposure_us * 1e-6, frames->frame_dt);
   });
   if (!depth) return depth.error();
 
@@ -746,8 +755,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   int dark_frames = 0;
   for (const FrameData& f : data) dark_frames += f.found.dark_spheres ? 1 : 0;
   const bool dark = mostlyDark(dark_frames, static_cast<int>(data.size()));
-  const InverseInputs in{set,  spins,   r_med, *px,     burst.exposure_us * 1e-6,
-                         dark, contact, data,  gravity, frames->frame_dt};
+  const InverseInputs in{set,  spins,   r_med, *px,    burst.exposure_us * 1e-6,
+                         dark, contact, data,  flight, frames->frame_dt};
   const InversePass pass = withHeldDepths(in, inversePass(in, *fits, *depth, scale));
   out.collision.line_of_centres_z_from_size = pass.nz_size;
   const ShotUncertainty& u = pass.u;

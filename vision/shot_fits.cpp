@@ -34,7 +34,7 @@ double centreDriftSigma_m_s(const TrajectoryFit& fit, double dots_m_s, bool thro
 }
 
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,
-                        const PixelScale& sc, const Vec3& gravity, bool fix_gravity, double t_ref) {
+                        const PixelScale& sc, const FreeFlight& flight, double t_ref) {
   for (int round = 0; round < 2; ++round) {
     const int n = static_cast<int>(frames.size());
     Eigen::VectorXd t(n), w(n);
@@ -48,7 +48,10 @@ Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> fra
       w[i] = 1.0 / (sig * sig);
     }
     TrajectoryOptions opt;
-    if (fix_gravity) opt.fixed_acceleration_m_s2 = gravity;
+    if (flight.fix_gravity) {
+      opt.fixed_acceleration_m_s2 = flight.gravity;
+      opt.drag = flight.drag[sphere];
+    }
     auto fit = fitTrajectory(t, pos, Weights::relative(w), t_ref, opt);
     if (!fit) return fit.error();
     if (round == 1 || n <= 4) return SideFit{*fit, frames, residualInflation(*fit)};
@@ -85,8 +88,8 @@ Status findInstants(CollisionFits& fits, double contact_m) {
 }
 
 Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& sc,
-                                   double contact, const Vec3& gravity, bool fix_gravity,
-                                   double exposure_s, double frame_dt) {
+                                   double contact, const FreeFlight& flight, double exposure_s,
+                                   double frame_dt) {
   // The closest approach splits the tracks.
   int k_min = -1;
   double d_min = 1e300;
@@ -117,7 +120,7 @@ Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const Pix
           return fail("sphere " + std::to_string(s + 1) + " is seen in " +
                       std::to_string(fr.size()) + " frame(s) " + (side == 0 ? "before" : "after") +
                       " the collision; a track needs at least 3 (is the collision in the burst?)");
-        auto f = fitSide(data, fr, s, sc, gravity, fix_gravity, out.t_split);
+        auto f = fitSide(data, fr, s, sc, flight, out.t_split);
         if (!f)
           return fail("sphere " + std::to_string(s + 1) + ", " + (side == 0 ? "before" : "after") +
                       " the collision: " + f.error().message);

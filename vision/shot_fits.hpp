@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "analysis/air_drag.hpp"
 #include "analysis/camera_model.hpp"
 #include "analysis/residual_structure.hpp"
 #include "analysis/result.hpp"
@@ -93,11 +94,20 @@ double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixe
 double centreDriftSigma_m_s(const TrajectoryFit& fit, double dots_m_s, bool through_lens,
                             double radius_systematic_px, double pixel_m);
 
+/// What moves a sphere between frames besides its velocity: gravity (known,
+/// or fitted with the acceleration free) and, with gravity known, the air's
+/// drag on each sphere (analysis/air_drag.hpp; none in a vacuum or where the
+/// sphere's mass is not known).
+struct FreeFlight {
+  Vec3 gravity = kGravity_m_s2;
+  bool fix_gravity = true;
+  std::array<std::optional<AirDrag>, 2> drag;  ///< per sphere
+};
+
 /// Fits one sphere's centres over `frames` (metres, world axes), dropping
 /// frames that lie far off the fit (more than 5 robust sigmas) once.
 Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> frames, int sphere,
-                        const PixelScale& scale, const Vec3& gravity, bool fix_gravity,
-                        double t_ref);
+                        const PixelScale& scale, const FreeFlight& flight, double t_ref);
 
 /// Both spheres fitted on both sides of the impact, and the collision
 /// instants the two pairs of fits give.
@@ -119,8 +129,8 @@ Status findInstants(CollisionFits& fits, double contact_m);
 /// Errors: too few frames on a side, a failed fit, no contact found, an
 /// instant outside the burst.
 Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& scale,
-                                   double contact_m, const Vec3& gravity, bool fix_gravity,
-                                   double exposure_s, double frame_dt);
+                                   double contact_m, const FreeFlight& flight, double exposure_s,
+                                   double frame_dt);
 
 /// The acceleration along gravity (image direction gdir, unit) from free
 /// fits (acceleration fitted) of every side with at least 6 frames, weighted

@@ -112,7 +112,16 @@ Wall worldWall(const WallAnalysisSettings& s, double px, const WallLine& line,
   return w;
 }
 
-Result<TrajectoryFit> fitSide(const std::vector<Sample>& samples, double t_ref_s) {
+// The air's drag on the sphere, when there is air and the mass is known.
+std::optional<AirDrag> wallDrag(const WallAnalysisSettings& s) {
+  if (!(s.air_density_kg_m3 > 0) || !(s.mass_kg > 0)) return std::nullopt;
+  return AirDrag{s.diameter_m, s.mass_kg, s.air_density_kg_m3};
+}
+
+// With the air's drag on the sphere (none in a vacuum; AnalysisSettings'
+// air_density_kg_m3), as the two-sphere fits (vision/shot_fits.hpp).
+Result<TrajectoryFit> fitSide(const std::vector<Sample>& samples, double t_ref_s,
+                              const std::optional<AirDrag>& drag) {
   Eigen::VectorXd t(samples.size()), w(samples.size());
   Eigen::MatrixXd p(samples.size(), 2);
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -123,6 +132,7 @@ Result<TrajectoryFit> fitSide(const std::vector<Sample>& samples, double t_ref_s
   }
   TrajectoryOptions o;
   o.fixed_acceleration_m_s2 = kGravity_m_s2;
+  o.drag = drag;
   // Relative weights: the residuals set the scale (detector sigmas can be optimistic).
   return fitTrajectory(t, p, Weights::relative(w), t_ref_s, o);
 }
@@ -168,14 +178,15 @@ struct DepthRefit {
 };
 std::optional<DepthRefit> refitAtDepth(const std::vector<Sample>& side, bool before,
                                        const PinholeCamera& camera, double radius_m,
-                                       double t_contact_s, double vz, const Wall& wall) {
+                                       double t_contact_s, double vz, const Wall& wall,
+                                       const std::optional<AirDrag>& drag) {
   std::vector<Sample> moved = side;
   for (Sample& smp : moved) {
     smp.centre_m =
         camera.sphereCentre(smp.m.circle.u, smp.m.circle.v, radius_m, vz * (smp.t_s - t_contact_s));
     smp.centre_m.z() = 0.0;  // projected onto the plane, as detectSphere leaves them
   }
-  auto fit = fitSide(moved, before ? moved.back().t_s : moved.front().t_s);
+  auto fit = fitSide(moved, before ? moved.back().t_s : moved.front().t_s, drag);
   if (!fit) return std::nullopt;
   const auto t_face = faceInstant(*fit, wall, radius_m, before);
   if (!t_face) return std::nullopt;
@@ -189,11 +200,12 @@ std::optional<DepthRefit> refitAtDepth(const std::vector<Sample>& side, bool bef
 // or too slow, and the track bends. Zero without a lens or when a refit fails.
 Eigen::Vector2d depthCoupling(const std::vector<Sample>& side, bool before,
                               const std::optional<PinholeCamera>& camera, double radius_m,
-                              double t_contact_s, double vz, const Wall& wall) {
+                              double t_contact_s, double vz, const Wall& wall,
+                              const std::optional<AirDrag>& drag) {
   constexpr double kDvz = 0.01;  // m/s
   if (!camera) return Eigen::Vector2d::Zero();
-  const auto lo = refitAtDepth(side, before, *camera, radius_m, t_contact_s, vz - kDvz, wall);
-  const auto hi = refitAtDepth(side, before, *camera, radius_m, t_contact_s, vz + kDvz, wall);
+  const auto lo = refitAtDepth(side, before, *camera, radius_m, t_contact_s, vz - kDvz, wall, drag);
+  const auto hi = refitAtDepth(side, before, *camera, radius_m, t_contact_s, vz + kDvz, wall, drag);
   if (!lo || !hi) return Eigen::Vector2d::Zero();
   return (hi->velocity - lo->velocity).head<2>() / (2 * kDvz);
 }
@@ -425,7 +437,8 @@ struct WallSides {
 
 // The samples split at the one nearest the face, which joins the side whose
 // extrapolation it agrees with; each side fitted, and where it meets the face.
-Result<WallSides> fitSides(const std::vector<Sample>& samples, double R, WallShotAnalysis& a) {
+Result<WallSides> fitSides(const std::vector<Sample>& samples, double R,
+                           const std::optional<AirDrag>& drag, WallShotAnalysis& a) {
   std::size_t k = 0;
   for (std::size_t i = 0; i < samples.size(); ++i)
     if ((samples[i].centre_m - a.wall.point_m).dot(a.wall.normal) <
@@ -438,8 +451,8 @@ Result<WallSides> fitSides(const std::vector<Sample>& samples, double R, WallSho
                 std::to_string(after.size()) +
                 " after the impact show the sphere (4 needed on each side): does the burst "
                 "hold the impact, and is the wall line right?");
-  auto fb = fitSide(before, before.back().t_s);
-  auto fa = fitSide(after, after.front().t_s);
+  auto fb = fitSide(before, before.back().t_s, drag);
+  auto fa = fitSide(after, after.front().t_s, drag);
   if (!fb) return fail("pre-impact fit: " + fb.error().message);
   if (!fa) return fail("post-impact fit: " + fa.error().message);
   const Sample& n = samples[k];
@@ -447,10 +460,10 @@ Result<WallSides> fitSides(const std::vector<Sample>& samples, double R, WallSho
   const double da = (fa->positionAt_m(n.t_s).value - n.centre_m).head<2>().norm();
   if (db <= da) {
     before.push_back(n);
-    fb = fitSide(before, n.t_s);
+    fb = fitSide(before, n.t_s, drag);
   } else {
     after.insert(after.begin(), n);
-    fa = fitSide(after, n.t_s);
+    fa = fitSide(after, n.t_s, drag);
   }
   if (!fb || !fa) return fail("refit with the frame nearest the wall failed");
   a.frames_used_before = static_cast<int>(before.size());
@@ -531,7 +544,8 @@ WallDepthCoupling kinematicsAtTheFace(const Burst& burst, const WallAnalysisSett
   // pre-impact velocity, and the post-impact one while the spins do not
   // give their own v_z (then taken about that v_z, below).
   WallDepthCoupling coupling;
-  coupling.dv_dvz_before = depthCoupling(sides.before, true, s.camera, R, tc, 0.0, a.wall);
+  const std::optional<AirDrag> drag = wallDrag(s);
+  coupling.dv_dvz_before = depthCoupling(sides.before, true, s.camera, R, tc, 0.0, a.wall, drag);
   bool after_at_depth = false;  // the post-impact centres at the spins' v_z
   std::optional<double> vz;
   if (spins.before.known && spins.after.known)
@@ -547,10 +561,10 @@ WallDepthCoupling kinematicsAtTheFace(const Burst& burst, const WallAnalysisSett
         a.sphere_after.spin_rad_s = spins.after.spin;
         a.spin_sigma_after = Vec3(spins.after.cov.diagonal().cwiseSqrt());
       }
-      if (auto refit = refitAtDepth(sides.after, false, *s.camera, R, tc, *vz, a.wall)) {
+      if (auto refit = refitAtDepth(sides.after, false, *s.camera, R, tc, *vz, a.wall, drag)) {
         // How much the spins' error in v_z moves the post-impact velocity
         // (propagate()).
-        coupling.dv_dvz = depthCoupling(sides.after, false, s.camera, R, tc, *vz, a.wall);
+        coupling.dv_dvz = depthCoupling(sides.after, false, s.camera, R, tc, *vz, a.wall, drag);
         coupling.vz_used = *vz;
         after_at_depth = true;
         a.after = refit->fit;
@@ -566,7 +580,7 @@ WallDepthCoupling kinematicsAtTheFace(const Burst& burst, const WallAnalysisSett
   // Otherwise the post-impact centres stay on the plane z = 0, and the
   // coupling is taken about v_z = 0 (the prior's, as before the impact).
   if (!after_at_depth)
-    coupling.dv_dvz = depthCoupling(sides.after, false, s.camera, R, tc, 0.0, a.wall);
+    coupling.dv_dvz = depthCoupling(sides.after, false, s.camera, R, tc, 0.0, a.wall, drag);
   return coupling;
 }
 
@@ -636,7 +650,7 @@ Result<WallShotAnalysis> analyzeWallBurst(const Burst& burst, const WallAnalysis
   if (!samples) return samples.error();
   if (Status ok = placeWall(burst, s, *samples, a); !ok) return ok.error();
   const double R = 0.5 * s.diameter_m;
-  auto sides = fitSides(*samples, R, a);
+  auto sides = fitSides(*samples, R, wallDrag(s), a);
   if (!sides) return sides.error();
   WallSpins spins = measureSpins(burst, s, *samples, *sides, R, dark, a);
   const WallDepthCoupling coupling = kinematicsAtTheFace(burst, s, *sides, spins, R, a);

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/air_drag.hpp"
 #include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/trajectory.hpp"
@@ -30,6 +31,9 @@ struct WallAnalysisSettings {
   double pixel_size_m = 0;  ///< object-plane metres per pixel, > 0
   double diameter_m = 0.0254;
   double mass_kg = 0.00978;
+  /// The air the sphere flies through, kg/m^3 (AnalysisSettings' field): its
+  /// drag is taken out of the trajectory fits. 0: a vacuum.
+  double air_density_kg_m3 = kAirDensity_kg_m3;
   double origin_u_px = 0, origin_v_px = 0;  ///< image pixel of the world origin
   double fps = 0;                           ///< t = frame id / fps
   /// The plate's face in the image (from the rig profile or --wall-line); the

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../../bench/truth_at_contact.hpp"
 #include "analysis/campaign.hpp"
 #include "analysis/walton.hpp"
 #include "app/campaign.hpp"
@@ -35,28 +36,14 @@ hw::RigProfile wallProfile() {
 }
 
 // The truth just before and after the impact: the last sample before contact
-// and the first after, flown freely (gravity, constant spin) to the contact.
+// and the first after, flown on to the contact (bench/truth_at_contact.hpp).
 struct TrueImpact {
   Sphere before, after;
 };
-TrueImpact trueImpact(const hw::Shot& shot, const Wall& wall) {
-  const hw::TruthRecord& t = *shot.truth;
-  std::size_t k = 0;
-  while (k + 1 < t.t_s.size() && t.t_s[k + 1] <= t.t_collision_s) ++k;
-  TrueImpact out;
-  for (int side = 0; side < 2; ++side) {
-    const SphereState& s = t.states.at(k + side)[0];
-    const double dt = t.t_collision_s - t.t_s[k + side];
-    Sphere& sp = side == 0 ? out.before : out.after;
-    sp.mass_kg = shot.scene.mass_kg[0];
-    sp.diameter_m = shot.scene.diameter_m[0];
-    sp.position_m = s.position_m + s.velocity_m_s * dt + 0.5 * kGravity_m_s2 * dt * dt;
-    sp.velocity_m_s = s.velocity_m_s + kGravity_m_s2 * dt;
-    sp.spin_rad_s = s.spin_rad_s;
-  }
-  out.after.position_m = out.before.position_m;
-  (void)wall;
-  return out;
+TrueImpact trueImpact(const hw::Shot& shot) {
+  std::array<Sphere, 2> before, after;
+  EXPECT_TRUE(bench::truthAtContact(shot, before, after, 1)) << "no impact in the truth";
+  return {before[0], after[0]};
 }
 
 TEST(WallCampaignSim, AimingTurnsThePlateToThePlannedIncidence) {
@@ -122,7 +109,7 @@ TEST(WallCampaignSim, ShotsAnalysedAsWallShotsMatchTheTruthAndTheFitsGiveTheMate
     }
     auto reread = hw::parseRigProfile(shot->rig_profile_toml, "shot");
     ASSERT_TRUE(reread);
-    const TrueImpact truth = trueImpact(*shot, *reread->wall);
+    const TrueImpact truth = trueImpact(*shot);
     auto m = measureWallCollision(truth.before, truth.after, *reread->wall);
     ASSERT_TRUE(m) << m.error().message;
     EXPECT_NEAR(m->e, shot->truth->material.e, 1e-9);  // the truth is self-consistent
@@ -193,7 +180,7 @@ void fireAndAnalyse(const hw::RigProfile& profile, std::uint64_t seed,
     ASSERT_TRUE(a.ok()) << file << ": " << a.error().message;
     auto reread = hw::parseRigProfile(shot->rig_profile_toml, "shot");
     ASSERT_TRUE(reread);
-    const TrueImpact impact = trueImpact(*shot, *reread->wall);
+    const TrueImpact impact = trueImpact(*shot);
     auto m = measureWallCollision(impact.before, impact.after, *reread->wall);
     ASSERT_TRUE(m) << m.error().message;
     out.push_back({file, *settings, *a, impact, *m});

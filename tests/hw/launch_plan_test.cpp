@@ -3,6 +3,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <numbers>
+
+#include "analysis/air_drag.hpp"
 #include "profile_text.hpp"
 
 using namespace collide::hw;
@@ -31,8 +35,10 @@ TEST(LaunchPlan, MeetPointDefaultsToTheImageCentre) {
   EXPECT_NEAR(px.y(), 239.5 - 5, 1e-9);  // world y up, image v down
 }
 
+// In a vacuum ([analysis] air_density_kg_m3 = 0) the flight is a parabola.
 TEST(LaunchPlan, EqualSpeedsOnSymmetricTubesOpenTogetherAndMeetInTheMiddle) {
-  const RigProfile p = profileFrom(simProfileText());
+  const RigProfile p =
+      profileFrom(withKey(simProfileText(), "analysis", "air_density_kg_m3", "0.0"));
   const auto plan = planLaunch(p, {2.0, 2.0});
   ASSERT_TRUE(plan) << plan.error().message;
   EXPECT_DOUBLE_EQ(plan->valve_open_s[0], 0.0);
@@ -46,8 +52,25 @@ TEST(LaunchPlan, EqualSpeedsOnSymmetricTubesOpenTogetherAndMeetInTheMiddle) {
   EXPECT_NEAR(plan->contact_px.y(), 239.5, 5.0);
 }
 
-TEST(LaunchPlan, TheSlowerSphereIsLaunchedFirst) {
+// Through air each sphere slows as dv/dx = -k v (k = rho C_D A / 2m, C_D at
+// 2 m/s): it covers d in (e^(k d) - 1) / (k v0), about 17 us longer.
+TEST(LaunchPlan, ThroughAirTheSpheresMeetLaterInTheMiddle) {
   const RigProfile p = profileFrom(simProfileText());
+  ASSERT_DOUBLE_EQ(p.analysis.air_density_kg_m3, 1.204);  // the default: room air
+  const auto plan = planLaunch(p, {2.0, 2.0});
+  ASSERT_TRUE(plan) << plan.error().message;
+  const double d = 0.085 - 0.0127, v0 = 2.0, m = p.spheres.mass_kg[0];
+  const double re = 1.204 * v0 * 0.0254 / 1.81e-5;
+  const double k =
+      0.5 * 1.204 * collide::sphereDragCoefficient(re) * std::numbers::pi * 0.0254 * 0.0254 / 4 / m;
+  EXPECT_NEAR(plan->contact_s, 0.008 + std::expm1(k * d) / (k * v0), 1e-6);
+  EXPECT_GT(plan->contact_s, 0.008 + d / v0 + 1e-5);
+  EXPECT_NEAR(plan->contact_point_m.x(), 0.0, 1e-9);
+}
+
+TEST(LaunchPlan, TheSlowerSphereIsLaunchedFirst) {
+  const RigProfile p =
+      profileFrom(withKey(simProfileText(), "analysis", "air_density_kg_m3", "0.0"));
   const auto plan = planLaunch(p, {3.0, 1.5});
   ASSERT_TRUE(plan) << plan.error().message;
   EXPECT_DOUBLE_EQ(plan->valve_open_s[1], 0.0);

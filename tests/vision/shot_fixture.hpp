@@ -44,6 +44,9 @@ struct ShotSpec {
   /// stay where an orthographic camera puts them). 0: radius constant.
   double camera_distance_m = 0;
   Material material{0.97, 0.176, 0.44};
+  /// The air the spheres fly through (its drag slows them, analysis/air_drag.hpp),
+  /// and the analysis is told; 0: a vacuum.
+  double air_density_kg_m3 = kAirDensity_kg_m3;
   /// Lamps, lens and sensor (vision/imaging.hpp): the spheres are ray-cast at
   /// their world positions (the optics' pixel size should be pixel_size_m,
   /// its origin the image centre). Unset: the even-light picture.
@@ -123,6 +126,7 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
                 spec.out_of_plane_fraction * spec.speed2_m_s * nd(rng));
   FlightSetup setup;
   setup.material = spec.material;
+  setup.air_density_kg_m3 = spec.air_density_kg_m3;
   for (int i = 0; i < 2; ++i) {
     Sphere& s = setup.spheres[i];
     const Vec3 v = i == 0 ? v1 : v2;
@@ -210,6 +214,7 @@ inline SimulatedShot simulateShot(const ShotSpec& spec) {
   as.pixel_size_m = px;
   as.diameter_m = {d, d};
   as.mass_kg = {spec.mass_kg, spec.mass_kg};
+  as.air_density_kg_m3 = spec.air_density_kg_m3;
   as.origin_u_px = ou;
   as.origin_v_px = ov;
   as.fps = spec.fps;

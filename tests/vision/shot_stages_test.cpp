@@ -201,12 +201,22 @@ TEST(TrackSpheres, EqualSpheresExchangingVelocitiesHeadOnKeepTheirTracks) {
   expectFollowed(data, tag);
 }
 
+// Gravity and the air the fixture's spheres fly through, as analyzeBurst
+// takes them (shot_fixture.hpp: room air, the masses given).
+FreeFlight flightOf(const SimulatedShot& shot) {
+  FreeFlight f;
+  for (int s = 0; s < 2; ++s)
+    f.drag[s] = AirDrag{shot.settings.diameter_m[s], shot.settings.mass_kg[s],
+                        shot.settings.air_density_kg_m3};
+  return f;
+}
+
 TEST(FitCollision, BothInstantsFindTheTrueContact) {
   for (const std::uint64_t seed : {43, 44, 45}) {
     const Staged s = detectAndTrack(seed);
     const double contact = s.shot.settings.diameter_m[0];
     auto fits =
-        fitCollision(s.frames.data, s.scale, contact, kGravity_m_s2, true, 0.0, s.frames.frame_dt);
+        fitCollision(s.frames.data, s.scale, contact, flightOf(s.shot), 0.0, s.frames.frame_dt);
     ASSERT_TRUE(fits.ok()) << fits.error().message;
     EXPECT_NEAR(fits->t_before, s.shot.t_collision_s, 5 * fits->sigma_before + 1e-6);
     EXPECT_NEAR(fits->t_after, s.shot.t_collision_s, 5 * fits->sigma_after + 1e-6);
@@ -229,8 +239,8 @@ TEST(FitCollision, BothInstantsFindTheTrueContact) {
 
 TEST(MeasureSpins, SpinsOfBothSidesMatchTheTruth) {
   const Staged s = detectAndTrack(46);
-  auto fits = fitCollision(s.frames.data, s.scale, s.shot.settings.diameter_m[0], kGravity_m_s2,
-                           true, 0.0, s.frames.frame_dt);
+  auto fits = fitCollision(s.frames.data, s.scale, s.shot.settings.diameter_m[0], flightOf(s.shot),
+                           0.0, s.frames.frame_dt);
   ASSERT_TRUE(fits.ok()) << fits.error().message;
   const ShotSpins spins =
       measureSpins(s.shot.burst, s.frames.data, *fits, s.r_med, s.frames.max_value, 50.0);
@@ -252,7 +262,7 @@ TEST(MeasureSpins, AnUnseenSpinIsZeroWithTheLaunchersSpread) {
   spec.dots = false;
   const Staged s = detectAndTrack(spec);
   const auto& set = s.shot.settings;
-  auto fits = fitCollision(s.frames.data, s.scale, set.diameter_m[0], kGravity_m_s2, true, 0.0,
+  auto fits = fitCollision(s.frames.data, s.scale, set.diameter_m[0], flightOf(s.shot), 0.0,
                            s.frames.frame_dt);
   ASSERT_TRUE(fits.ok()) << fits.error().message;
   for (const double spread : {12.0, 50.0}) {
