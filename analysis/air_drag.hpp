@@ -3,7 +3,7 @@
 // by about 0.03 m/s^2: over a 30 ms track the fitted velocity at the contact
 // is then off by half the speed lost (0.4 mm/s), before the impact too fast
 // and after it too slow, which takes about 0.0006 off e on every shot
-// (docs/benchmarks.md, "Air drag"). The spheres' own flight is slowed by
+// (docs/benchmarks.md, "Session 41: air drag"). The spheres are slowed by
 // F = rho C_D A |v| v / 2 (A the cross-section), C_D from the Reynolds number
 // Re = rho |v| d / eta. Lift from spin (Magnus) and the air's own motion are
 // not modelled. SI units.

@@ -116,7 +116,7 @@ Result<TrajectoryFit> fitTrajectory(const Eigen::VectorXd& times_s,
       double half_acc = 0.0;
       if (fixed) {
         // Known acceleration: subtract its quadratic term (and the drag's
-        // change, its cubic one) and fit the straight line that is left.
+        // change, its cubic and quartic ones) and fit the straight line that is left.
         half_acc = 0.5 * acceleration[k];
         y.array() -= half_acc * tau.square() + jerk[k] / 6.0 * tau.cube() +
                      snap[k] / 24.0 * tau.square().square();
