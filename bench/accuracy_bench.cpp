@@ -853,72 +853,99 @@ void printTable(const std::vector<PresetResult>& all) {
 
 }  // namespace
 
+const char* const kUsage =
+    "usage: accuracy_bench [--shots N] [--preset NAME,NAME] [--profile FILE] [--seed S]\n"
+    "                      [--verbose] [--detector-bias] [--error-budget]\n"
+    "                      [--save-bad DIR [--save-shot N]] [--reanalyse FILE]\n"
+    "  presets: ideal lab thesis fast12 unequal backlit silhouette wall wall-backlit wall-lab\n"
+    "  (all by default; --profile FILE adds one more, \"custom\", at the lab's speeds)\n";
+
 int main(int argc, char** argv) {
   int shots = 30;
   std::uint64_t seed = 4;
   std::string presets;         // empty: all
   std::string custom_profile;  // --profile FILE: one more preset, "custom"
+  std::string reanalyse;       // --reanalyse FILE: one saved shot again
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--verbose")) g_verbose = true;
-    if (!std::strcmp(argv[i], "--detector-bias")) g_detector_bias = true;
-    if (!std::strcmp(argv[i], "--error-budget")) g_error_budget = true;
-  }
-  for (int i = 1; i + 1 < argc; ++i) {
-    if (!std::strcmp(argv[i], "--shots")) shots = std::atoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--preset")) presets = argv[i + 1];
-    if (!std::strcmp(argv[i], "--profile")) custom_profile = argv[i + 1];
-    if (!std::strcmp(argv[i], "--seed")) seed = std::strtoull(argv[i + 1], nullptr, 10);
-    if (!std::strcmp(argv[i], "--save-bad")) g_save_bad = argv[i + 1];
-    if (!std::strcmp(argv[i], "--save-shot")) g_save_shot = std::atoi(argv[i + 1]);
-  }
-  for (int i = 1; i + 1 < argc; ++i)
-    if (!std::strcmp(argv[i], "--reanalyse")) {
-      // One saved shot again, with the per-sphere errors.
-      auto shot = app::readShot(argv[i + 1]);
-      if (!shot || !shot->truth) {
-        std::fprintf(stderr, "%s\n", shot ? "no truth in the shot" : shot.error().message.c_str());
-        return 1;
-      }
-      auto r = vision::analyzeBurst(shot->burst, app::analysisSettingsFor(*shot));
-      std::array<Sphere, 2> tb, ta;
-      if (!r || !truthAtContact(*shot, tb, ta)) {
-        std::fprintf(stderr, "%s\n", r ? "no collision in the truth" : r.error().message.c_str());
-        return 1;
-      }
-      auto truth = measureCollision(tb, ta);
-      const vision::CollisionProperties& c = r->collision;
-      std::printf(
-          "e %.5f (truth %.5f, sigma %.5f) beta %.4f (truth %.4f, sigma %.4f) vn %.3f vs %.3f\n",
-          c.e.value, truth->e, c.e.sigma, c.beta.value, truth->beta, c.beta.sigma, c.vn_m_s.value,
-          c.vs_m_s.value);
-      for (const std::string& f : r->quality_flags) std::printf("flag %s\n", f.c_str());
-      if (g_verbose)
-        for (const vision::FrameDetections& fd : r->frames) {
-          std::printf("frame %3lld:", static_cast<long long>(fd.frame_id));
-          for (int s = 0; s < 2; ++s)
-            if (fd.sphere[s])
-              std::printf("  s%d (%.2f, %.2f) r %.2f %s%s dots %zu", s + 1, fd.sphere[s]->u_px,
-                          fd.sphere[s]->v_px, fd.sphere[s]->radius_px,
-                          fd.sphere[s]->cut_by_border ? "C" : "", fd.sphere[s]->touching ? "T" : "",
-                          fd.dots[s].size());
-          std::printf("\n");
-        }
-      for (int s = 0; s < 2; ++s) {
-        const vision::SphereKinematics& k = r->sphere[s];
-        const auto row = [](const char* what, const Estimate3& e, const Vec3& t) {
-          std::printf(
-              "  %-9s (%+.4f %+.4f %+.4f) truth (%+.4f %+.4f %+.4f) sigma (%.4f %.4f %.4f)\n", what,
-              e.value.x(), e.value.y(), e.value.z(), t.x(), t.y(), t.z(), e.sigma.x(), e.sigma.y(),
-              e.sigma.z());
-        };
-        std::printf("sphere %d: frames %d/%d\n", s + 1, k.frames_before, k.frames_after);
-        row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
-        row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
-        row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
-        row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
-      }
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::printf("%s", kUsage);
       return 0;
     }
+    if (a == "--verbose" || a == "--detector-bias" || a == "--error-budget") {
+      (a == "--verbose"         ? g_verbose
+       : a == "--detector-bias" ? g_detector_bias
+                                : g_error_budget) = true;
+      continue;
+    }
+    static const char* const kWithValue[] = {"--shots",    "--preset",    "--profile",  "--seed",
+                                             "--save-bad", "--save-shot", "--reanalyse"};
+    if (std::find(std::begin(kWithValue), std::end(kWithValue), a) == std::end(kWithValue)) {
+      std::fprintf(stderr, "accuracy_bench: unknown option %s\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "accuracy_bench: %s needs a value\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+    const char* v = argv[++i];
+    if (a == "--shots" && (shots = std::atoi(v)) < 1) {
+      std::fprintf(stderr, "accuracy_bench: --shots %s: give a whole number of shots >= 1\n", v);
+      return 2;
+    }
+    if (a == "--preset") presets = v;
+    if (a == "--profile") custom_profile = v;
+    if (a == "--seed") seed = std::strtoull(v, nullptr, 10);
+    if (a == "--save-bad") g_save_bad = v;
+    if (a == "--save-shot") g_save_shot = std::atoi(v);
+    if (a == "--reanalyse") reanalyse = v;
+  }
+  if (!reanalyse.empty()) {
+    // One saved shot again, with the per-sphere errors.
+    auto shot = app::readShot(reanalyse);
+    if (!shot || !shot->truth) {
+      std::fprintf(stderr, "%s\n", shot ? "no truth in the shot" : shot.error().message.c_str());
+      return 1;
+    }
+    auto r = vision::analyzeBurst(shot->burst, app::analysisSettingsFor(*shot));
+    std::array<Sphere, 2> tb, ta;
+    if (!r || !truthAtContact(*shot, tb, ta)) {
+      std::fprintf(stderr, "%s\n", r ? "no collision in the truth" : r.error().message.c_str());
+      return 1;
+    }
+    auto truth = measureCollision(tb, ta);
+    const vision::CollisionProperties& c = r->collision;
+    std::printf(
+        "e %.5f (truth %.5f, sigma %.5f) beta %.4f (truth %.4f, sigma %.4f) vn %.3f vs %.3f\n",
+        c.e.value, truth->e, c.e.sigma, c.beta.value, truth->beta, c.beta.sigma, c.vn_m_s.value,
+        c.vs_m_s.value);
+    for (const std::string& f : r->quality_flags) std::printf("flag %s\n", f.c_str());
+    if (g_verbose)
+      for (const vision::FrameDetections& fd : r->frames) {
+        std::printf("frame %3lld:", static_cast<long long>(fd.frame_id));
+        for (int s = 0; s < 2; ++s)
+          if (fd.sphere[s])
+            std::printf("  s%d (%.2f, %.2f) r %.2f %s%s dots %zu", s + 1, fd.sphere[s]->u_px,
+                        fd.sphere[s]->v_px, fd.sphere[s]->radius_px,
+                        fd.sphere[s]->cut_by_border ? "C" : "", fd.sphere[s]->touching ? "T" : "",
+                        fd.dots[s].size());
+        std::printf("\n");
+      }
+    for (int s = 0; s < 2; ++s) {
+      const vision::SphereKinematics& k = r->sphere[s];
+      const auto row = [](const char* what, const Estimate3& e, const Vec3& t) {
+        std::printf("  %-9s (%+.4f %+.4f %+.4f) truth (%+.4f %+.4f %+.4f) sigma (%.4f %.4f %.4f)\n",
+                    what, e.value.x(), e.value.y(), e.value.z(), t.x(), t.y(), t.z(), e.sigma.x(),
+                    e.sigma.y(), e.sigma.z());
+      };
+      std::printf("sphere %d: frames %d/%d\n", s + 1, k.frames_before, k.frames_after);
+      row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
+      row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
+      row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
+      row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
+    }
+    return 0;
+  }
   const std::string root = COLLIDE_SOURCE_DIR;
   std::vector<PresetResult> results;
   for (const Preset& pr : kPresets) {
