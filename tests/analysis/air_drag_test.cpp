@@ -139,7 +139,8 @@ TEST(FlightThroughAir, CollisionAtTheContactDistanceWithMomentumConserved) {
 
 TEST(FlightThroughAir, RefusesANegativeDensityOrDragCoefficient) {
   FlightSetup s;
-  for (int i = 0; i < 2; ++i) s.spheres[i] = Sphere{kM, kD, Vec3(i, 0, 0), Vec3::Zero(), {}};
+  for (int i = 0; i < 2; ++i)
+    s.spheres[i] = Sphere{kM, kD, Vec3(i, 0, 0), Vec3::Zero(), Vec3::Zero()};
   s.air_density_kg_m3 = -1;
   auto f = Flight::create(s);
   ASSERT_FALSE(f.ok());
