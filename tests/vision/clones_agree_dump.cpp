@@ -109,19 +109,11 @@ int main() {
   // whole-image silhouette fit.
   ShotSpec thesis;
   thesis.width = 240, thesis.height = 192;
-  thesis.pixel_size_m = 6.865e-4;
+  thesis.pixel_size_m = simThesisImaging().optics.pixel_size_m;
   thesis.frames_before = 7, thesis.frames_after = 7;
   thesis.noise_grey = 0;
   thesis.seed = 7;
-  Imaging ti;
-  ti.optics.pixel_size_m = thesis.pixel_size_m;
-  ti.optics.origin_u_px = 119.5;
-  ti.optics.origin_v_px = 95.5;
-  ti.lighting.lamp_direction = Vec3(0.5, 0.3, 0.81).normalized();
-  ti.lighting.ambient = 0.3;
-  ti.sensor.full_well_e = 400;
-  ti.sensor.read_noise_e = 2;
-  thesis.imaging = ti;
+  thesis.imaging = simThesisImaging();
   dumpShot("thesis scale", thesis);
   return 0;
 }

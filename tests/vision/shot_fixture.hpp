@@ -104,6 +104,28 @@ inline Imaging simLabImaging() {
   return im;
 }
 
+/// config/sim-thesis.toml's camera: 240 x 192 at 6.865e-4 m per pixel (37 px
+/// spheres) with the origin at the image centre, one lamp upper right, few
+/// photoelectrons (400 e- full well), the intensifier's dark rim.
+inline Imaging simThesisImaging() {
+  Imaging im;
+  im.optics.pixel_size_m = 6.865e-4;
+  im.optics.origin_u_px = 119.5;
+  im.optics.origin_v_px = 95.5;
+  im.lighting.lamp_direction = Vec3(0.5, 0.3, 0.81).normalized();
+  im.lighting.ambient = 0.3;
+  im.lighting.sphere_albedo = 0.85;
+  im.lighting.dot_albedo = 0.05;
+  im.lighting.specular_strength = 0.08;
+  im.lighting.specular_exponent = 20;
+  im.lighting.backdrop_level = 0.04;
+  im.sensor.full_well_e = 400;
+  im.sensor.read_noise_e = 2;
+  im.sensor.vignetting_falloff = 0.3;
+  im.samples_per_pixel = 2;
+  return im;
+}
+
 /// A shot whose spheres touch between frames -1 and 0, in the middle of the image.
 inline SimulatedShot simulateShot(const ShotSpec& spec) {
   std::mt19937_64 rng(spec.seed);

@@ -12,6 +12,7 @@
 #include <random>
 
 #include "tests/analysis/cone_outline.hpp"
+#include "tests/vision/shot_fixture.hpp"
 #include "vision/render.hpp"
 
 namespace collide::vision {
@@ -791,25 +792,11 @@ TEST(SphereDetector, EmptySaturatedAndSpeckledFrames) {
 // thesis preset's e error; the whole-image fit (vision/silhouette_fit.hpp)
 // gives 0.025 px. Truth: the rendered positions.
 TEST(SphereDetector, ThesisCameraTrackCentresDoNotJitter) {
-  const double pixel = 6.865e-4;
+  const Imaging im = vision::testing::simThesisImaging();
+  const double pixel = im.optics.pixel_size_m;
   RenderSettings rs;
   rs.width = 240, rs.height = 192;
   rs.exposure_s = 200e-6;
-  Imaging im;
-  im.optics.pixel_size_m = pixel;
-  im.optics.origin_u_px = 119.5;
-  im.optics.origin_v_px = 95.5;
-  im.lighting.lamp_direction = Vec3(0.5, 0.3, 0.81).normalized();
-  im.lighting.ambient = 0.3;
-  im.lighting.sphere_albedo = 0.85;
-  im.lighting.dot_albedo = 0.05;
-  im.lighting.specular_strength = 0.08;
-  im.lighting.specular_exponent = 20;
-  im.lighting.backdrop_level = 0.04;
-  im.sensor.full_well_e = 400;
-  im.sensor.read_noise_e = 2;
-  im.sensor.vignetting_falloff = 0.3;
-  im.samples_per_pixel = 2;
   rs.imaging = im;
   std::mt19937_64 rng(5);
   const DotPattern pat = DotPattern::random(rng(), 0.1);
@@ -898,7 +885,8 @@ TEST(SphereDetector, ThroughALensTheOutlineIsFittedAsItsEllipse) {
         return (cam.sphereCentre(c.u, c.v, radius_m, 0.0) - view.centre_m).head<2>().norm() / px_m;
       };
       const double mean_radius =
-          cam.focal_px * testing::coneOutline(std::hypot(x, y), depth, radius_m).meanAxis();
+          cam.focal_px *
+          collide::testing::coneOutline(std::hypot(x, y), depth, radius_m).meanAxis();
       worst = std::max(worst, offPx(fitted.spheres[0].circle));
       worst_circle = std::max(worst_circle, offPx(circle.spheres[0].circle));
       worst_radius =
