@@ -1,6 +1,7 @@
 #include "analysis/free_flight_segments.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -29,6 +30,10 @@ Status checkInput(const std::vector<FlightPoint>& points, const FreeFlightOption
     return fail(
         "free-flight segments: break_sigmas must be > 0, noise_floor_m >= 0 and "
         "max_gap_frames > 1");
+  if (!(o.centre_wander_m >= 0) || !(o.centre_wander_time_s >= 0) ||
+      !std::isfinite(o.centre_wander_m) || !std::isfinite(o.centre_wander_time_s))
+    return fail(
+        "free-flight segments: centre_wander_m and centre_wander_time_s must be finite and >= 0");
   for (std::size_t i = 0; i < points.size(); ++i) {
     const FlightPoint& p = points[i];
     if (!std::isfinite(p.t_s) || !p.position_m.allFinite())
@@ -180,9 +185,23 @@ Status refineBoundaries(const std::vector<FlightPoint>& points, const std::vecto
   return Ok{};
 }
 
+/// What the centres' wander (FreeFlightOptions::centre_wander_m) does to a
+/// segment's velocity at its first sample and to its acceleration, per axis.
+std::array<double, 2> wanderSigmas(const std::vector<FlightPoint>& points, const Span& s,
+                                   const TrajectoryFit& fit, const FreeFlightOptions& o) {
+  if (!(o.centre_wander_m > 0) || !(o.centre_wander_time_s > 0)) return {0, 0};
+  const Eigen::VectorXd& w = fit.axisFit(0).weights;
+  Eigen::VectorXd t(w.size());
+  for (Eigen::Index k = 0; k < t.size(); ++k) t[k] = points[s.first + k].t_s;
+  const auto gains = quadraticSlopeGains(t, w, points[s.first].t_s);
+  if (gains.cols() != t.size()) return {0, 0};
+  return {wanderSigma(t, gains.row(0).transpose(), o.centre_wander_m, o.centre_wander_time_s),
+          wanderSigma(t, gains.row(1).transpose(), o.centre_wander_m, o.centre_wander_time_s)};
+}
+
 Result<FreeFlightSegment> segmentFrom(const std::vector<FlightPoint>& points,
                                       const std::vector<char>& outlier, const Span& s,
-                                      std::string ends_at) {
+                                      std::string ends_at, const FreeFlightOptions& o) {
   auto fit = fitSpan(points, outlier, s.first, s.last);
   if (!fit) return fit.error();
   FreeFlightSegment seg{s.first, s.last, std::move(*fit)};
@@ -191,10 +210,13 @@ Result<FreeFlightSegment> segmentFrom(const std::vector<FlightPoint>& points,
   // Residuals that run in one direction over several frames move the fit more
   // than its covariance (independent frames) says.
   const double inflate = std::sqrt(residualInflation(seg.fit));
+  const std::array<double, 2> wander = wanderSigmas(points, s, seg.fit, o);
   seg.velocity_m_s = v.value.head<2>();
-  seg.velocity_sigma_m_s = inflate * v.sigma.head<2>();
   seg.acceleration_m_s2 = a.value.head<2>();
-  seg.acceleration_sigma_m_s2 = inflate * a.sigma.head<2>();
+  for (int k = 0; k < 2; ++k) {
+    seg.velocity_sigma_m_s[k] = std::hypot(inflate * v.sigma[k], wander[0]);
+    seg.acceleration_sigma_m_s2[k] = std::hypot(inflate * a.sigma[k], wander[1]);
+  }
   double sum2 = 0;
   int n = 0;
   for (int axis = 0; axis < 2; ++axis) {
@@ -226,7 +248,7 @@ Result<std::vector<FreeFlightSegment>> fitFreeFlightSegments(const std::vector<F
       // A span short of its run's end ended at a break (the points after it
       // may be too few to fit).
       const std::string why = (*spans)[k].last < run.last ? "velocity_change" : run.ends_at;
-      auto seg = segmentFrom(points, outlier, (*spans)[k], why);
+      auto seg = segmentFrom(points, outlier, (*spans)[k], why, options);
       if (!seg) return seg.error();
       out.push_back(std::move(*seg));
     }

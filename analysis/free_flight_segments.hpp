@@ -38,6 +38,13 @@ struct FreeFlightOptions {
   double noise_floor_m = 0.0;
   /// A time step longer than this many median frame intervals ends a segment.
   double max_gap_frames = 3.5;
+  /// A slow wander of the centres about their true places, which the fit
+  /// absorbs into its curve (dots crossing the limb as the sphere turns):
+  /// its RMS, m, and the time over which it stays correlated, s
+  /// (wanderSigma, analysis/residual_structure.hpp). It is added to the
+  /// segments' velocity and acceleration sigmas; 0: none.
+  double centre_wander_m = 0.0;
+  double centre_wander_time_s = 0.0;
 };
 
 /// One fitted free-flight stretch.
@@ -46,7 +53,8 @@ struct FreeFlightSegment {
   TrajectoryFit fit;        ///< t_ref = the first sample's time
   /// At the first sample's time, with standard uncertainties from the fit's
   /// covariance scaled by its residuals (chi^2/dof) and by their correlation
-  /// from frame to frame (residualInflation, analysis/residual_structure.hpp).
+  /// from frame to frame (residualInflation, analysis/residual_structure.hpp),
+  /// and the centres' wander (FreeFlightOptions::centre_wander_m) added.
   Eigen::Vector2d velocity_m_s = Eigen::Vector2d::Zero();
   Eigen::Vector2d velocity_sigma_m_s = Eigen::Vector2d::Zero();
   Eigen::Vector2d acceleration_m_s2 = Eigen::Vector2d::Zero();

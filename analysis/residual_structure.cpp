@@ -110,4 +110,37 @@ double residualInflation(const TrajectoryFit& fit) {
   return (1 + rho) / (1 - rho);
 }
 
+double wanderSigma(const Eigen::VectorXd& t, const Eigen::VectorXd& gain, double rms,
+                   double time_s) {
+  if (t.size() != gain.size()) return std::numeric_limits<double>::quiet_NaN();
+  if (!(rms > 0) || !(time_s > 0)) return 0;
+  double var = 0;
+  for (Eigen::Index i = 0; i < t.size(); ++i)
+    for (Eigen::Index j = 0; j < t.size(); ++j) {
+      const double d = (t[i] - t[j]) / time_s;
+      var += gain[i] * gain[j] * std::exp(-0.5 * d * d);
+    }
+  return std::sqrt(std::max(0.0, var)) * rms;
+}
+
+Eigen::Matrix<double, 2, Eigen::Dynamic> quadraticSlopeGains(const Eigen::VectorXd& t,
+                                                             const Eigen::VectorXd& w,
+                                                             double t_ref) {
+  const Eigen::Index n = t.size();
+  if (w.size() != n || (w.array() > 0).count() < 3) return {};
+  // In units of the span, so the normal matrix is well conditioned.
+  const double span = std::max((t.array() - t_ref).abs().maxCoeff(), 1e-300);
+  Eigen::MatrixXd a(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double tau = (t[i] - t_ref) / span;
+    a.row(i) << 1.0, tau, 0.5 * tau * tau;
+  }
+  const Eigen::MatrixXd aw = a.transpose() * w.asDiagonal();  // A' W
+  const Eigen::MatrixXd g = (aw * a).ldlt().solve(aw);        // (A' W A)^-1 A' W
+  Eigen::Matrix<double, 2, Eigen::Dynamic> out(2, n);
+  out.row(0) = g.row(1) / span;
+  out.row(1) = g.row(2) / (span * span);
+  return out;
+}
+
 }  // namespace collide

@@ -16,6 +16,7 @@
 #include "hw/camera_sim.hpp"
 #include "hw/rig_profile.hpp"
 #include "vision/frame_io.hpp"
+#include "vision/shot_fits.hpp"
 
 namespace collide::app {
 
@@ -321,10 +322,24 @@ std::optional<DepthMotion> segmentDepth(const TrackResult& r, int t, std::int64_
   return *dm;
 }
 
-/// Fits sphere t's segments with its centres at `depth`'s depths.
+/// How long the centres' wander stays correlated, in frames: about the time
+/// a dot takes to cross the limb. On dotted silhouettes of
+/// config/sim-backlit.toml the velocity pulls' RMS was 0.82 / 0.87 / 0.95 /
+/// 1.03 for 3 / 4 / 5 / 6 frames on seeds 1-20, and 0.81 for 5 on seeds
+/// 21-40 (docs/benchmarks.md, "Tracking").
+constexpr double kWanderFrames = 5.0;
+
+/// Fits sphere t's segments with its centres at `depth`'s depths. The
+/// centres' slow wander as the dots cross the limb (vision::dotBiasPx; its
+/// sharp-sphere value, 0.5 px of blur, where the footage gives no exposure)
+/// is in the segments' sigmas: the free quadratic takes it into its curve,
+/// so the residuals do not show it.
 Result<SphereSegments> segmentsAtDepth(const TrackResult& r, int t, const SphereSegments& depth) {
   FreeFlightOptions fo;
   fo.noise_floor_m = 0.01 * r.pixel_size_m;
+  fo.centre_wander_m =
+      vision::dotBiasPx(r.tracks.radius_px[t], 0.5, r.tracks.dark_spheres) * r.pixel_size_m;
+  fo.centre_wander_time_s = kWanderFrames / r.fps;
   std::vector<std::int64_t> frame_of;
   const std::vector<FlightPoint> pts = flightPoints(r, t, depth, frame_of);
   auto segs = fitFreeFlightSegments(pts, fo);

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <random>
 
+#include "tests/analysis/correlated_wander.hpp"
+
 using namespace collide;
 
 namespace {
@@ -100,4 +102,66 @@ TEST(ResidualStructure, NoVerdictWithoutResiduals) {
   two.dof = 5;  // whatever the fit claims, two residuals cannot show order
   two.weights = Eigen::Vector2d(1, 1);
   EXPECT_TRUE(std::isnan(residualLag1Correlation(two)));
+}
+
+namespace {
+
+// n times 1 ms apart from 0.
+Eigen::VectorXd frameTimes(int n) {
+  Eigen::VectorXd t(n);
+  for (int i = 0; i < n; ++i) t[i] = 1e-3 * i;
+  return t;
+}
+
+}  // namespace
+
+// The gains reproduce the slope and the second derivative of an exact
+// parabola (any reference instant), and give a sample of zero weight none.
+TEST(QuadraticSlopeGains, RecoverAnExactParabola) {
+  const Eigen::VectorXd t = frameTimes(15);
+  Eigen::VectorXd w = Eigen::VectorXd::Ones(15);
+  w[4] = 0;
+  Eigen::VectorXd y(15);
+  const double c0 = 0.02, c1 = 1.7, c2 = -9.8, t_ref = 3e-3;
+  for (int i = 0; i < 15; ++i) {
+    const double tau = t[i] - t_ref;
+    y[i] = c0 + c1 * tau + 0.5 * c2 * tau * tau;
+  }
+  y[4] += 1.0;  // left out by its weight
+  const auto g = quadraticSlopeGains(t, w, t_ref);
+  ASSERT_EQ(g.cols(), 15);
+  EXPECT_NEAR(g.row(0).dot(y), c1, 1e-9);
+  EXPECT_NEAR(g.row(1).dot(y), c2, 1e-6);
+  EXPECT_EQ(g(0, 4), 0.0);
+  EXPECT_EQ(g(1, 4), 0.0);
+  EXPECT_EQ(quadraticSlopeGains(t.head(2), w.head(2), 0).cols(), 0);
+}
+
+// wanderSigma against its limits and against a Monte Carlo of the wander.
+TEST(WanderSigma, MatchesDrawnWanderAndItsLimits) {
+  const Eigen::VectorXd t = frameTimes(20);
+  const Eigen::VectorXd w = Eigen::VectorXd::Ones(20);
+  const Eigen::VectorXd gv = quadraticSlopeGains(t, w, 0).row(0).transpose();
+  const double rms = 5e-6;
+  // Uncorrelated (a time far below the frame interval): independent noise.
+  EXPECT_NEAR(wanderSigma(t, gv, rms, 1e-7), rms * gv.norm(), 1e-9 * rms * gv.norm());
+  // Correlated over far longer than the track: a constant offset, which no
+  // slope sees.
+  EXPECT_LT(wanderSigma(t, gv, rms, 10.0), 1e-3 * rms * gv.norm());
+  EXPECT_EQ(wanderSigma(t, gv, 0, 4e-3), 0.0);
+  EXPECT_TRUE(std::isnan(wanderSigma(t.head(3), gv, rms, 4e-3)));
+  // Drawn: the slope's spread over 20,000 wanders, within 3 % (the standard
+  // error of a standard deviation from that many draws is 0.5 %).
+  for (const double time_s : {2e-3, 4e-3, 8e-3}) {
+    const collide::testing::CorrelatedWander wander(t, rms, time_s);
+    std::mt19937 rng(11);
+    double sum2 = 0;
+    const int draws = 20000;
+    for (int d = 0; d < draws; ++d) {
+      const double slope = gv.dot(wander.draw(rng));
+      sum2 += slope * slope;
+    }
+    const double drawn = std::sqrt(sum2 / draws);
+    EXPECT_NEAR(wanderSigma(t, gv, rms, time_s), drawn, 0.03 * drawn) << "time " << time_s;
+  }
 }

@@ -36,8 +36,7 @@ class CliBacklitFootage : public ::testing::Test {
     // nothing in it but the shot the seed draws; this shot is the one drawn
     // before the simulated rig had air (sphere 2's velocity 84 % of the way
     // to the 0.2 % target below; through air the same seed draws one 6 %
-    // beyond it, its y error 4.6 of track's sigmas as 3.9 here: the sigmas
-    // of backlit footage are looked into in issue 12's notes, not here).
+    // beyond it).
     kRig = scratch_->file("sim-backlit-vacuum.toml");
     std::ofstream(kRig) << collide::hw::testing::withKey(readAll(kBacklit), "simulation",
                                                          "air_density_kg_m3", "0.0");
@@ -141,6 +140,15 @@ TEST_F(CliBacklitFootage, TrackEndsEachSpheresFlightAtTheContact) {
     EXPECT_LT(std::hypot(v[0].get<double>() - v_true.x(), v[1].get<double>() - v_true.y()),
               0.002 * v_true.head<2>().norm())
         << "sphere " << s + 1 << ": " << v.dump() << " vs " << v_true.transpose();
+    // Within 3 of its stated sigmas on each axis: the sigmas carry the
+    // centres' wander as the dots cross the silhouette's limb, which the
+    // free quadratic takes into its curve (sphere 2's y error here is 1.5
+    // sigmas, and was 3.9 without it; docs/benchmarks.md, "Tracking").
+    const auto& sv = segs[k]["velocity_sigma_m_s"];
+    for (int a = 0; a < 2; ++a)
+      EXPECT_LT(std::abs(v[a].get<double>() - v_true[a]), 3 * sv[a].get<double>())
+          << "sphere " << s + 1 << " axis " << a << ": " << v.dump() << " +- " << sv.dump()
+          << " vs " << v_true.transpose();
   }
 }
 
