@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include "analysis/residual_structure.hpp"
@@ -103,10 +104,74 @@ double chi2(const TrajectoryFit& f) {
   return f.axisFit(0).chi2 + f.axisFit(1).chi2;
 }
 
+/// A quadratic fit's gains over points [first, last] (the weights it used),
+/// about the first point's time, and those points' times.
+struct SpanGains {
+  Eigen::VectorXd t;
+  Eigen::Matrix<double, 3, Eigen::Dynamic> g;  ///< rows c0, c1, c2 (quadraticGains)
+};
+std::optional<SpanGains> spanGains(const std::vector<FlightPoint>& points, int first, int last,
+                                   const TrajectoryFit& fit) {
+  const Eigen::VectorXd& w = fit.axisFit(0).weights;
+  if (w.size() != last - first + 1) return std::nullopt;
+  SpanGains sg;
+  sg.t.resize(w.size());
+  for (Eigen::Index k = 0; k < w.size(); ++k) sg.t[k] = points[first + k].t_s;
+  sg.g = quadraticGains(sg.t, w, points[first].t_s);
+  if (sg.g.cols() != w.size()) return std::nullopt;
+  return sg;
+}
+
+bool wanderGiven(const FreeFlightOptions& o) {
+  return o.centre_wander_m > 0 && o.centre_wander_time_s > 0;
+}
+
+/// What the centres' wander (FreeFlightOptions::centre_wander_m) does to a
+/// segment's velocity at its first sample and to its acceleration, per axis.
+std::array<double, 2> wanderSigmas(const std::vector<FlightPoint>& points, int first, int last,
+                                   const TrajectoryFit& fit, const FreeFlightOptions& o) {
+  if (!wanderGiven(o)) return {0, 0};
+  const auto sg = spanGains(points, first, last, fit);
+  if (!sg) return {0, 0};
+  return {wanderSigma(sg->t, sg->g.row(1).transpose(), o.centre_wander_m, o.centre_wander_time_s),
+          wanderSigma(sg->t, sg->g.row(2).transpose(), o.centre_wander_m, o.centre_wander_time_s)};
+}
+
+/// What the fit's extrapolation to point q may miss q's own place by besides
+/// q's noise, m: the extrapolation's sigma from the points' stated sigmas
+/// (`stated_m`; a short fit whose few residuals happen to be small would
+/// otherwise scale its covariance far below them), and the centres' wander
+/// (`wander_m`, both places wander, together as they are near in time).
+struct PredictionSpread {
+  double stated_m = 0, wander_m = 0;
+};
+PredictionSpread predictionSpread(const std::vector<FlightPoint>& points, int first, int last,
+                                  int q, const TrajectoryFit& fit, const FreeFlightOptions& o) {
+  const auto sg = spanGains(points, first, last, fit);
+  if (!sg) return {};
+  const Eigen::Index n = sg->t.size();
+  const double tau = points[q].t_s - points[first].t_s;
+  const Eigen::VectorXd g =
+      (sg->g.row(0) + tau * sg->g.row(1) + 0.5 * tau * tau * sg->g.row(2)).transpose();
+  PredictionSpread p;
+  double var = 0;
+  for (Eigen::Index i = 0; i < n; ++i) var += std::pow(g[i] * points[first + i].sigma_m, 2);
+  p.stated_m = std::sqrt(var);
+  if (wanderGiven(o)) {
+    Eigen::VectorXd t(n + 1), h(n + 1);
+    t << sg->t, points[q].t_s;
+    h << g, -1.0;
+    p.wander_m = wanderSigma(t, h, o.centre_wander_m, o.centre_wander_time_s);
+  }
+  return p;
+}
+
 /// How far point q lies from the fit's extrapolation, in sigmas (largest axis):
 /// the point's own noise (inflated by the fit's scatter when it has enough
-/// degrees of freedom to say) and the extrapolation's uncertainty.
-double breakScore(const TrajectoryFit& fit, const FlightPoint& q, double floor_m) {
+/// degrees of freedom to say), the extrapolation's uncertainty (at least what
+/// the points' stated sigmas give it) and the centres' wander (`spread`).
+double breakScore(const TrajectoryFit& fit, const FlightPoint& q, double floor_m,
+                  const PredictionSpread& spread) {
   const LinearFit& ax = fit.axisFit(0);
   const LinearFit& ay = fit.axisFit(1);
   const int dof = ax.dof + ay.dof;
@@ -116,8 +181,9 @@ double breakScore(const TrajectoryFit& fit, const FlightPoint& q, double floor_m
   const Estimate3 pos = fit.positionAt_m(q.t_s);
   double score = 0;
   for (int k = 0; k < 2; ++k) {
-    const double sp = std::isfinite(pos.sigma[k]) ? pos.sigma[k] : 0.0;
-    score = std::max(score, std::abs(q.position_m[k] - pos.value[k]) / std::hypot(s, sp));
+    const double sp = std::max(std::isfinite(pos.sigma[k]) ? pos.sigma[k] : 0.0, spread.stated_m);
+    score = std::max(score,
+                     std::abs(q.position_m[k] - pos.value[k]) / std::hypot(s, sp, spread.wander_m));
   }
   return score;
 }
@@ -133,19 +199,25 @@ Result<std::vector<Span>> splitRun(const std::vector<FlightPoint>& points, const
     auto fit = fitSpan(points, outlier, start, end);
     if (!fit) return fit.error();
     int fitted_end = end;
+    // What the next point's prediction may miss by, with each fit (the same
+    // for the few points until the next one).
+    PredictionSpread spread = end < run.last
+                                  ? predictionSpread(points, start, end, end + 1, *fit, o)
+                                  : PredictionSpread{};
     while (end < run.last) {
       // Refit every step while short, every ~5 % of the length when long.
       if (end - fitted_end >= std::max(1, (end - start + 1) / 20)) {
         fit = fitSpan(points, outlier, start, end);
         if (!fit) return fit.error();
         fitted_end = end;
+        spread = predictionSpread(points, start, end, end + 1, *fit, o);
       }
-      if (breakScore(*fit, points[end + 1], o.noise_floor_m) <= o.break_sigmas) {
+      if (breakScore(*fit, points[end + 1], o.noise_floor_m, spread) <= o.break_sigmas) {
         ++end;
         continue;
       }
       if (end + 2 <= run.last &&
-          breakScore(*fit, points[end + 2], o.noise_floor_m) <= o.break_sigmas) {
+          breakScore(*fit, points[end + 2], o.noise_floor_m, spread) <= o.break_sigmas) {
         outlier[end + 1] = 1;  // one wild point, the flight goes on
         end += 2;
         continue;
@@ -185,20 +257,6 @@ Status refineBoundaries(const std::vector<FlightPoint>& points, const std::vecto
   return Ok{};
 }
 
-/// What the centres' wander (FreeFlightOptions::centre_wander_m) does to a
-/// segment's velocity at its first sample and to its acceleration, per axis.
-std::array<double, 2> wanderSigmas(const std::vector<FlightPoint>& points, const Span& s,
-                                   const TrajectoryFit& fit, const FreeFlightOptions& o) {
-  if (!(o.centre_wander_m > 0) || !(o.centre_wander_time_s > 0)) return {0, 0};
-  const Eigen::VectorXd& w = fit.axisFit(0).weights;
-  Eigen::VectorXd t(w.size());
-  for (Eigen::Index k = 0; k < t.size(); ++k) t[k] = points[s.first + k].t_s;
-  const auto gains = quadraticSlopeGains(t, w, points[s.first].t_s);
-  if (gains.cols() != t.size()) return {0, 0};
-  return {wanderSigma(t, gains.row(0).transpose(), o.centre_wander_m, o.centre_wander_time_s),
-          wanderSigma(t, gains.row(1).transpose(), o.centre_wander_m, o.centre_wander_time_s)};
-}
-
 Result<FreeFlightSegment> segmentFrom(const std::vector<FlightPoint>& points,
                                       const std::vector<char>& outlier, const Span& s,
                                       std::string ends_at, const FreeFlightOptions& o) {
@@ -210,7 +268,7 @@ Result<FreeFlightSegment> segmentFrom(const std::vector<FlightPoint>& points,
   // Residuals that run in one direction over several frames move the fit more
   // than its covariance (independent frames) says.
   const double inflate = std::sqrt(residualInflation(seg.fit));
-  const std::array<double, 2> wander = wanderSigmas(points, s, seg.fit, o);
+  const std::array<double, 2> wander = wanderSigmas(points, s.first, s.last, seg.fit, o);
   seg.velocity_m_s = v.value.head<2>();
   seg.acceleration_m_s2 = a.value.head<2>();
   for (int k = 0; k < 2; ++k) {

@@ -114,18 +114,21 @@ double wanderSigma(const Eigen::VectorXd& t, const Eigen::VectorXd& gain, double
                    double time_s) {
   if (t.size() != gain.size()) return std::numeric_limits<double>::quiet_NaN();
   if (!(rms > 0) || !(time_s > 0)) return 0;
+  constexpr double kReach = 8;  // exp(-32): nothing beyond
   double var = 0;
-  for (Eigen::Index i = 0; i < t.size(); ++i)
-    for (Eigen::Index j = 0; j < t.size(); ++j) {
-      const double d = (t[i] - t[j]) / time_s;
-      var += gain[i] * gain[j] * std::exp(-0.5 * d * d);
+  for (Eigen::Index i = 0; i < t.size(); ++i) {
+    var += gain[i] * gain[i];
+    for (Eigen::Index j = i + 1; j < t.size(); ++j) {
+      const double d = (t[j] - t[i]) / time_s;
+      if (d > kReach) break;
+      var += 2 * gain[i] * gain[j] * std::exp(-0.5 * d * d);
     }
+  }
   return std::sqrt(std::max(0.0, var)) * rms;
 }
 
-Eigen::Matrix<double, 2, Eigen::Dynamic> quadraticSlopeGains(const Eigen::VectorXd& t,
-                                                             const Eigen::VectorXd& w,
-                                                             double t_ref) {
+Eigen::Matrix<double, 3, Eigen::Dynamic> quadraticGains(const Eigen::VectorXd& t,
+                                                        const Eigen::VectorXd& w, double t_ref) {
   const Eigen::Index n = t.size();
   if (w.size() != n || (w.array() > 0).count() < 3) return {};
   // In units of the span, so the normal matrix is well conditioned.
@@ -137,9 +140,10 @@ Eigen::Matrix<double, 2, Eigen::Dynamic> quadraticSlopeGains(const Eigen::Vector
   }
   const Eigen::MatrixXd aw = a.transpose() * w.asDiagonal();  // A' W
   const Eigen::MatrixXd g = (aw * a).ldlt().solve(aw);        // (A' W A)^-1 A' W
-  Eigen::Matrix<double, 2, Eigen::Dynamic> out(2, n);
-  out.row(0) = g.row(1) / span;
-  out.row(1) = g.row(2) / (span * span);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> out(3, n);
+  out.row(0) = g.row(0);
+  out.row(1) = g.row(1) / span;
+  out.row(2) = g.row(2) / (span * span);
   return out;
 }
 

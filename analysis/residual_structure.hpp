@@ -68,18 +68,17 @@ double residualInflation(const TrajectoryFit& fit);
 /// tell from its own curve (its residuals stay small): a stationary process of
 /// RMS `rms` (unit of y), correlated between samples at times t_i, t_j as
 /// exp(-(t_i - t_j)^2 / (2 time_s^2)). Returned: the standard deviation it
-/// gives an estimate sum_i gain_i y_i, sqrt(gain' K gain) rms. Zero for
-/// rms or time_s not > 0; t and gain of different lengths are an error of
-/// the caller (NaN).
+/// gives an estimate sum_i gain_i y_i, sqrt(gain' K gain) rms. `t` in
+/// increasing order (pairs more than 8 time_s apart, whose correlation is
+/// below 1e-13, are skipped). Zero for rms or time_s not > 0; NaN for t and
+/// gain of different lengths.
 double wanderSigma(const Eigen::VectorXd& t, const Eigen::VectorXd& gain, double rms,
                    double time_s);
 
 /// The gains of a quadratic fit y = c0 + c1 tau + c2 tau^2 / 2 (tau = t -
-/// t_ref) with weights w (0 leaves a sample out), for its slope c1 (row 0)
-/// and its second derivative c2 (row 1): c = G y. Empty with fewer than three
-/// samples of positive weight.
-Eigen::Matrix<double, 2, Eigen::Dynamic> quadraticSlopeGains(const Eigen::VectorXd& t,
-                                                             const Eigen::VectorXd& w,
-                                                             double t_ref);
+/// t_ref) with weights w (0 leaves a sample out): c = G y, rows c0, c1, c2.
+/// Empty with fewer than three samples of positive weight.
+Eigen::Matrix<double, 3, Eigen::Dynamic> quadraticGains(const Eigen::VectorXd& t,
+                                                        const Eigen::VectorXd& w, double t_ref);
 
 }  // namespace collide

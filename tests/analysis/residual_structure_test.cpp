@@ -115,9 +115,9 @@ Eigen::VectorXd frameTimes(int n) {
 
 }  // namespace
 
-// The gains reproduce the slope and the second derivative of an exact
-// parabola (any reference instant), and give a sample of zero weight none.
-TEST(QuadraticSlopeGains, RecoverAnExactParabola) {
+// The gains reproduce an exact parabola's coefficients (any reference
+// instant), and give a sample of zero weight none.
+TEST(QuadraticGains, RecoverAnExactParabola) {
   const Eigen::VectorXd t = frameTimes(15);
   Eigen::VectorXd w = Eigen::VectorXd::Ones(15);
   w[4] = 0;
@@ -128,20 +128,20 @@ TEST(QuadraticSlopeGains, RecoverAnExactParabola) {
     y[i] = c0 + c1 * tau + 0.5 * c2 * tau * tau;
   }
   y[4] += 1.0;  // left out by its weight
-  const auto g = quadraticSlopeGains(t, w, t_ref);
+  const auto g = quadraticGains(t, w, t_ref);
   ASSERT_EQ(g.cols(), 15);
-  EXPECT_NEAR(g.row(0).dot(y), c1, 1e-9);
-  EXPECT_NEAR(g.row(1).dot(y), c2, 1e-6);
-  EXPECT_EQ(g(0, 4), 0.0);
-  EXPECT_EQ(g(1, 4), 0.0);
-  EXPECT_EQ(quadraticSlopeGains(t.head(2), w.head(2), 0).cols(), 0);
+  EXPECT_NEAR(g.row(0).dot(y), c0, 1e-12);
+  EXPECT_NEAR(g.row(1).dot(y), c1, 1e-9);
+  EXPECT_NEAR(g.row(2).dot(y), c2, 1e-6);
+  for (int r = 0; r < 3; ++r) EXPECT_EQ(g(r, 4), 0.0);
+  EXPECT_EQ(quadraticGains(t.head(2), w.head(2), 0).cols(), 0);
 }
 
 // wanderSigma against its limits and against a Monte Carlo of the wander.
 TEST(WanderSigma, MatchesDrawnWanderAndItsLimits) {
   const Eigen::VectorXd t = frameTimes(20);
   const Eigen::VectorXd w = Eigen::VectorXd::Ones(20);
-  const Eigen::VectorXd gv = quadraticSlopeGains(t, w, 0).row(0).transpose();
+  const Eigen::VectorXd gv = quadraticGains(t, w, 0).row(1).transpose();
   const double rms = 5e-6;
   // Uncorrelated (a time far below the frame interval): independent noise.
   EXPECT_NEAR(wanderSigma(t, gv, rms, 1e-7), rms * gv.norm(), 1e-9 * rms * gv.norm());
