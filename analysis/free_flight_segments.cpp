@@ -1,7 +1,6 @@
 #include "analysis/free_flight_segments.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -127,14 +126,22 @@ bool wanderGiven(const FreeFlightOptions& o) {
 }
 
 /// What the centres' wander (FreeFlightOptions::centre_wander_m) does to a
-/// segment's velocity at its first sample and to its acceleration, per axis.
-std::array<double, 2> wanderSigmas(const std::vector<FlightPoint>& points, int first, int last,
-                                   const TrajectoryFit& fit, const FreeFlightOptions& o) {
-  if (!wanderGiven(o)) return {0, 0};
+/// segment's velocity at its first sample, at its last, and to its
+/// acceleration.
+struct WanderSigmas {
+  double velocity_m_s = 0, end_velocity_m_s = 0, acceleration_m_s2 = 0;
+};
+WanderSigmas wanderSigmas(const std::vector<FlightPoint>& points, int first, int last,
+                          const TrajectoryFit& fit, const FreeFlightOptions& o) {
+  if (!wanderGiven(o)) return {};
   const auto sg = spanGains(points, first, last, fit);
-  if (!sg) return {0, 0};
-  return {wanderSigma(sg->t, sg->g.row(1).transpose(), o.centre_wander_m, o.centre_wander_time_s),
-          wanderSigma(sg->t, sg->g.row(2).transpose(), o.centre_wander_m, o.centre_wander_time_s)};
+  if (!sg) return {};
+  const double span = points[last].t_s - points[first].t_s;
+  const auto sigma = [&](const Eigen::VectorXd& gain) {
+    return wanderSigma(sg->t, gain, o.centre_wander_m, o.centre_wander_time_s);
+  };
+  return {sigma(sg->g.row(1).transpose()), sigma((sg->g.row(1) + span * sg->g.row(2)).transpose()),
+          sigma(sg->g.row(2).transpose())};
 }
 
 /// What the fit's extrapolation to point q may miss q's own place by besides
@@ -264,16 +271,19 @@ Result<FreeFlightSegment> segmentFrom(const std::vector<FlightPoint>& points,
   if (!fit) return fit.error();
   FreeFlightSegment seg{s.first, s.last, std::move(*fit)};
   const Estimate3 v = seg.fit.velocityAt_m_s(points[s.first].t_s);
+  const Estimate3 v_end = seg.fit.velocityAt_m_s(points[s.last].t_s);
   const Estimate3 a = seg.fit.acceleration_m_s2();
   // Residuals that run in one direction over several frames move the fit more
   // than its covariance (independent frames) says.
   const double inflate = std::sqrt(residualInflation(seg.fit));
-  const std::array<double, 2> wander = wanderSigmas(points, s.first, s.last, seg.fit, o);
+  const WanderSigmas wander = wanderSigmas(points, s.first, s.last, seg.fit, o);
   seg.velocity_m_s = v.value.head<2>();
+  seg.end_velocity_m_s = v_end.value.head<2>();
   seg.acceleration_m_s2 = a.value.head<2>();
   for (int k = 0; k < 2; ++k) {
-    seg.velocity_sigma_m_s[k] = std::hypot(inflate * v.sigma[k], wander[0]);
-    seg.acceleration_sigma_m_s2[k] = std::hypot(inflate * a.sigma[k], wander[1]);
+    seg.velocity_sigma_m_s[k] = std::hypot(inflate * v.sigma[k], wander.velocity_m_s);
+    seg.end_velocity_sigma_m_s[k] = std::hypot(inflate * v_end.sigma[k], wander.end_velocity_m_s);
+    seg.acceleration_sigma_m_s2[k] = std::hypot(inflate * a.sigma[k], wander.acceleration_m_s2);
   }
   double sum2 = 0;
   int n = 0;

@@ -57,6 +57,10 @@ struct FreeFlightSegment {
   /// and the centres' wander (FreeFlightOptions::centre_wander_m) added.
   Eigen::Vector2d velocity_m_s = Eigen::Vector2d::Zero();
   Eigen::Vector2d velocity_sigma_m_s = Eigen::Vector2d::Zero();
+  /// At the last sample's time (for a segment that ends at a contact, the
+  /// velocity just before it), with sigmas made as velocity_sigma_m_s's.
+  Eigen::Vector2d end_velocity_m_s = Eigen::Vector2d::Zero();
+  Eigen::Vector2d end_velocity_sigma_m_s = Eigen::Vector2d::Zero();
   Eigen::Vector2d acceleration_m_s2 = Eigen::Vector2d::Zero();
   Eigen::Vector2d acceleration_sigma_m_s2 = Eigen::Vector2d::Zero();
   /// sqrt of the mean squared residual over both axes and all samples, m.

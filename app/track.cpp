@@ -362,7 +362,9 @@ Result<SphereSegments> segmentsAtDepth(const TrackResult& r, int t, const Sphere
 /// error of its depth line does to the centres placed on it, added to the
 /// segment's own sigmas: a centre x from the optical axis moving at v, put
 /// dz + v_z t off its depth, moves by x (dz + v_z t) / Z0, so the velocity at
-/// the first frame by (v dz + x v_z) / Z0 and the acceleration by 2 v v_z / Z0.
+/// the first frame by (v dz + x v_z) / Z0, at the last (time T on) by
+/// (v (dz + v_z T) + x(T) v_z) / Z0 (dz's and v_z's errors taken as
+/// independent), and the acceleration by 2 v v_z / Z0.
 void addDepthUncertainty(const TrackResult& r, int t, SphereSegments& s, std::size_t k) {
   if (!s.depth[k]) return;
   DepthMotion& d = *s.depth[k];
@@ -371,10 +373,17 @@ void addDepthUncertainty(const TrackResult& r, int t, SphereSegments& s, std::si
   completeDepthSigmas(d, z0, r.tracks.radius_px[t], g.fit.tLast_s() - g.fit.tFirst_s(),
                       r.radius_systematic_px);
   const Estimate3 x = g.fit.positionAt_m(g.fit.tRef_s());
+  const Estimate3 x_end = g.fit.positionAt_m(g.fit.tLast_s());
+  const double span = g.fit.tLast_s() - g.fit.tRef_s();
+  const double dz_end_sigma = std::hypot(d.dz0_sigma_m, span * d.vz_sigma_m_s);
   for (int a = 0; a < 2; ++a) {
     const double off = x.value[a] - r.camera->centre_m[a], v = g.velocity_m_s[a];
     g.velocity_sigma_m_s[a] = std::hypot(g.velocity_sigma_m_s[a],
                                          std::hypot(v * d.dz0_sigma_m, off * d.vz_sigma_m_s) / z0);
+    const double off_end = x_end.value[a] - r.camera->centre_m[a], v_end = g.end_velocity_m_s[a];
+    g.end_velocity_sigma_m_s[a] =
+        std::hypot(g.end_velocity_sigma_m_s[a],
+                   std::hypot(v_end * dz_end_sigma, off_end * d.vz_sigma_m_s) / z0);
     g.acceleration_sigma_m_s2[a] =
         std::hypot(g.acceleration_sigma_m_s2[a], 2 * v * d.vz_sigma_m_s / z0);
   }
@@ -517,6 +526,8 @@ std::string trackToJson(const TrackResult& r) {
       sj["frames_fitted"] = ss.frames_fitted[k];
       sj["velocity_m_s"] = pair(g.velocity_m_s);
       sj["velocity_sigma_m_s"] = pair(g.velocity_sigma_m_s);
+      sj["end_velocity_m_s"] = pair(g.end_velocity_m_s);
+      sj["end_velocity_sigma_m_s"] = pair(g.end_velocity_sigma_m_s);
       sj["acceleration_m_s2"] = pair(g.acceleration_m_s2);
       sj["acceleration_sigma_m_s2"] = pair(g.acceleration_sigma_m_s2);
       sj["residual_px_rms"] = number(g.residual_rms_m / r.pixel_size_m);

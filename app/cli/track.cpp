@@ -99,7 +99,9 @@ void printSummary(const collide::app::TrackResult& r) {
       const auto& g = ss.segments[k];
       std::cout << "  frames " << ss.first_frame[k] << "-" << ss.last_frame[k] << ": v ("
                 << pm(g.velocity_m_s.x(), g.velocity_sigma_m_s.x(), "%.4f") << ", "
-                << pm(g.velocity_m_s.y(), g.velocity_sigma_m_s.y(), "%.4f") << ") m/s  a ("
+                << pm(g.velocity_m_s.y(), g.velocity_sigma_m_s.y(), "%.4f") << ") m/s, at the end ("
+                << pm(g.end_velocity_m_s.x(), g.end_velocity_sigma_m_s.x(), "%.4f") << ", "
+                << pm(g.end_velocity_m_s.y(), g.end_velocity_sigma_m_s.y(), "%.4f") << ") m/s  a ("
                 << pm(g.acceleration_m_s2.x(), g.acceleration_sigma_m_s2.x(), "%.3f") << ", "
                 << pm(g.acceleration_m_s2.y(), g.acceleration_sigma_m_s2.y(), "%.3f")
                 << ") m/s^2  rms " << pm(g.residual_rms_m / r.pixel_size_m, NAN, "%.3f")

@@ -68,6 +68,12 @@ TEST(FreeFlightSegments, OneParabolaGivesGravityAndTheStartVelocity) {
   EXPECT_LT(std::abs(s.acceleration_m_s2.x()), 3 * s.acceleration_sigma_m_s2.x());
   EXPECT_LT(std::abs(s.velocity_m_s.x() - f.vx), 3 * s.velocity_sigma_m_s.x());
   EXPECT_LT(std::abs(s.velocity_m_s.y() - f.vy), 3 * s.velocity_sigma_m_s.y());
+  // And at the last frame: vy less g t.
+  const double t_end = 119 / kFps;
+  EXPECT_LT(std::abs(s.end_velocity_m_s.x() - f.vx), 3 * s.end_velocity_sigma_m_s.x());
+  EXPECT_LT(std::abs(s.end_velocity_m_s.y() - (f.vy - kG * t_end)),
+            3 * s.end_velocity_sigma_m_s.y());
+  EXPECT_GT(std::abs(s.end_velocity_m_s.y() - f.vy), 100 * s.end_velocity_sigma_m_s.y());
   EXPECT_NEAR(s.residual_rms_m, sigma, 0.2 * sigma);
 }
 
@@ -211,8 +217,8 @@ TEST(FreeFlightSegments, BadInputIsNamed) {
 // wander stated (FreeFlightOptions::centre_wander_m) the start velocity's
 // pulls over 400 flights are about 1 (a little under it: the part of the
 // wander the curve does not take shows in the residuals too, whose scale
-// the fit's own sigmas carry: 0.85 here, 2.2 without), and 1 flight in 400
-// is cut, not 13.
+// the fit's own sigmas carry: 0.85 here, 2.2 without; at the last frame
+// 0.85 and 2.0), and 1 flight in 400 is cut, not 13.
 TEST(FreeFlightSegments, AStatedWanderIsInTheSigmasAndTheBreakTest) {
   const Flight1 f;
   const int n = 30;
@@ -224,16 +230,23 @@ TEST(FreeFlightSegments, AStatedWanderIsInTheSigmasAndTheBreakTest) {
   with.centre_wander_m = rms;
   with.centre_wander_time_s = time_s;
   struct Tally {
-    double sum2 = 0;
-    int pulls = 0, cut = 0;
+    int n;
+    double sum2 = 0, sum2_end = 0;
+    int pulls = 0, pulls_end = 0, cut = 0;
     void add(const std::vector<FreeFlightSegment>& segs, const Flight1& f) {
       if (segs.size() != 1) ++cut;
       const FreeFlightSegment& s = segs.front();
       const Eigen::Vector2d err = s.velocity_m_s - Eigen::Vector2d(f.vx, f.vy);
       for (int k = 0; k < 2; ++k, ++pulls) sum2 += std::pow(err[k] / s.velocity_sigma_m_s[k], 2);
+      if (segs.size() != 1) return;  // the end is the cut's, not the flight's
+      const double t_end = (n - 1) / kFps;
+      const Eigen::Vector2d err_end = s.end_velocity_m_s - Eigen::Vector2d(f.vx, f.vy - kG * t_end);
+      for (int k = 0; k < 2; ++k, ++pulls_end)
+        sum2_end += std::pow(err_end[k] / s.end_velocity_sigma_m_s[k], 2);
     }
     double rms() const { return std::sqrt(sum2 / pulls); }
-  } plain, stated;
+    double rmsEnd() const { return std::sqrt(sum2_end / pulls_end); }
+  } plain{n}, stated{n};
   std::mt19937 rng(3);
   for (unsigned seed = 1; seed <= 400; ++seed) {
     auto pts = sample(f, n, noise, seed);
@@ -248,6 +261,9 @@ TEST(FreeFlightSegments, AStatedWanderIsInTheSigmasAndTheBreakTest) {
   EXPECT_GT(plain.rms(), 1.5);
   EXPECT_GT(stated.rms(), 0.8);
   EXPECT_LT(stated.rms(), 1.2);
+  EXPECT_GT(plain.rmsEnd(), 1.5);
+  EXPECT_GT(stated.rmsEnd(), 0.8);
+  EXPECT_LT(stated.rmsEnd(), 1.2);
   EXPECT_LT(stated.cut, plain.cut / 4 + 1) << plain.cut << " flights cut without the wander";
 }
 

@@ -4,7 +4,8 @@
 // --polarity` (auto and dark measure the shot, bright finds nothing and says
 // why) and `collide track --profile` on two colliding spheres (each track's free
 // flight ends at the contact, on the right side of the true collision
-// instant, with the velocity before it).
+// instant, with the velocities at its first frame and just before the
+// contact, within their sigmas).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -12,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "app/report/results_json.hpp"
 #include "app/store/shot_file.hpp"
@@ -144,11 +146,23 @@ TEST_F(CliBacklitFootage, TrackEndsEachSpheresFlightAtTheContact) {
     // centres' wander as the dots cross the silhouette's limb, which the
     // free quadratic takes into its curve (sphere 2's y error here is 1.5
     // sigmas, and was 3.9 without it; docs/benchmarks.md, "Tracking").
-    const auto& sv = segs[k]["velocity_sigma_m_s"];
-    for (int a = 0; a < 2; ++a)
-      EXPECT_LT(std::abs(v[a].get<double>() - v_true[a]), 3 * sv[a].get<double>())
-          << "sphere " << s + 1 << " axis " << a << ": " << v.dump() << " +- " << sv.dump()
-          << " vs " << v_true.transpose();
+    // The same for the velocity at the segment's last frame, just before
+    // the contact.
+    const auto& v_end = segs[k]["end_velocity_m_s"];
+    const collide::Vec3& v_end_true = truth.states[last_before][s].velocity_m_s;
+    EXPECT_LT(std::hypot(v_end[0].get<double>() - v_end_true.x(),
+                         v_end[1].get<double>() - v_end_true.y()),
+              0.002 * v_end_true.head<2>().norm())
+        << "sphere " << s + 1 << ": " << v_end.dump() << " vs " << v_end_true.transpose();
+    for (const auto& [name, at, truth_v] :
+         {std::tuple{"velocity_m_s", "velocity_sigma_m_s", v_true},
+          std::tuple{"end_velocity_m_s", "end_velocity_sigma_m_s", v_end_true}}) {
+      const auto &m = segs[k][name], &sv = segs[k][at];
+      for (int a = 0; a < 2; ++a)
+        EXPECT_LT(std::abs(m[a].get<double>() - truth_v[a]), 3 * sv[a].get<double>())
+            << "sphere " << s + 1 << " " << name << " axis " << a << ": " << m.dump() << " +- "
+            << sv.dump() << " vs " << truth_v.transpose();
+    }
   }
 }
 
