@@ -42,7 +42,8 @@ struct FreeFlightOptions {
   /// absorbs into its curve (dots crossing the limb as the sphere turns):
   /// its RMS, m, and the time over which it stays correlated, s
   /// (wanderSigma, analysis/residual_structure.hpp). It is added to the
-  /// segments' velocity and acceleration sigmas; 0: none.
+  /// segments' velocity and acceleration sigmas and to what the break test
+  /// allows the next centre to miss the extrapolation by; 0: none.
   double centre_wander_m = 0.0;
   double centre_wander_time_s = 0.0;
 };

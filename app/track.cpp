@@ -337,8 +337,9 @@ constexpr double kWanderFrames = 5.0;
 Result<SphereSegments> segmentsAtDepth(const TrackResult& r, int t, const SphereSegments& depth) {
   FreeFlightOptions fo;
   fo.noise_floor_m = 0.01 * r.pixel_size_m;
-  fo.centre_wander_m =
-      vision::dotBiasPx(r.tracks.radius_px[t], 0.5, r.tracks.dark_spheres) * r.pixel_size_m;
+  const double radius_px = r.tracks.radius_px[t];
+  if (radius_px > 0 && std::isfinite(radius_px))
+    fo.centre_wander_m = vision::dotBiasPx(radius_px, 0.5, r.tracks.dark_spheres) * r.pixel_size_m;
   fo.centre_wander_time_s = kWanderFrames / r.fps;
   std::vector<std::int64_t> frame_of;
   const std::vector<FlightPoint> pts = flightPoints(r, t, depth, frame_of);
