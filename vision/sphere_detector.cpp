@@ -504,7 +504,35 @@ struct EdgeStats {
 // covered length at second order.
 constexpr int kShape = 3;
 using ShapeVec = Eigen::Matrix<double, kShape, 1>;
-using ShapeMat = Eigen::Matrix<double, kShape, kShape>;
+
+// The shading fit's sums over inside samples (of one profile, or added up
+// over a stretch of the outline): the centred shape regressors' Gram matrix
+// as its six distinct entries g00 g01 g02 g11 g12 g22, their products with
+// the centred samples c0 c1 c2, and the samples' centred sum of squares yy.
+// Ten plain doubles: the fit adds thousands of these per frame.
+struct ShadeMoments {
+  enum { g00, g01, g02, g11, g12, g22, c0, c1, c2, yy, kCount };
+  std::array<double, kCount> v{};
+  double& operator[](int i) { return v[i]; }
+  double operator[](int i) const { return v[i]; }
+  void add(const ShadeMoments& o) {
+    for (int i = 0; i < kCount; ++i) v[i] += o.v[i];
+  }
+  void subtract(const ShadeMoments& o) {
+    for (int i = 0; i < kCount; ++i) v[i] -= o.v[i];
+  }
+  double gram(int i, int j) const {
+    static constexpr int index[kShape][kShape] = {
+        {g00, g01, g02}, {g01, g11, g12}, {g02, g12, g22}};
+    return v[index[i][j]];
+  }
+  double cross(const ShapeVec& b) const { return b(0) * v[c0] + b(1) * v[c1] + b(2) * v[c2]; }
+  // b' G b
+  double gramForm(const ShapeVec& b) const {
+    return b(0) * b(0) * v[g00] + b(1) * b(1) * v[g11] + b(2) * b(2) * v[g22] +
+           2 * (b(0) * b(1) * v[g01] + b(0) * b(2) * v[g02] + b(1) * b(2) * v[g12]);
+  }
+};
 
 // Depth below the limb of a point `along` pixels inwards from the edge on a
 // line that meets the limb at cosine g: R - sqrt(R^2 - 2 R g l + l^2).
@@ -524,12 +552,9 @@ struct Profile {
   double mean_in = 0;  // of the inside samples (beyond the window)
   double len0 = 0;     // first guess of the covered length of the window (edge to its end)
   double in_off = 0;   // first inside sample's position from the window's end (+ inwards)
-  // The inside samples' centred shape regressors: Gram matrix, their products
-  // with the centred samples, and the samples' centred sum of squares. The
-  // shading fit and the residual checks need nothing else.
-  ShapeMat gram = ShapeMat::Zero();
-  ShapeVec cross = ShapeVec::Zero();
-  double yy = 0;
+  // The inside samples' shading moments (ShadeMoments): the shading fit and
+  // the residual checks need nothing else of them.
+  ShadeMoments mom;
   ShapeVec shape = ShapeVec::Zero();  // the fitted (b1, b2, b3) around it
   bool ok = false;
 };
@@ -683,10 +708,8 @@ COLLIDE_AVX2_CLONES void shapeMoments(const std::vector<float>& samples, int len
     const ShapeSums z = shapeSums(m, ctx.n_in, ctx.quadratic);
     for (std::size_t l = 0; l < used; ++l) {
       Profile& pr = profiles[which[k + l]];
-      pr.gram << z.g00[l], z.g01[l], z.g02[l], z.g01[l], z.g11[l], z.g12[l], z.g02[l], z.g12[l],
-          z.g22[l];
-      pr.cross = ShapeVec(z.c0[l], z.c1[l], z.c2[l]);
-      pr.yy = z.yy[l];
+      pr.mom.v = {z.g00[l], z.g01[l], z.g02[l], z.g11[l], z.g12[l],
+                  z.g22[l], z.c0[l],  z.c1[l],  z.c2[l],  z.yy[l]};
     }
   }
 }
@@ -783,11 +806,9 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
 // Returns whether any stretch took the square-root shape.
 bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   struct Sums {
-    ShapeMat m = ShapeMat::Zero();
-    ShapeVec r = ShapeVec::Zero();
-    double yy = 0;
+    ShadeMoments s;
     int n = 0;
-    void add(const Sums& o) { m += o.m, r += o.r, yy += o.yy, n += o.n; }
+    void add(const Sums& o) { s.add(o.s), n += o.n; }
   };
   constexpr int kMinProfiles = 16;
   bool any_root = false;
@@ -797,13 +818,14 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   // better: where the truth is smooth it would only add noise.
   const auto solveWith = [&](const Sums& z, int drop, ShapeVec& b, double& rss) {
     const int k = drop == 2 ? 1 : 2;  // the second term kept besides delta
-    const double m00 = z.m(0, 0), m0k = z.m(0, k), mkk = z.m(k, k);
+    const double m00 = z.s.gram(0, 0), m0k = z.s.gram(0, k), mkk = z.s.gram(k, k);
+    const double r0 = z.s[ShadeMoments::c0], rk = z.s[ShadeMoments::c0 + k];
     const double det = m00 * mkk - m0k * m0k;
     if (!(det > 1e-12 * m00 * mkk) || !std::isfinite(det)) return false;
     b.setZero();
-    b(0) = (mkk * z.r(0) - m0k * z.r(k)) / det;
-    b(k) = (m00 * z.r(k) - m0k * z.r(0)) / det;
-    rss = std::max(0.0, z.yy - b(0) * z.r(0) - b(k) * z.r(k));
+    b(0) = (mkk * r0 - m0k * rk) / det;
+    b(k) = (m00 * rk - m0k * r0) / det;
+    rss = std::max(0.0, z.s[ShadeMoments::yy] - b(0) * r0 - b(k) * rk);
     return std::isfinite(b(0)) && std::isfinite(b(k));
   };
 
@@ -819,24 +841,36 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
                                                                                      : smooth;
     return true;
   };
+  // Per sector of the outline, and per stretch around each sector: its sums
+  // and how many sectors it reaches out on either side.
+  std::array<Sums, kSectors> sector{};
+  for (const Profile& pr : profiles)
+    if (pr.ok) sector[pr.bin].s.add(pr.mom), ++sector[pr.bin].n;
+  std::array<Sums, kSectors> stretch;
+  std::array<int, kSectors> reach{};
+  std::array<bool, kSectors> changed;  // a sector that lost profiles since the last round
+  changed.fill(true);
   for (int round = 0; round < 2; ++round) {
-    std::array<Sums, kSectors> sector{};
     Sums all;
-    for (const Profile& pr : profiles) {
-      if (!pr.ok) continue;
-      Sums& z = sector[pr.bin];
-      z.m += pr.gram, z.r += pr.cross, z.yy += pr.yy, ++z.n;
-    }
     for (const Sums& z : sector) all.add(z);
     ShapeVec global = ShapeVec::Zero();
     solve(all, global);
     std::array<ShapeVec, kSectors> shape;
     for (int bin = 0; bin < kSectors; ++bin) {
       shape[bin] = global;
-      Sums z = sector[bin];
-      for (int w = 1; w < kSectors / 2 && (w <= 1 || z.n < kMinProfiles); ++w) {
-        z.add(sector[(bin + w) % kSectors]);
-        z.add(sector[(bin - w + kSectors) % kSectors]);
+      // A stretch none of whose sectors changed is the same stretch.
+      bool stale = false;
+      for (int w = -reach[bin]; w <= reach[bin] && !stale; ++w)
+        stale = changed[(bin + w + kSectors) % kSectors];
+      Sums& z = stretch[bin];
+      if (stale) {
+        z = sector[bin];
+        int w = 1;
+        for (; w < kSectors / 2 && (w <= 1 || z.n < kMinProfiles); ++w) {
+          z.add(sector[(bin + w) % kSectors]);
+          z.add(sector[(bin - w + kSectors) % kSectors]);
+        }
+        reach[bin] = w - 1;
       }
       ShapeVec local;
       if (z.n >= 4 && solve(z, local)) {
@@ -844,26 +878,30 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
         // than the global one (a chi-square with kShape degrees of freedom
         // when the shading is the same all round).
         const int dof = z.n * (ctx.n_in - 1) - kShape;
-        const double rss = std::max(0.0, z.yy - local.dot(z.r));
+        const double rss = std::max(0.0, z.s[ShadeMoments::yy] - z.s.cross(local));
         const double var = dof > 0 ? rss / dof : 0;
-        const ShapeVec d = local - global;
-        if (d.dot(z.m * d) > ctx.local_shape_chi2 * var) shape[bin] = local;
+        if (z.s.gramForm(local - global) > ctx.local_shape_chi2 * var) shape[bin] = local;
       }
     }
     bool dropped = false;
     any_root = false;
+    changed.fill(false);
     for (Profile& pr : profiles) {
       if (!pr.ok) continue;
       pr.shape = shape[pr.bin];
       any_root |= pr.shape(2) != 0;
       if (round == 1) continue;
-      // Drop profiles that do not follow their shape; refit if any went.
+      // Drop profiles that do not follow their shape (taken out of their
+      // sector's sums); refit if any went.
       const ShapeVec& b = pr.shape;
-      const double rss = std::max(0.0, pr.yy - 2 * b.dot(pr.cross) + b.dot(pr.gram * b));
+      const double rss =
+          std::max(0.0, pr.mom[ShadeMoments::yy] - 2 * pr.mom.cross(b) + pr.mom.gramForm(b));
       const double rms = std::sqrt(rss / ctx.n_in);
       if (rms > 3.0 * ctx.sigma + 0.03 * (pr.mean_in - pr.out)) {
         pr.ok = false;
         dropped = true;
+        sector[pr.bin].s.subtract(pr.mom), --sector[pr.bin].n;
+        changed[pr.bin] = true;
       }
     }
     if (!dropped) break;
