@@ -133,9 +133,10 @@ sanitize_pass() {
 # devices, valve banks (sim, gpiod watchdog), regulators (sim, Modbus peer),
 # the rig, saving and `collide analyze` (one thread per core), footage read
 # from several threads, a shot's frames analysed in parallel
-# (vision/frame_parallel), and the GUI's rig control thread (gui/rig_worker:
+# (vision/frame_parallel), footage tracked a batch of frames per core at a
+# time (vision/sphere_tracks), and the GUI's rig control thread (gui/rig_worker:
 # RigWorker and its Mailbox, without the window).
-TSAN_TESTS='^(analysis|vision|hw|app)/.*camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage|vision/frame_parallel|gui/rig_worker'
+TSAN_TESTS='^(analysis|vision|hw|app)/.*camera|sequencer|valve|ring_buffer|burst_recorder|regulator|rig_test|save_test|analyze|device_lost_sim|vision/footage|vision/frame_parallel|vision/sphere_tracks|gui/rig_worker'
 tsan_pass() {
   local dir="${TSAN_BUILD_DIR:-$here/build-tsan}" targets=() t
   configure_sanitized "$dir" thread -DCOLLIDE_BUILD_GUI=ON

@@ -198,12 +198,19 @@ void tukeyWeights(const std::vector<Pixel>& px, const std::vector<double>& res, 
   const std::size_t n = res.size();
   std::vector<std::pair<double, double>> by_level(n);  // (model level, |residual|)
   for (std::size_t k = 0; k < n; ++k) by_level[k] = {px[k].value - res[k], std::abs(res[k])};
+  constexpr int kGroups = 4;
+  // Each quarter's pixels, in no particular order within it: partitioned at
+  // the quarters' bounds (a full sort was 7 % of tracking small spheres).
   std::vector<std::size_t> order(n);
   for (std::size_t k = 0; k < n; ++k) order[k] = k;
-  std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return by_level[a].first < by_level[b].first; });
+  const auto lower = [&](std::size_t a, std::size_t b) {
+    return by_level[a].first < by_level[b].first;
+  };
+  for (int g = 1; g < kGroups; ++g)
+    std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(n * (g - 1) / kGroups),
+                     order.begin() + static_cast<std::ptrdiff_t>(n * g / kGroups), order.end(),
+                     lower);
   weights.resize(n);
-  constexpr int kGroups = 4;
   std::vector<double> a;
   for (int g = 0; g < kGroups; ++g) {
     const std::size_t lo = n * g / kGroups, hi = n * (g + 1) / kGroups;

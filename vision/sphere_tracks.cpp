@@ -5,6 +5,8 @@
 #include <limits>
 #include <map>
 
+#include "vision/frame_parallel.hpp"
+
 namespace collide::vision {
 
 namespace {
@@ -24,34 +26,53 @@ struct Detected {
   std::string first_error;  ///< the first frame that could not be read
 };
 
+/// One frame's detections, kept if sphere-like (and of the expected size).
+void addFrame(Detected& d, std::int64_t index, const Result<Frame>& frame,
+              const FrameSpheres& found, const SphereTrackSettings& set) {
+  if (!frame || !frame->good()) {
+    ++d.unreadable;
+    if (!frame && d.first_error.empty()) d.first_error = frame.error().message;
+    return;
+  }
+  d.dark += found.dark_spheres;
+  std::vector<SphereMeasurement> kept;
+  for (const SphereMeasurement& m : found.spheres) {
+    const double r = m.circle.radius;
+    if (set.expected_radius_px > 0 && std::abs(r / set.expected_radius_px - 1) > 0.3) continue;
+    kept.push_back(m);
+  }
+  if (kept.empty() && d.first_note.empty() && !found.notes.empty())
+    d.first_note = found.notes.front();
+  TrackFrame tf;
+  tf.index = index;
+  tf.id = frame->id;
+  tf.blobs = static_cast<int>(kept.size());
+  d.frames.push_back(std::move(tf));
+  d.blobs.push_back(std::move(kept));
+}
+
+/// Frames are read in order on the calling thread (a video can only be read
+/// one frame after the other), a batch of a few per core at a time, and each
+/// batch's frames are detected on every core (forEachFrame: the same numbers
+/// on any number of threads). The batch bounds the frames held in memory.
 Detected detectAll(const FrameSource& src, const SphereTrackSettings& set,
                    const std::function<void(int, int)>& progress) {
   const SphereDetector detector(set.detector);
+  const std::int64_t batch = 8 * static_cast<std::int64_t>(frameThreads());
   Detected d;
-  for (std::int64_t i = 0; i < src.count; ++i) {
-    auto frame = src.read(i);
-    if (progress) progress(static_cast<int>(i + 1), static_cast<int>(src.count));
-    if (!frame || !frame->good()) {
-      ++d.unreadable;
-      if (!frame && d.first_error.empty()) d.first_error = frame.error().message;
-      continue;
-    }
-    const FrameSpheres found = detector.detect(frame->image, src.max_value);
-    d.dark += found.dark_spheres;
-    std::vector<SphereMeasurement> kept;
-    for (const SphereMeasurement& m : found.spheres) {
-      const double r = m.circle.radius;
-      if (set.expected_radius_px > 0 && std::abs(r / set.expected_radius_px - 1) > 0.3) continue;
-      kept.push_back(m);
-    }
-    if (kept.empty() && d.first_note.empty() && !found.notes.empty())
-      d.first_note = found.notes.front();
-    TrackFrame tf;
-    tf.index = i;
-    tf.id = frame->id;
-    tf.blobs = static_cast<int>(kept.size());
-    d.frames.push_back(std::move(tf));
-    d.blobs.push_back(std::move(kept));
+  std::vector<Result<Frame>> frames;
+  std::vector<FrameSpheres> found;
+  for (std::int64_t first = 0; first < src.count; first += batch) {
+    const std::int64_t n = std::min(batch, src.count - first);
+    frames.clear();
+    for (std::int64_t k = 0; k < n; ++k) frames.push_back(src.read(first + k));
+    found.assign(static_cast<std::size_t>(n), FrameSpheres{});
+    forEachFrame(static_cast<std::size_t>(n), [&](std::size_t k) {
+      if (frames[k] && frames[k]->good())
+        found[k] = detector.detect(frames[k]->image, src.max_value);
+    });
+    for (std::int64_t k = 0; k < n; ++k) addFrame(d, first + k, frames[k], found[k], set);
+    if (progress) progress(static_cast<int>(first + n), static_cast<int>(src.count));
   }
   return d;
 }

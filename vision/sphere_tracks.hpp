@@ -4,8 +4,9 @@
 // sphere's identity kept from frame to frame by the nearest constant-velocity
 // prediction (a joint assignment, so two spheres passing close by do not swap),
 // and the frames where two spheres touch or nearly touch (contacts) marked.
-// Frames are read one at a time through a callback, so a long camera file is
-// never held in memory.
+// Frames are read in order through a callback, a few per core at a time, so
+// a long camera file is never held in memory; each batch is detected on every
+// core the process may use (vision/frame_parallel.hpp).
 //
 // Limits: spheres that overlap in the image (one passing in front of the
 // other) merge into one blob; those frames are marked touching and identity

@@ -174,5 +174,77 @@ TEST(SphereTracks, AskingForMoreSpheresThanAreApartFails) {
   EXPECT_NE(tr.error().message.find("never 2 separate spheres"), std::string::npos);
 }
 
+// Frames are read in order, once each, and detected a batch at a time on
+// every core: the tracks are the same on one thread and on two, across
+// several batches (16 frames each on two cores) and with an unreadable frame.
+TEST(SphereTracks, TheSameTracksOnOneThreadAndOnTwoFramesReadOnceInOrder) {
+  Scene sc;
+  sc.radius_px = {18, 18};
+  sc.frames = 70;
+  sc.centres = [](int k) {
+    return std::vector<Eigen::Vector2d>{{80 + 4.0 * k, 150 + 0.02 * k * k},
+                                        {560 - 4.0 * k, 300 - 1.5 * k + 0.02 * k * k}};
+  };
+  const auto track = [&](const char* threads, std::vector<std::int64_t>& reads,
+                         std::vector<int>& progress) {
+    setenv("COLLIDE_THREADS", threads, 1);
+    FrameSource src = render(sc);
+    const auto draw = src.read;
+    src.read = [&reads, draw](std::int64_t k) -> Result<Frame> {
+      reads.push_back(k);
+      if (k == 17) return fail("frame 17: unreadable on purpose");
+      return draw(k);
+    };
+    auto tr = trackFootageSpheres(src, {}, [&](int done, int total) {
+      EXPECT_EQ(total, 70);
+      progress.push_back(done);
+    });
+    unsetenv("COLLIDE_THREADS");
+    return tr;
+  };
+  std::vector<std::int64_t> reads1, reads2;
+  std::vector<int> progress1, progress2;
+  auto one = track("1", reads1, progress1);
+  auto two = track("2", reads2, progress2);
+  ASSERT_TRUE(one.ok()) << one.error().message;
+  ASSERT_TRUE(two.ok()) << two.error().message;
+  for (const auto* reads : {&reads1, &reads2}) {
+    ASSERT_EQ(reads->size(), 70u);
+    for (std::size_t k = 0; k < reads->size(); ++k) EXPECT_EQ((*reads)[k], k);
+  }
+  for (const auto* progress : {&progress1, &progress2}) {
+    ASSERT_FALSE(progress->empty());
+    EXPECT_TRUE(std::is_sorted(progress->begin(), progress->end()));
+    EXPECT_EQ(progress->back(), 70);
+  }
+  EXPECT_EQ(one->frames_unreadable, 1);
+  EXPECT_EQ(two->frames_unreadable, 1);
+  ASSERT_EQ(one->spheres, 2);
+  ASSERT_EQ(two->spheres, 2);
+  ASSERT_EQ(one->frames.size(), 69u);
+  ASSERT_EQ(two->frames.size(), 69u);
+  int found = 0;
+  for (std::size_t f = 0; f < one->frames.size(); ++f) {
+    const TrackFrame &a = one->frames[f], &b = two->frames[f];
+    EXPECT_EQ(a.index, b.index);
+    EXPECT_NE(a.index, 17);
+    ASSERT_EQ(a.spheres.size(), 2u);
+    ASSERT_EQ(b.spheres.size(), 2u);
+    for (int s = 0; s < 2; ++s) {
+      EXPECT_EQ(a.spheres[s].found, b.spheres[s].found) << "frame " << a.index;
+      EXPECT_EQ(a.spheres[s].u_px, b.spheres[s].u_px) << "frame " << a.index;
+      EXPECT_EQ(a.spheres[s].v_px, b.spheres[s].v_px) << "frame " << a.index;
+      EXPECT_EQ(a.spheres[s].radius_px, b.spheres[s].radius_px) << "frame " << a.index;
+      if (!a.spheres[s].found) continue;
+      ++found;
+      // And where they were drawn.
+      const Eigen::Vector2d truth = sc.centres(static_cast<int>(a.index))[s];
+      EXPECT_LT((Eigen::Vector2d(a.spheres[s].u_px, a.spheres[s].v_px) - truth).norm(), 0.1)
+          << "frame " << a.index << " sphere " << s;
+    }
+  }
+  EXPECT_EQ(found, 2 * 69);
+}
+
 }  // namespace
 }  // namespace collide::vision
