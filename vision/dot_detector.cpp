@@ -121,24 +121,28 @@ bool fitBareQuadratic(const std::vector<BareSample>& s, FitScratch& k, Quadratic
 // in [0, n): the one per-pixel pass over the disc, so it is built for AVX2 as
 // well (four levels a compare) and the loader picks the build the processor
 // runs (GCC/Clang target_clones). The compare is the same in either build.
-#define COLLIDE_DARK_MASK(T)                                                                \
-  COLLIDE_AVX2_CLONES void darkMask(const T* __restrict row, const float* __restrict shade, \
-                                    double bg, unsigned char* __restrict mask, int n) {     \
-    for (int x = 0; x < n; ++x)                                                             \
-      mask[x] = static_cast<double>(row[x]) < 0.5 * (static_cast<double>(shade[x]) + bg);   \
+#define COLLIDE_DARK_MASK(T)                                                                 \
+  COLLIDE_AVX2_CLONES void darkMask(const T* __restrict row, const float* __restrict shade,  \
+                                    double bg, double depth, unsigned char* __restrict mask, \
+                                    int n) {                                                 \
+    for (int x = 0; x < n; ++x) {                                                            \
+      const double b = static_cast<double>(shade[x]);                                        \
+      mask[x] = static_cast<double>(row[x]) < std::min(0.5 * (b + bg), b - depth);           \
+    }                                                                                        \
   }
 COLLIDE_DARK_MASK(std::uint8_t)
 COLLIDE_DARK_MASK(std::uint16_t)
 #undef COLLIDE_DARK_MASK
 
 // The chord's pixels darker than halfway from the dark reference `bg` to the
-// bare sphere's level (`level`, from column bx0 and row v0) as runs along
+// bare sphere's level (`level`, from column bx0 and row v0), and by more
+// than `depth` below it (the noise's reach, BareLevel::noise), as runs along
 // each row, joined into 8-connected groups (Run::parent, a union-find). Each
 // row is first turned into a mask in one vectorised pass (darkMask), then the
 // mask is scanned for runs.
 template <class T>
-std::vector<Run> darkRuns(const cv::Mat& img, const cv::Mat& level, double bg, int v0, int bx0,
-                          const std::vector<int>& lo, const std::vector<int>& hi,
+std::vector<Run> darkRuns(const cv::Mat& img, const cv::Mat& level, double bg, double depth, int v0,
+                          int bx0, const std::vector<int>& lo, const std::vector<int>& hi,
                           const std::vector<char>& clipped) {
   const int rows = static_cast<int>(lo.size());
   std::vector<Run> runs;
@@ -150,7 +154,7 @@ std::vector<Run> darkRuns(const cv::Mat& img, const cv::Mat& level, double bg, i
     if (x_lo > x_hi) continue;
     const T* row = img.ptr<T>(y);
     const float* shade = level.ptr<float>(iy);
-    darkMask(row + x_lo, shade + (x_lo - bx0), bg, mask.data() + x_lo, x_hi - x_lo + 1);
+    darkMask(row + x_lo, shade + (x_lo - bx0), bg, depth, mask.data() + x_lo, x_hi - x_lo + 1);
     mask[x_hi + 1] = 0;  // a stop for the scan
     for (int x = x_lo; x <= x_hi;) {
       // Bare pixels, eight at a time while they last, then one at a time.
@@ -228,8 +232,14 @@ bool analysedDisc(const cv::Mat& img, const SphereMeasurement& s, const DotSetti
 // light blur takes the noise's upward bias off. A dot is then dark RELATIVE
 // to its own surroundings, so dots on the shaded side (barely above the
 // backdrop) are found as well as on the lit side.
+// The bare level, and the noise's standard deviation about it (1.4826 MAD of
+// closing - image over the disc's pixels, the dots a minority among them).
+struct BareLevel {
+  cv::Mat level;
+  double noise = 0;
+};
 template <class T>
-cv::Mat bareLevel(const cv::Mat& img, const Disc& d) {
+BareLevel bareLevel(const cv::Mat& img, const Disc& d) {
   // The closing runs on the frame's own integers (max and min commute with
   // the conversion, so it equals the closing of the converted levels); the
   // blur on floats.
@@ -247,11 +257,18 @@ cv::Mat bareLevel(const cv::Mat& img, const Disc& d) {
     for (int x = std::max(0, d.lo[y] - d.bx0); x <= std::min(roi.cols - 1, d.hi[y] - d.bx0); x += 3)
       diff.push_back(b[x] - static_cast<float>(a[x]));
   }
+  BareLevel out;
   if (diff.size() >= 10) {
-    std::nth_element(diff.begin(), diff.begin() + diff.size() / 2, diff.end());
-    level -= std::max(0.0f, diff[diff.size() / 2]);
+    const auto mid = diff.begin() + static_cast<std::ptrdiff_t>(diff.size() / 2);
+    std::nth_element(diff.begin(), mid, diff.end());
+    const float median = *mid;
+    level -= std::max(0.0f, median);
+    for (float& x : diff) x = std::abs(x - median);
+    std::nth_element(diff.begin(), mid, diff.end());
+    out.noise = 1.4826 * *mid;
   }
-  return level;
+  out.level = level;
+  return out;
 }
 
 // An 8-connected group of dark runs: a dot candidate.
@@ -450,9 +467,15 @@ DotFrame findDotsTyped(const cv::Mat& img, const SphereMeasurement& s, const Dot
   DotFrame out;
   Disc d;
   if (!analysedDisc(img, s, set, d)) return out;
-  const cv::Mat level = bareLevel<T>(img, d);
-  // A pixel is a dot candidate below halfway from the dark reference to B.
-  std::vector<Run> runs = darkRuns<T>(img, level, d.bg, d.v0, d.bx0, d.lo, d.hi, d.clipped);
+  const BareLevel bare = bareLevel<T>(img, d);
+  const cv::Mat& level = bare.level;
+  // A pixel is a dot candidate below halfway from the dark reference to B,
+  // and more than kNoiseDepth noise sigmas below B: on a shaded side, where
+  // halfway is only a few grey levels down, noise alone would otherwise make
+  // specks by the dozen, and their areas would then set the dots' size.
+  constexpr double kNoiseDepth = 3.0;  // a noise pixel's chance: 1.3e-3
+  std::vector<Run> runs =
+      darkRuns<T>(img, level, d.bg, kNoiseDepth * bare.noise, d.v0, d.bx0, d.lo, d.hi, d.clipped);
   if (runs.empty()) return out;
   std::vector<int> group_of;
   const std::vector<Group> groups = groupRuns(runs, group_of);

@@ -9,7 +9,10 @@
 // reference and their own B are dot candidates, the reference being the
 // backdrop (front light) or black (a backlit silhouette, darker than its
 // field); so dots on a shaded side, barely brighter than the backdrop, are
-// dark relative to it. 8-connected groups of candidates are dots. Each dot's
+// dark relative to it. A candidate must also lie 3 noise sigmas below B (the
+// noise from the spread of B - I over the sphere), or on a shaded side of a
+// noisy frame the noise alone makes specks. 8-connected groups of
+// candidates are dots. Each dot's
 // centre is the centroid of its coverage, (B - I) / (B - P) per pixel, over
 // its pixels and a two-pixel ring around them, with B here a quadratic fitted
 // to the bare sphere in a frame around the dot (smooth and unbiased) and the
