@@ -52,27 +52,36 @@ void addFrame(Detected& d, std::int64_t index, const Result<Frame>& frame,
 }
 
 /// Frames are read in order on the calling thread (a video can only be read
-/// one frame after the other), a batch of a few per core at a time, and each
-/// batch's frames are detected on every core (forEachFrame: the same numbers
-/// on any number of threads). The batch bounds the frames held in memory.
+/// one frame after the other), a batch at a time, and each batch's frames are
+/// detected on every core (forEachFrame: the same numbers on any number of
+/// threads). A batch is 8 frames per core, or fewer when they would hold more
+/// than set.batch_bytes of pixels (a large camera on many cores): one per core
+/// at least.
 Detected detectAll(const FrameSource& src, const SphereTrackSettings& set,
                    const std::function<void(int, int)>& progress) {
   const SphereDetector detector(set.detector);
-  const std::int64_t batch = 8 * static_cast<std::int64_t>(frameThreads());
+  const std::int64_t threads = frameThreads();
   Detected d;
   std::vector<Result<Frame>> frames;
   std::vector<FrameSpheres> found;
-  for (std::int64_t first = 0; first < src.count; first += batch) {
-    const std::int64_t n = std::min(batch, src.count - first);
+  for (std::int64_t first = 0; first < src.count;) {
     frames.clear();
-    for (std::int64_t k = 0; k < n; ++k) frames.push_back(src.read(first + k));
-    found.assign(static_cast<std::size_t>(n), FrameSpheres{});
-    forEachFrame(static_cast<std::size_t>(n), [&](std::size_t k) {
+    std::size_t bytes = 0;
+    while (first + static_cast<std::int64_t>(frames.size()) < src.count &&
+           static_cast<std::int64_t>(frames.size()) < 8 * threads &&
+           (bytes < set.batch_bytes || static_cast<std::int64_t>(frames.size()) < threads)) {
+      frames.push_back(src.read(first + static_cast<std::int64_t>(frames.size())));
+      if (frames.back()) bytes += frames.back()->image.total() * frames.back()->image.elemSize();
+    }
+    found.assign(frames.size(), FrameSpheres{});
+    forEachFrame(frames.size(), [&](std::size_t k) {
       if (frames[k] && frames[k]->good())
         found[k] = detector.detect(frames[k]->image, src.max_value);
     });
-    for (std::int64_t k = 0; k < n; ++k) addFrame(d, first + k, frames[k], found[k], set);
-    if (progress) progress(static_cast<int>(first + n), static_cast<int>(src.count));
+    for (std::size_t k = 0; k < frames.size(); ++k)
+      addFrame(d, first + static_cast<std::int64_t>(k), frames[k], found[k], set);
+    first += static_cast<std::int64_t>(frames.size());
+    if (progress) progress(static_cast<int>(first), static_cast<int>(src.count));
   }
   return d;
 }

@@ -4,9 +4,10 @@
 // sphere's identity kept from frame to frame by the nearest constant-velocity
 // prediction (a joint assignment, so two spheres passing close by do not swap),
 // and the frames where two spheres touch or nearly touch (contacts) marked.
-// Frames are read in order through a callback, a few per core at a time, so
-// a long camera file is never held in memory; each batch is detected on every
-// core the process may use (vision/frame_parallel.hpp).
+// Frames are read in order through a callback, a few per core at a time (at
+// most SphereTrackSettings::batch_bytes of pixels), so a long camera file
+// is never held in memory; each batch is detected on every core the process
+// may use (vision/frame_parallel.hpp).
 //
 // Limits: spheres that overlap in the image (one passing in front of the
 // other) merge into one blob; those frames are marked touching and identity
@@ -15,6 +16,7 @@
 // frame that shows all of them apart.
 //
 // Image coordinates: u right, v down, origin at the top-left pixel's centre.
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -42,6 +44,9 @@ struct SphereTrackSettings {
   /// Two spheres whose outlines are closer than this (px), or than their
   /// relative displacement in one frame, are in contact in that frame.
   double contact_margin_px = 1.0;
+  /// Frames read ahead of detection: 8 per core, fewer when they would hold
+  /// more pixel bytes than this (one per core at least).
+  std::size_t batch_bytes = std::size_t{256} << 20;
 };
 
 /// One sphere in one frame.

@@ -186,7 +186,7 @@ TEST(SphereTracks, TheSameTracksOnOneThreadAndOnTwoFramesReadOnceInOrder) {
                                         {560 - 4.0 * k, 300 - 1.5 * k + 0.02 * k * k}};
   };
   const auto track = [&](const char* threads, std::vector<std::int64_t>& reads,
-                         std::vector<int>& progress) {
+                         std::vector<int>& progress, std::size_t batch_bytes = 256 << 20) {
     setenv("COLLIDE_THREADS", threads, 1);
     FrameSource src = render(sc);
     const auto draw = src.read;
@@ -195,28 +195,41 @@ TEST(SphereTracks, TheSameTracksOnOneThreadAndOnTwoFramesReadOnceInOrder) {
       if (k == 17) return fail("frame 17: unreadable on purpose");
       return draw(k);
     };
-    auto tr = trackFootageSpheres(src, {}, [&](int done, int total) {
+    SphereTrackSettings set;
+    set.batch_bytes = batch_bytes;
+    auto tr = trackFootageSpheres(src, set, [&](int done, int total) {
       EXPECT_EQ(total, 70);
       progress.push_back(done);
     });
     unsetenv("COLLIDE_THREADS");
     return tr;
   };
-  std::vector<std::int64_t> reads1, reads2;
-  std::vector<int> progress1, progress2;
+  std::vector<std::int64_t> reads1, reads2, reads3;
+  std::vector<int> progress1, progress2, progress3;
   auto one = track("1", reads1, progress1);
   auto two = track("2", reads2, progress2);
+  // Batches cut by their bytes: one frame per core.
+  auto small = track("2", reads3, progress3, 1);
   ASSERT_TRUE(one.ok()) << one.error().message;
   ASSERT_TRUE(two.ok()) << two.error().message;
-  for (const auto* reads : {&reads1, &reads2}) {
+  ASSERT_TRUE(small.ok()) << small.error().message;
+  for (const auto* reads : {&reads1, &reads2, &reads3}) {
     ASSERT_EQ(reads->size(), 70u);
     for (std::size_t k = 0; k < reads->size(); ++k) EXPECT_EQ((*reads)[k], k);
   }
-  for (const auto* progress : {&progress1, &progress2}) {
+  for (const auto* progress : {&progress1, &progress2, &progress3}) {
     ASSERT_FALSE(progress->empty());
     EXPECT_TRUE(std::is_sorted(progress->begin(), progress->end()));
     EXPECT_EQ(progress->back(), 70);
   }
+  // Two frames a batch on two cores, sixteen with the default.
+  EXPECT_GE(progress3.size(), progress2.size() * 4);
+  ASSERT_EQ(small->frames.size(), two->frames.size());
+  for (std::size_t f = 0; f < two->frames.size(); ++f)
+    for (int s = 0; s < 2; ++s) {
+      EXPECT_EQ(small->frames[f].spheres.at(s).u_px, two->frames[f].spheres.at(s).u_px);
+      EXPECT_EQ(small->frames[f].spheres.at(s).v_px, two->frames[f].spheres.at(s).v_px);
+    }
   EXPECT_EQ(one->frames_unreadable, 1);
   EXPECT_EQ(two->frames_unreadable, 1);
   ASSERT_EQ(one->spheres, 2);
