@@ -513,7 +513,6 @@ using ShapeVec = Eigen::Matrix<double, kShape, 1>;
 struct ShadeMoments {
   enum { g00, g01, g02, g11, g12, g22, c0, c1, c2, yy, kCount };
   std::array<double, kCount> v{};
-  double& operator[](int i) { return v[i]; }
   double operator[](int i) const { return v[i]; }
   void add(const ShadeMoments& o) {
     for (int i = 0; i < kCount; ++i) v[i] += o.v[i];

@@ -66,11 +66,10 @@ Detected detectAll(const FrameSource& src, const SphereTrackSettings& set,
   std::vector<FrameSpheres> found;
   for (std::int64_t first = 0; first < src.count;) {
     frames.clear();
+    const std::int64_t most = std::min(8 * threads, src.count - first);
     std::size_t bytes = 0;
-    while (first + static_cast<std::int64_t>(frames.size()) < src.count &&
-           static_cast<std::int64_t>(frames.size()) < 8 * threads &&
-           (bytes < set.batch_bytes || static_cast<std::int64_t>(frames.size()) < threads)) {
-      frames.push_back(src.read(first + static_cast<std::int64_t>(frames.size())));
+    for (std::int64_t k = 0; k < most && (k < threads || bytes < set.batch_bytes); ++k) {
+      frames.push_back(src.read(first + k));
       if (frames.back()) bytes += frames.back()->image.total() * frames.back()->image.elemSize();
     }
     found.assign(frames.size(), FrameSpheres{});

@@ -26,6 +26,47 @@ struct DotStats {
   double angleRms() const { return std::sqrt(sum_a2 / matched); }
 };
 
+// The pattern's dot centres turned by the sphere's orientation.
+std::vector<Vec3> truthDots(const DotPattern& pat, const Quat& orientation) {
+  std::vector<Vec3> truth;
+  for (const Vec3& c : pat.centres) truth.push_back(orientation * c);
+  return truth;
+}
+
+// Each dot found against the nearest true dot (`radius`: the sphere's nominal
+// radius for the spurious test, `radius_px` its drawn one for the radial
+// errors): into `st`; which true dots were seen.
+std::vector<bool> matchDots(const DotFrame& df, const std::vector<Vec3>& truth, double radius,
+                            double radius_px, DotStats& st) {
+  std::vector<bool> seen(truth.size(), false);
+  for (const Dot& d : df.dots) {
+    EXPECT_NEAR(d.on_sphere.norm(), 1.0, 1e-12);
+    int best = -1;
+    double best_a = 1e9;
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      const double a = std::acos(std::clamp(d.on_sphere.dot(truth[i]), -1.0, 1.0));
+      if (a < best_a) best_a = a, best = static_cast<int>(i);
+    }
+    // Spurious: no true dot within 3 px on the image (0.05 rad on a 60 px
+    // sphere; 0.16 rad on an 18.5 px one, where a dot measured 1 px off
+    // is an error of the measurement, which the angle RMS below takes in).
+    if (best_a * radius > 3.0) {
+      std::printf("spurious dot at (%.2f, %.2f), area %.1f px^2, nearest true dot %.3f rad away\n",
+                  d.u_px, d.v_px, d.area_px2, best_a);
+      ++st.spurious;
+      continue;
+    }
+    seen[best] = true;
+    st.sum_a2 += best_a * best_a;
+    ++st.matched;
+    const Vec3& t = truth[best];
+    const int band = std::min(3, static_cast<int>(std::acos(t.z()) / (kPi / 8)));
+    st.radial[band] += (d.on_sphere.head<2>().norm() - t.head<2>().norm()) * radius_px;
+    ++st.radial_n[band];
+  }
+  return seen;
+}
+
 // Renders `frames` random single spheres and compares every dot found with the truth.
 DotStats run(RenderSettings rs, double radius, int frames, std::uint64_t seed,
              double must_find_deg = 60) {
@@ -64,36 +105,9 @@ DotStats run(RenderSettings rs, double radius, int frames, std::uint64_t seed,
     const FrameSpheres fs = det.detect(img, maxValue(rs.format));
     EXPECT_EQ(fs.spheres.size(), 1u);
     if (fs.spheres.size() != 1) continue;
-    const DotFrame df = findDots(img, fs.spheres[0], maxValue(rs.format));
-    std::vector<Vec3> truth;
-    for (const Vec3& c : pat.centres) truth.push_back(v.orientation * c);
-    std::vector<bool> seen(truth.size(), false);
-    for (const Dot& d : df.dots) {
-      EXPECT_NEAR(d.on_sphere.norm(), 1.0, 1e-12);
-      int best = -1;
-      double best_a = 1e9;
-      for (std::size_t i = 0; i < truth.size(); ++i) {
-        const double a = std::acos(std::clamp(d.on_sphere.dot(truth[i]), -1.0, 1.0));
-        if (a < best_a) best_a = a, best = static_cast<int>(i);
-      }
-      // Spurious: no true dot within 3 px on the image (0.05 rad on a 60 px
-      // sphere; 0.16 rad on an 18.5 px one, where a dot measured 1 px off
-      // is an error of the measurement, which the angle RMS below takes in).
-      if (best_a * radius > 3.0) {
-        std::printf(
-            "spurious dot at (%.2f, %.2f), area %.1f px^2, nearest true dot %.3f rad away\n",
-            d.u_px, d.v_px, d.area_px2, best_a);
-        ++st.spurious;
-        continue;
-      }
-      seen[best] = true;
-      st.sum_a2 += best_a * best_a;
-      ++st.matched;
-      const Vec3& t = truth[best];
-      const int band = std::min(3, static_cast<int>(std::acos(t.z()) / (kPi / 8)));
-      st.radial[band] += (d.on_sphere.head<2>().norm() - t.head<2>().norm()) * v.radius_px;
-      ++st.radial_n[band];
-    }
+    const std::vector<Vec3> truth = truthDots(pat, v.orientation);
+    const std::vector<bool> seen = matchDots(findDots(img, fs.spheres[0], maxValue(rs.format)),
+                                             truth, radius, v.radius_px, st);
     // Dots well inside the disc (near the line of sight) must be found.
     for (std::size_t i = 0; i < truth.size(); ++i)
       if (truth[i].z() > std::cos(must_find_deg * kPi / 180)) {
@@ -234,7 +248,8 @@ TEST(FindDots, NoisyShadedSpheresGiveNoSpecks) {
   std::uniform_real_distribution<double> uni(0, 1);
   std::normal_distribution<double> nd;
   const SphereDetector det;
-  int matched = 0, spurious = 0, visible = 0, found_visible = 0, frames = 0;
+  DotStats st;
+  int frames = 0;
   for (int f = 0; f < 20; ++f) {
     const DotPattern pat = DotPattern::random(500 + f);
     SphereView v;
@@ -249,37 +264,21 @@ TEST(FindDots, NoisyShadedSpheresGiveNoSpecks) {
     SphereMeasurement m = fs.spheres[0];
     m.circle.u = c.x(), m.circle.v = c.y(), m.circle.radius = radius_m / pixel;
     ++frames;
-    const DotFrame df = findDots(img, m, 4095);
-    std::vector<bool> seen(pat.centres.size(), false);
-    for (const Dot& d : df.dots) {
-      double best_a = 1e9;
-      int best = -1;
-      for (std::size_t i = 0; i < pat.centres.size(); ++i) {
-        const double a =
-            std::acos(std::clamp(d.on_sphere.dot(v.orientation * pat.centres[i]), -1.0, 1.0));
-        if (a < best_a) best_a = a, best = static_cast<int>(i);
-      }
-      if (best_a * m.circle.radius > 3.0) {
-        ++spurious;
-        continue;
-      }
-      ++matched;
-      seen[best] = true;
-    }
+    const std::vector<Vec3> truth = truthDots(pat, v.orientation);
+    const std::vector<bool> seen =
+        matchDots(findDots(img, m, 4095), truth, m.circle.radius, m.circle.radius, st);
     // Dots within 45 degrees of the line of sight on the lit half must be found.
-    for (std::size_t i = 0; i < pat.centres.size(); ++i) {
-      const Vec3 t = v.orientation * pat.centres[i];
-      if (t.z() > std::cos(kPi / 4) && t.x() < 0) {
-        ++visible;
-        found_visible += seen[i];
+    for (std::size_t i = 0; i < truth.size(); ++i)
+      if (truth[i].z() > std::cos(kPi / 4) && truth[i].x() < 0) {
+        ++st.visible;
+        st.found_visible += seen[i];
       }
-    }
   }
   std::printf("noisy sim-lab imaging: %d frames, %d dots matched, %d spurious, %d of %d found\n",
-              frames, matched, spurious, found_visible, visible);
+              frames, st.matched, st.spurious, st.found_visible, st.visible);
   EXPECT_GE(frames, 15);
-  EXPECT_LE(spurious, 0.05 * matched);
-  EXPECT_GE(found_visible, 0.9 * visible);
+  EXPECT_LE(st.spurious, 0.05 * st.matched);
+  EXPECT_GE(st.found_visible, 0.9 * st.visible);
 }
 
 TEST(FindDots, ShadedThesisScale) {
