@@ -44,6 +44,7 @@
 #include <random>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "analysis/campaign.hpp"
@@ -851,8 +852,6 @@ void printTable(const std::vector<PresetResult>& all) {
   }
 }
 
-}  // namespace
-
 const char* const kUsage =
     "usage: accuracy_bench [--shots N] [--preset NAME,NAME] [--profile FILE] [--seed S]\n"
     "                      [--verbose] [--detector-bias] [--error-budget]\n"
@@ -860,12 +859,19 @@ const char* const kUsage =
     "  presets: ideal lab thesis fast12 unequal backlit silhouette wall wall-backlit wall-lab\n"
     "  (all by default; --profile FILE adds one more, \"custom\", at the lab's speeds)\n";
 
-int main(int argc, char** argv) {
+// The command line's choices (flags other than these set the g_ globals).
+struct Options {
   int shots = 30;
   std::uint64_t seed = 4;
   std::string presets;         // empty: all
   std::string custom_profile;  // --profile FILE: one more preset, "custom"
   std::string reanalyse;       // --reanalyse FILE: one saved shot again
+};
+
+// The options from argv; the exit status instead when the program should
+// stop (0 after --help, 2 after a usage error, said on stderr).
+std::variant<Options, int> parseOptions(int argc, char** argv) {
+  Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
@@ -889,95 +895,113 @@ int main(int argc, char** argv) {
       return 2;
     }
     const char* v = argv[++i];
-    if (a == "--shots" && (shots = std::atoi(v)) < 1) {
+    if (a == "--shots" && (o.shots = std::atoi(v)) < 1) {
       std::fprintf(stderr, "accuracy_bench: --shots %s: give a whole number of shots >= 1\n", v);
       return 2;
     }
-    if (a == "--preset") presets = v;
-    if (a == "--profile") custom_profile = v;
-    if (a == "--seed") seed = std::strtoull(v, nullptr, 10);
+    if (a == "--preset") o.presets = v;
+    if (a == "--profile") o.custom_profile = v;
+    if (a == "--seed") o.seed = std::strtoull(v, nullptr, 10);
     if (a == "--save-bad") g_save_bad = v;
     if (a == "--save-shot") g_save_shot = std::atoi(v);
-    if (a == "--reanalyse") reanalyse = v;
+    if (a == "--reanalyse") o.reanalyse = v;
   }
-  if (!reanalyse.empty()) {
-    // One saved shot again, with the per-sphere errors.
-    auto shot = app::readShot(reanalyse);
-    if (!shot || !shot->truth) {
-      std::fprintf(stderr, "%s\n", shot ? "no truth in the shot" : shot.error().message.c_str());
-      return 1;
-    }
-    auto r = vision::analyzeBurst(shot->burst, app::analysisSettingsFor(*shot));
-    std::array<Sphere, 2> tb, ta;
-    if (!r || !truthAtContact(*shot, tb, ta)) {
-      std::fprintf(stderr, "%s\n", r ? "no collision in the truth" : r.error().message.c_str());
-      return 1;
-    }
-    auto truth = measureCollision(tb, ta);
-    const vision::CollisionProperties& c = r->collision;
-    std::printf(
-        "e %.5f (truth %.5f, sigma %.5f) beta %.4f (truth %.4f, sigma %.4f) vn %.3f vs %.3f\n",
-        c.e.value, truth->e, c.e.sigma, c.beta.value, truth->beta, c.beta.sigma, c.vn_m_s.value,
-        c.vs_m_s.value);
-    for (const std::string& f : r->quality_flags) std::printf("flag %s\n", f.c_str());
-    if (g_verbose)
-      for (const vision::FrameDetections& fd : r->frames) {
-        std::printf("frame %3lld:", static_cast<long long>(fd.frame_id));
-        for (int s = 0; s < 2; ++s)
-          if (fd.sphere[s])
-            std::printf("  s%d (%.2f, %.2f) r %.2f %s%s dots %zu", s + 1, fd.sphere[s]->u_px,
-                        fd.sphere[s]->v_px, fd.sphere[s]->radius_px,
-                        fd.sphere[s]->cut_by_border ? "C" : "", fd.sphere[s]->touching ? "T" : "",
-                        fd.dots[s].size());
-        std::printf("\n");
-      }
-    for (int s = 0; s < 2; ++s) {
-      const vision::SphereKinematics& k = r->sphere[s];
-      const auto row = [](const char* what, const Estimate3& e, const Vec3& t) {
-        std::printf("  %-9s (%+.4f %+.4f %+.4f) truth (%+.4f %+.4f %+.4f) sigma (%.4f %.4f %.4f)\n",
-                    what, e.value.x(), e.value.y(), e.value.z(), t.x(), t.y(), t.z(), e.sigma.x(),
-                    e.sigma.y(), e.sigma.z());
-      };
-      std::printf("sphere %d: frames %d/%d\n", s + 1, k.frames_before, k.frames_after);
-      row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
-      row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
-      row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
-      row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
-    }
-    return 0;
+  return o;
+}
+
+// --reanalyse: one saved shot again, with the per-sphere errors; the exit
+// status.
+int reanalyseShot(const std::string& path) {
+  auto shot = app::readShot(path);
+  if (!shot || !shot->truth) {
+    std::fprintf(stderr, "%s\n", shot ? "no truth in the shot" : shot.error().message.c_str());
+    return 1;
   }
+  auto r = vision::analyzeBurst(shot->burst, app::analysisSettingsFor(*shot));
+  std::array<Sphere, 2> tb, ta;
+  if (!r || !truthAtContact(*shot, tb, ta)) {
+    std::fprintf(stderr, "%s\n", r ? "no collision in the truth" : r.error().message.c_str());
+    return 1;
+  }
+  auto truth = measureCollision(tb, ta);
+  const vision::CollisionProperties& c = r->collision;
+  std::printf(
+      "e %.5f (truth %.5f, sigma %.5f) beta %.4f (truth %.4f, sigma %.4f) vn %.3f vs %.3f\n",
+      c.e.value, truth->e, c.e.sigma, c.beta.value, truth->beta, c.beta.sigma, c.vn_m_s.value,
+      c.vs_m_s.value);
+  for (const std::string& f : r->quality_flags) std::printf("flag %s\n", f.c_str());
+  if (g_verbose)
+    for (const vision::FrameDetections& fd : r->frames) {
+      std::printf("frame %3lld:", static_cast<long long>(fd.frame_id));
+      for (int s = 0; s < 2; ++s)
+        if (fd.sphere[s])
+          std::printf("  s%d (%.2f, %.2f) r %.2f %s%s dots %zu", s + 1, fd.sphere[s]->u_px,
+                      fd.sphere[s]->v_px, fd.sphere[s]->radius_px,
+                      fd.sphere[s]->cut_by_border ? "C" : "", fd.sphere[s]->touching ? "T" : "",
+                      fd.dots[s].size());
+      std::printf("\n");
+    }
+  for (int s = 0; s < 2; ++s) {
+    const vision::SphereKinematics& k = r->sphere[s];
+    const auto row = [](const char* what, const Estimate3& e, const Vec3& t) {
+      std::printf("  %-9s (%+.4f %+.4f %+.4f) truth (%+.4f %+.4f %+.4f) sigma (%.4f %.4f %.4f)\n",
+                  what, e.value.x(), e.value.y(), e.value.z(), t.x(), t.y(), t.z(), e.sigma.x(),
+                  e.sigma.y(), e.sigma.z());
+    };
+    std::printf("sphere %d: frames %d/%d\n", s + 1, k.frames_before, k.frames_after);
+    row("v before", k.velocity_before_m_s, tb[s].velocity_m_s);
+    row("v after", k.velocity_after_m_s, ta[s].velocity_m_s);
+    row("w before", k.spin_before_rad_s, tb[s].spin_rad_s);
+    row("w after", k.spin_after_rad_s, ta[s].spin_rad_s);
+  }
+  return 0;
+}
+
+// The presets --preset names (all when none) and the --profile one, each
+// printed as it finishes, then the table; the exit status.
+int runPresets(const Options& o) {
   const std::string root = COLLIDE_SOURCE_DIR;
   std::vector<PresetResult> results;
   for (const Preset& pr : kPresets) {
     // (Built by appending: GCC 12 warns falsely, -Wrestrict, on "," + name + ",".)
     std::string list = ",", key = ",";
-    list.append(presets).append(",");
+    list.append(o.presets).append(",");
     key.append(pr.name).append(",");
-    if (!presets.empty() && list.find(key) == std::string::npos) continue;
+    if (!o.presets.empty() && list.find(key) == std::string::npos) continue;
     auto profile = hw::loadRigProfile(root + "/" + pr.profile);
     if (!profile) {
       std::fprintf(stderr, "%s\n", profile.error().message.c_str());
       return 1;
     }
-    results.push_back(runPreset(pr, *profile, shots, seed));
+    results.push_back(runPreset(pr, *profile, o.shots, o.seed));
     printPreset(results.back());
   }
   // Imaging the presets do not cover (other lamps, optics, noise, rig errors):
   // any profile, at the lab preset's speeds, spins asked.
   static const Preset custom{"custom", "", 1.0, 2.0, true, false, "--profile"};
-  if (!custom_profile.empty()) {
-    auto profile = hw::loadRigProfile(custom_profile);
+  if (!o.custom_profile.empty()) {
+    auto profile = hw::loadRigProfile(o.custom_profile);
     if (!profile) {
       std::fprintf(stderr, "%s\n", profile.error().message.c_str());
       return 2;
     }
-    results.push_back(runPreset(custom, *profile, shots, seed));
+    results.push_back(runPreset(custom, *profile, o.shots, o.seed));
     printPreset(results.back());
   }
   if (results.empty()) {
-    std::fprintf(stderr, "no preset named in --preset %s\n", presets.c_str());
+    std::fprintf(stderr, "no preset named in --preset %s\n", o.presets.c_str());
     return 2;
   }
   printTable(results);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::variant<Options, int> parsed = parseOptions(argc, argv);
+  if (const int* status = std::get_if<int>(&parsed)) return *status;
+  const Options& o = std::get<Options>(parsed);
+  if (!o.reanalyse.empty()) return reanalyseShot(o.reanalyse);
+  return runPresets(o);
 }
