@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
@@ -275,6 +276,7 @@ struct Blob {
   bool seeded = false;               // holds a sample at or above the seed level
   std::vector<cv::Point2d> cells;    // cell centres (pixels), for splitting
   int area = 0;                      // cells
+  bool at_border = false;            // reaches the frame's border
 };
 
 // Runs of grid cells at or above a threshold along the grid rows, joined
@@ -314,6 +316,52 @@ struct GridRuns {
     row_first[g.h] = static_cast<int>(runs.size());
   }
 };
+
+Circle bestTripleCircle(const std::vector<CirclePoint>& points, const PointArrays& pa, double band,
+                        const Circle& start, int& best);
+bool goodCoarse(const Result<CircleFit>& f, std::size_t total, int step);
+
+// A blob that is only part of its sphere: the lit side of a sphere whose
+// shaded limb is darker than a grey backdrop, cut off by a chord where the
+// limb crosses the backdrop's level. The circle that most of its outline
+// lies on (RANSAC over triples of outline points), refitted to those points,
+// when they are at least 40 % of the outline, lie on it as closely as a
+// whole sphere's outline does (goodCoarse) and span at least a third of it;
+// the fine stage then searches the rest of the limb around it
+// (measureCandidate); and when its cells lie inside that circle. Not for a
+// blob at the frame's border: a sphere cut by it is an arc already, and one
+// cut too deep for a circle stays unmeasured.
+bool partialDisc(const Blob& blob, int step, CircleFit& out) {
+  const std::vector<CirclePoint>& pts = blob.outline;
+  if (blob.at_border || pts.size() < 12) return false;
+  const PointArrays pa(pts);
+  Circle start;
+  if (!kasaFit(pa, start)) return false;
+  const double band = 0.75 * step + 0.5;
+  int best = -1;
+  const Circle c = bestTripleCircle(pts, pa, band, start, best);
+  if (best < std::max(8.0, 0.4 * static_cast<double>(pts.size()))) return false;
+  std::vector<CirclePoint> on;
+  for (const CirclePoint& p : pts)
+    if (std::abs(std::hypot(p.u - c.u, p.v - c.v) - c.r) <= band) on.push_back(p);
+  const Result<CircleFit> f = fitCircle(on, 3.0, band);
+  if (!goodCoarse(f, on.size(), step)) return false;
+  // A part of a disc lies inside the disc (a square, whose corners the best
+  // circle through its sides leaves outside, does not).
+  int outside = 0;
+  for (const cv::Point2d& q : blob.cells)
+    outside += std::hypot(q.x - f->u, q.y - f->v) > f->radius + step;
+  if (outside > 0.02 * static_cast<double>(blob.cells.size())) return false;
+  // The largest gap between the points' directions from the centre.
+  std::vector<double> angle;
+  for (const CirclePoint& p : on) angle.push_back(std::atan2(p.v - f->v, p.u - f->u));
+  std::sort(angle.begin(), angle.end());
+  double gap = angle.front() + 2 * std::numbers::pi - angle.back();
+  for (std::size_t i = 1; i < angle.size(); ++i) gap = std::max(gap, angle[i] - angle[i - 1]);
+  if (gap > 4 * std::numbers::pi / 3) return false;
+  out = *f;
+  return true;
+}
 
 // A blob's extent in grid cells.
 struct Extent {
@@ -356,6 +404,7 @@ void traceBlob(const Grid& g, const GridRuns& gr, const std::vector<int>& blob_o
                const Extent& e, Blob& blob, std::vector<int>& top, std::vector<int>& bottom,
                std::vector<int>& left, std::vector<int>& right) {
   const double step = g.step, off = g.off;
+  blob.at_border = e.x0 == 0 || e.y0 == 0 || e.x1 == g.w - 1 || e.y1 == g.h - 1;
   top.assign(e.x1 - e.x0 + 1, -1), bottom.assign(e.x1 - e.x0 + 1, -1);
   left.assign(e.y1 - e.y0 + 1, -1), right.assign(e.y1 - e.y0 + 1, -1);
   for (int y = e.y0; y <= e.y1; ++y)
@@ -555,6 +604,7 @@ struct Profile {
   // the residual checks need nothing else of them.
   ShadeMoments mom;
   ShapeVec shape = ShapeVec::Zero();  // the fitted (b1, b2, b3) around it
+  bool darker = false;  // the limb is darker than the backdrop: its samples turned over
   bool ok = false;
 };
 
@@ -721,10 +771,14 @@ COLLIDE_AVX2_CLONES void shapeMoments(const std::vector<float>& samples, int len
 // the way from the one to the other (the old global threshold's place on an
 // evenly lit sphere). So a limb in shadow, barely above the backdrop, and a lit
 // limb are both cut at their own level, wherever the frame's brightest
-// pixels are.
-void screenProfile(const float* p, int len, int predicted, const EdgeContext& ctx, Profile& pr,
+// pixels are. A profile that leaves the background downwards meets a limb
+// darker than the backdrop (a grey backdrop, the shaded side under one lamp):
+// its samples are turned over about the background, 2 far - p, in place, so
+// that it and everything after reads every limb as brighter.
+void screenProfile(float* p, int len, int predicted, const EdgeContext& ctx, Profile& pr,
                    EdgeStats& st) {
   pr.ok = false;
+  pr.darker = false;
   const int first = std::max(ctx.n_out + ctx.hw + 1, predicted - ctx.search);
   const int last = std::min(len - ctx.hw - ctx.n_in - 1, predicted + ctx.search);
   // Background far out: flat and dark (no other sphere, no glare).
@@ -735,16 +789,25 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
   const double tol = 5.0 * ctx.sigma + 1.0;
   for (int i = 0; i < ctx.n_out; ++i)
     if (std::abs(p[i] - far) > tol) return;
-  // Where the profile first leaves the background (two samples in a row).
+  // Where the profile first leaves the background (two samples in a row),
+  // up or down.
   const double step = std::max(3.0 * ctx.sigma + 1.0, ctx.min_contrast);
-  const float leave = static_cast<float>(far + step);
+  const float leave = static_cast<float>(far + step), sink = static_cast<float>(far - step);
   int c0 = -1;
-  for (int i = first - 1, end = std::min(last + 2 * ctx.hw, len - 2); i <= end; ++i)
+  for (int i = first - 1, end = std::min(last + 2 * ctx.hw, len - 2); i <= end; ++i) {
     if (p[i] >= leave && p[i + 1] >= leave) {
       c0 = i;
       break;
     }
+    if (p[i] <= sink && p[i + 1] <= sink) {
+      c0 = i;
+      pr.darker = true;
+      break;
+    }
+  }
   if (c0 < 0 || c0 > last) return;
+  if (pr.darker)
+    for (int i = 0; i < len; ++i) p[i] = static_cast<float>(2.0 * far) - p[i];
   // The limb's level just beyond the widest transition, and the crossing level.
   const int k = std::min(c0 + 2 * ctx.hw + 1, len - 2);
   const double near_in = 0.5 * (p[k] + p[k + 1]);
@@ -801,9 +864,11 @@ void screenProfile(const float* p, int len, int predicted, const EdgeContext& ct
 // stretch keeps the whole outline's shape unless its own fits its profiles
 // significantly better (by more than the noise can explain). Profiles whose
 // inside samples stray from their shape (a dot edge, a highlight) are dropped
-// and the fit repeated.
+// and the fit repeated. Limbs darker than the backdrop (turned over) and
+// brighter ones are fitted apart, `darker` those of one kind: the two shade
+// oppositely where the limb crosses the backdrop's level.
 // Returns whether any stretch took the square-root shape.
-bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
+bool fitShadingOf(std::vector<Profile>& profiles, const EdgeContext& ctx, bool darker) {
   struct Sums {
     ShadeMoments s;
     int n = 0;
@@ -844,7 +909,7 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
   // and how many sectors it reaches out on either side.
   std::array<Sums, kSectors> sector{};
   for (const Profile& pr : profiles)
-    if (pr.ok) sector[pr.bin].s.add(pr.mom), ++sector[pr.bin].n;
+    if (pr.ok && pr.darker == darker) sector[pr.bin].s.add(pr.mom), ++sector[pr.bin].n;
   std::array<Sums, kSectors> stretch;
   std::array<int, kSectors> reach{};
   std::array<bool, kSectors> changed;  // a sector that lost profiles since the last round
@@ -886,7 +951,7 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
     any_root = false;
     changed.fill(false);
     for (Profile& pr : profiles) {
-      if (!pr.ok) continue;
+      if (!pr.ok || pr.darker != darker) continue;
       pr.shape = shape[pr.bin];
       any_root |= pr.shape(2) != 0;
       if (round == 1) continue;
@@ -906,6 +971,14 @@ bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
     if (!dropped) break;
   }
   return any_root;
+}
+
+// The shading of both kinds of limb; whether any took the square root.
+bool fitShading(std::vector<Profile>& profiles, const EdgeContext& ctx) {
+  const bool brighter = fitShadingOf(profiles, ctx, false);
+  const bool any_darker = std::any_of(profiles.begin(), profiles.end(),
+                                      [](const Profile& pr) { return pr.ok && pr.darker; });
+  return (any_darker && fitShadingOf(profiles, ctx, true)) || brighter;
 }
 
 // The edges of screened profiles are solved eight at a time, one profile per
@@ -1023,7 +1096,7 @@ COLLIDE_INLINE_KERNEL double acceptEdge(const Profile& pr, const EdgeContext& ct
   const double dep = depthAlong(len, e.g[l], e.h[l]);
   const double end = level + e.b0[l] * dep + e.b1[l] * dep * dep + e.b2[l] * std::sqrt(dep);
   if (!(end > pr.thr - pr.out)) return std::nan("");
-  if (st) {
+  if (st && !pr.darker) {  // the levels of limbs brighter than the backdrop
     st->sum_out += pr.out;
     st->sum_rim += pr.out + level;  // brightness at the limb
     ++st->accepted;
@@ -1082,8 +1155,8 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   // would correlate the depths with its samples' noise and bias the shape.
   // (Polynomial shapes do not depend on where the depths start.)
   if (root) {
-    std::array<double, kSectors> shift{};
-    std::array<int, kSectors> count{};
+    std::array<double, 2 * kSectors> shift{};  // brighter limbs' sectors, then darker ones'
+    std::array<int, 2 * kSectors> count{};
     std::vector<std::size_t> shifted;
     profileEdges(samples, len, profiles, ctx, 2, nullptr, edges);
     for (std::size_t k = 0; k < profiles.size(); ++k) {
@@ -1091,8 +1164,9 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
       if (!pr.ok) continue;
       const double x = edges[k];
       if (std::isnan(x)) continue;
-      shift[pr.bin] += pr.c + ctx.hw + 0.5 - x - pr.len0;
-      ++count[pr.bin];
+      const int at = pr.bin + (pr.darker ? kSectors : 0);
+      shift[at] += pr.c + ctx.hw + 0.5 - x - pr.len0;
+      ++count[at];
     }
     for (std::size_t k = 0; k < profiles.size(); ++k) {
       Profile& pr = profiles[k];
@@ -1100,7 +1174,7 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
       double sum = 0;
       int n = 0;
       for (int w = -1; w <= 1; ++w) {
-        const int bin = (pr.bin + w + kSectors) % kSectors;
+        const int bin = (pr.bin + w + kSectors) % kSectors + (pr.darker ? kSectors : 0);
         sum += shift[bin], n += count[bin];
       }
       if (n == 0) continue;
@@ -1302,9 +1376,20 @@ std::vector<Candidate> coarseCandidates(const std::vector<Blob>& blobs, double m
       cands.push_back({pair[1], true});
       continue;
     }
+    CircleFit part;
+    if (partialDisc(blob, step, part) && radiusOk(part)) {
+      cands.push_back({part, false});
+      continue;
+    }
     ++out.blobs_ignored;
   }
   return cands;
+}
+
+// Whether the circle reaches beyond the frame.
+bool cutByBorder(const CircleFit& f, const cv::Mat& img) {
+  const double r = f.radius;
+  return f.u - r < -0.5 || f.v - r < -0.5 || f.u + r > img.cols - 0.5 || f.v + r > img.rows - 0.5;
 }
 
 // One candidate measured from its edge profiles (step 4 of the method); none
@@ -1334,6 +1419,22 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
   edgePoints<T>(img, c, local, pts, st);
   Result<CircleFit> fit =
       fitOutline(pts, c, set.camera, {cand.held_radius_px, cand.held_radius_sigma_px});
+  // A blob can be only part of its sphere (a limb darker than a grey
+  // backdrop is not in it): its circle then sent the search for edges to the
+  // wrong places on that side. When the fitted circle lies farther from it
+  // than the coarse stage errs, search again around the fitted one (twice
+  // at most: the second search starts from a circle fitted on both sides);
+  // not for a sphere cut by the border, whose short arc moves a free fit.
+  for (int again = 0;
+       again < 2 && fit && fit->points >= 12 && !cutByBorder(*fit, img) &&
+       std::hypot(fit->u - c.u, fit->v - c.v) + std::abs(fit->radius - c.r) > 0.5 * local.search;
+       ++again) {
+    c = {fit->u, fit->v, hold ? c.r : fit->radius};
+    pts.clear();
+    st = EdgeStats{};
+    edgePoints<T>(img, c, local, pts, st);
+    fit = fitOutline(pts, c, set.camera, {cand.held_radius_px, cand.held_radius_sigma_px});
+  }
   if (!fit || fit->points < 12) {
     ++out.blobs_ignored;
     out.notes.push_back("a blob near (" + std::to_string(static_cast<int>(c.u)) + ", " +
@@ -1349,8 +1450,7 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
   m.saturated_pixels = st.saturated;
   m.border_profiles = st.border;
   const double r = fit->radius;
-  m.cut_by_border = fit->u - r < -0.5 || fit->v - r < -0.5 || fit->u + r > img.cols - 0.5 ||
-                    fit->v + r > img.rows - 0.5;
+  m.cut_by_border = cutByBorder(*fit, img);
   if (r < min_r || r > max_r) {
     ++out.blobs_ignored;
     return std::nullopt;

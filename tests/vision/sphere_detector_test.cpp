@@ -278,6 +278,10 @@ struct ShadedSetup {
   /// Backlit: the room light on the spheres' faces; negative: drawn from
   /// 0.15-0.35 (sim-backlit's); 0: bare silhouettes, black to the sensor.
   double backlit_ambient = -1;
+  /// A grey backdrop brighter than the dark limb: 15 to 40 % of the way from
+  /// the dark limb's level to the lit limb's, so the limb is darker than the
+  /// backdrop on much of the outline.
+  bool grey_backdrop = false;
 };
 
 // One frame of two dotted spheres, apart, under a random one-sided lamp
@@ -310,6 +314,12 @@ ShadedFrame shadedFrame(std::mt19937_64& rng, const ShadedSetup& s, int frame) {
   im.lighting.dot_albedo = 0.06;
   const double dark_limb = im.lighting.ambient * im.lighting.sphere_albedo;
   im.lighting.backdrop_level = 0.02 + (0.6 * dark_limb - 0.02) * uni(rng);
+  if (s.grey_backdrop) {
+    // Lambert's law at the limb facing the lamp: n.l = sin(off).
+    const double lit_limb = im.lighting.sphere_albedo *
+                            (im.lighting.ambient + (1 - im.lighting.ambient) * std::sin(off));
+    im.lighting.backdrop_level = dark_limb + (0.15 + 0.25 * uni(rng)) * (lit_limb - dark_limb);
+  }
   if (frame % 2) {
     im.lighting.specular_strength = 0.3;
     im.lighting.specular_exponent = 80;
@@ -403,6 +413,34 @@ TEST(SphereDetector, ShadedFrontLitSpheresMeetTheAccuracyTarget) {
     ASSERT_GT(err.n, 0) << what;
     EXPECT_LE(err.centreRms(), 0.08) << what;
     EXPECT_LE(err.radiusRms(), 0.12) << what;
+    EXPECT_LE(err.max_c, 0.5) << what;
+    EXPECT_LE(err.max_r, 0.5) << what;
+  }
+}
+
+// A grey backdrop (issue 12): the limb is darker than the backdrop on the
+// shaded side and brighter on the lit side, crossing its level in between.
+// Its profiles sink below the background there, and the coarse blob was the
+// lit part alone: it was refused as no circle, or its circle came from the
+// lit arc with the dark side's "edges" found at the terminator inside. Before
+// the darker limbs were read: 11 and 13 of 32 spheres missed (8, 12 bit),
+// centre RMS 0.69 and 0.63 px, worst 3.1 px.
+TEST(SphereDetector, ALimbDarkerThanAGreyBackdropIsMeasured) {
+  for (const auto& [format, bits] :
+       {std::pair{PixelFormat::Mono8, 8}, std::pair{PixelFormat::Mono12, 12}}) {
+    ShadedSetup s;
+    s.format = format;
+    s.adc_bits = bits;
+    s.grey_backdrop = true;
+    int missed = 0;
+    const Errors err = shadedErrors(s, 16, 70 + bits, missed);
+    char what[64];
+    std::snprintf(what, sizeof what, "grey backdrop 60 px, %s %d-bit", toString(format), bits);
+    err.print(what);
+    EXPECT_EQ(missed, 0) << what;
+    ASSERT_GT(err.n, 0) << what;
+    EXPECT_LE(err.centreRms(), 0.1) << what;
+    EXPECT_LE(err.radiusRms(), 0.15) << what;
     EXPECT_LE(err.max_c, 0.5) << what;
     EXPECT_LE(err.max_r, 0.5) << what;
   }
