@@ -390,6 +390,32 @@ Errors shadedErrors(const ShadedSetup& s, int frames, std::uint64_t seed, int& m
   return err;
 }
 
+// Shaded 60 px spheres in each of `formats` ({format, ADC bits}), 16 frames
+// each (seed + bits), `grey_backdrop` as ShadedSetup's: every sphere found,
+// centre and radius RMS within the bounds (px), none off by more than 0.5 px.
+void expectShadedAccuracy(std::initializer_list<std::pair<PixelFormat, int>> formats,
+                          bool grey_backdrop, std::uint64_t seed, double centre_rms,
+                          double radius_rms) {
+  for (const auto& [format, bits] : formats) {
+    ShadedSetup s;
+    s.format = format;
+    s.adc_bits = bits;
+    s.grey_backdrop = grey_backdrop;
+    int missed = 0;
+    const Errors err = shadedErrors(s, 16, seed + bits, missed);
+    char what[80];
+    std::snprintf(what, sizeof what, "%s 60 px, %s %d-bit",
+                  grey_backdrop ? "grey backdrop" : "shaded", toString(format), bits);
+    err.print(what);
+    EXPECT_EQ(missed, 0) << what;
+    ASSERT_GT(err.n, 0) << what;
+    EXPECT_LE(err.centreRms(), centre_rms) << what;
+    EXPECT_LE(err.radiusRms(), radius_rms) << what;
+    EXPECT_LE(err.max_c, 0.5) << what;
+    EXPECT_LE(err.max_r, 0.5) << what;
+  }
+}
+
 // Issue 12: one-sided front light, 60 px spheres, 8/12/16 bit with a real
 // sensor's noise. The old global threshold lost the dark limb: 36 of 128
 // spheres missed, centre RMS 0.22-0.44 px, worst 2.2 px. Now every sphere is
@@ -398,24 +424,11 @@ Errors shadedErrors(const ShadedSetup& s, int frames, std::uint64_t seed, int& m
 // to the limb only approximately). The issue's target (0.05 px RMS, 0.2 px
 // worst) is not reached yet; the bounds below hold what is achieved.
 TEST(SphereDetector, ShadedFrontLitSpheresMeetTheAccuracyTarget) {
-  for (const auto& [format, bits] :
-       {std::pair{PixelFormat::Mono8, 8}, std::pair{PixelFormat::Mono12, 10},
-        std::pair{PixelFormat::Mono12, 12}, std::pair{PixelFormat::Mono16, 16}}) {
-    ShadedSetup s;
-    s.format = format;
-    s.adc_bits = bits;
-    int missed = 0;
-    const Errors err = shadedErrors(s, 16, 50 + bits, missed);
-    char what[64];
-    std::snprintf(what, sizeof what, "shaded 60 px, %s %d-bit", toString(format), bits);
-    err.print(what);
-    EXPECT_EQ(missed, 0) << what;
-    ASSERT_GT(err.n, 0) << what;
-    EXPECT_LE(err.centreRms(), 0.08) << what;
-    EXPECT_LE(err.radiusRms(), 0.12) << what;
-    EXPECT_LE(err.max_c, 0.5) << what;
-    EXPECT_LE(err.max_r, 0.5) << what;
-  }
+  expectShadedAccuracy({{PixelFormat::Mono8, 8},
+                        {PixelFormat::Mono12, 10},
+                        {PixelFormat::Mono12, 12},
+                        {PixelFormat::Mono16, 16}},
+                       false, 50, 0.08, 0.12);
 }
 
 // A grey backdrop (issue 12): the limb is darker than the backdrop on the
@@ -426,24 +439,7 @@ TEST(SphereDetector, ShadedFrontLitSpheresMeetTheAccuracyTarget) {
 // the darker limbs were read: 11 and 13 of 32 spheres missed (8, 12 bit),
 // centre RMS 0.69 and 0.63 px, worst 3.1 px.
 TEST(SphereDetector, ALimbDarkerThanAGreyBackdropIsMeasured) {
-  for (const auto& [format, bits] :
-       {std::pair{PixelFormat::Mono8, 8}, std::pair{PixelFormat::Mono12, 12}}) {
-    ShadedSetup s;
-    s.format = format;
-    s.adc_bits = bits;
-    s.grey_backdrop = true;
-    int missed = 0;
-    const Errors err = shadedErrors(s, 16, 70 + bits, missed);
-    char what[64];
-    std::snprintf(what, sizeof what, "grey backdrop 60 px, %s %d-bit", toString(format), bits);
-    err.print(what);
-    EXPECT_EQ(missed, 0) << what;
-    ASSERT_GT(err.n, 0) << what;
-    EXPECT_LE(err.centreRms(), 0.1) << what;
-    EXPECT_LE(err.radiusRms(), 0.15) << what;
-    EXPECT_LE(err.max_c, 0.5) << what;
-    EXPECT_LE(err.max_r, 0.5) << what;
-  }
+  expectShadedAccuracy({{PixelFormat::Mono8, 8}, {PixelFormat::Mono12, 12}}, true, 70, 0.1, 0.15);
 }
 
 // The thesis' imaging scale: 18 px radius, 240 x 192, photon-limited noise,
