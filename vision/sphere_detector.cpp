@@ -326,11 +326,11 @@ bool goodCoarse(const Result<CircleFit>& f, std::size_t total, int step);
 // limb crosses the backdrop's level. The circle that most of its outline
 // lies on (RANSAC over triples of outline points), refitted to those points,
 // when they are at least 40 % of the outline, lie on it as closely as a
-// whole sphere's outline does (goodCoarse) and span at least a third of it;
-// the fine stage then searches the rest of the limb around it
-// (measureCandidate); and when its cells lie inside that circle. Not for a
-// blob at the frame's border: a sphere cut by it is an arc already, and one
-// cut too deep for a circle stays unmeasured.
+// whole sphere's outline does (goodCoarse) and span at least a third of it,
+// and the blob's cells lie inside it; the fine stage then searches the rest
+// of the limb around it (measureCandidate). Not for a blob at the frame's
+// border: a sphere cut by it is an arc already, and one cut too deep for a
+// circle stays unmeasured.
 bool partialDisc(const Blob& blob, int step, CircleFit& out) {
   const std::vector<CirclePoint>& pts = blob.outline;
   if (blob.at_border || pts.size() < 12) return false;
