@@ -225,6 +225,13 @@ bool analysedDisc(const cv::Mat& img, const SphereMeasurement& s, const DotSetti
   return d.bx0 <= d.bx1;
 }
 
+// The bare level, and the noise's standard deviation about it (1.4826 MAD of
+// closing - image over the disc's pixels, the dots a minority among them).
+struct BareLevel {
+  cv::Mat level;
+  double noise = 0;
+};
+
 // The bare sphere's brightness B around every pixel of the disc's square: a
 // grey-level closing (dilation then erosion) with a square wider than a dot
 // (separable: fast) fills the dark dots in from their surroundings and keeps
@@ -232,12 +239,6 @@ bool analysedDisc(const cv::Mat& img, const SphereMeasurement& s, const DotSetti
 // light blur takes the noise's upward bias off. A dot is then dark RELATIVE
 // to its own surroundings, so dots on the shaded side (barely above the
 // backdrop) are found as well as on the lit side.
-// The bare level, and the noise's standard deviation about it (1.4826 MAD of
-// closing - image over the disc's pixels, the dots a minority among them).
-struct BareLevel {
-  cv::Mat level;
-  double noise = 0;
-};
 template <class T>
 BareLevel bareLevel(const cv::Mat& img, const Disc& d) {
   // The closing runs on the frame's own integers (max and min commute with

@@ -1416,9 +1416,15 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
   local.quadratic = true;
   std::vector<CirclePoint> pts;
   EdgeStats st;
-  edgePoints<T>(img, c, local, pts, st);
-  Result<CircleFit> fit =
-      fitOutline(pts, c, set.camera, {cand.held_radius_px, cand.held_radius_sigma_px});
+  // The edge points searched for around circle `around`, and the circle
+  // fitted to them.
+  const auto measureAround = [&](const Circle& around) {
+    pts.clear();
+    st = EdgeStats{};
+    edgePoints<T>(img, around, local, pts, st);
+    return fitOutline(pts, around, set.camera, {cand.held_radius_px, cand.held_radius_sigma_px});
+  };
+  Result<CircleFit> fit = measureAround(c);
   // A blob can be only part of its sphere (a limb darker than a grey
   // backdrop is not in it): its circle then sent the search for edges to the
   // wrong places on that side. When the fitted circle lies farther from it
@@ -1430,10 +1436,7 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
        std::hypot(fit->u - c.u, fit->v - c.v) + std::abs(fit->radius - c.r) > 0.5 * local.search;
        ++again) {
     c = {fit->u, fit->v, hold ? c.r : fit->radius};
-    pts.clear();
-    st = EdgeStats{};
-    edgePoints<T>(img, c, local, pts, st);
-    fit = fitOutline(pts, c, set.camera, {cand.held_radius_px, cand.held_radius_sigma_px});
+    fit = measureAround(c);
   }
   if (!fit || fit->points < 12) {
     ++out.blobs_ignored;
