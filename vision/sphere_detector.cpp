@@ -530,7 +530,7 @@ struct EdgeContext {
   int n_in = 5;                  // sphere samples after it (the brightness at the limb)
   int search = 6;                // crossing searched within +-search of the predicted edge
   int line_stride = 1;           // every n-th row / column
-  double radius = 1;             // of the coarse circle
+  double radius = 1;             // of the circle the profiles were read around
   double local_shape_chi2 = 25;  // a stretch's own shading when it fits this much better
   double root_shape_chi2 = 3;    // the square-root shape when it fits this much better
   bool quadratic = true;         // shape with a delta^2 term (enough inside samples for it)
@@ -1412,13 +1412,14 @@ std::optional<SphereMeasurement> measureCandidate(const cv::Mat& img, const Cand
   // The limb brightness is read over up to 8 px inside, less on small spheres.
   local.n_in = std::clamp(static_cast<int>(c.r / 7.0), 3, 8);
   static_assert(8 <= kMaxInside, "the depth sums hold at most kMaxInside inside samples");
-  local.radius = c.r;
   local.quadratic = true;
   std::vector<CirclePoint> pts;
   EdgeStats st;
   // The edge points searched for around circle `around`, and the circle
-  // fitted to them.
+  // fitted to them. The depths below the limb take its radius, as the
+  // profiles' slopes across the limb do (sampleProfiles).
   const auto measureAround = [&](const Circle& around) {
+    local.radius = around.r;
     pts.clear();
     st = EdgeStats{};
     edgePoints<T>(img, around, local, pts, st);
