@@ -233,7 +233,9 @@ struct ShotAnalysis {
   ///    taken for another); not checked with no_spin_*; `collide fit` leaves
   ///    the shot out;
   ///  "saturated_frames": some frames were mostly at full scale;
-  ///  "extra_blobs_ignored": round blobs that are not this shot's spheres;
+  ///  "extra_blobs_ignored": round blobs that are not this shot's spheres
+  ///    (on neither track, and not centred on a tracked sphere, which would
+  ///    be a second reading of it, nor slivers cut by the border);
   ///  "frames_lost": frames missing or incomplete in the burst;
   ///  "gravity_scale_mismatch": a free fit's fall differs from g by > 10 % (and
   ///    5 sigma): the pixel size, a diameter or the frame rate is wrong.

@@ -12,8 +12,16 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Where a track is expected in the next frame, from its last two (or one)
-// points: constant velocity in the image.
+// Where a track is expected in the next frame: on the line through its last
+// two points (constant velocity in the image). The points are the walk's,
+// latest first, then (walking back from the seed after walking forward) those
+// beyond the seed, nearest first. While the track's last two whole outlines
+// are recent (kWholeFrames steps) the line goes through them, passing over
+// outlines cut by the border: a cut outline's centre can be tens of px off
+// (noise at the border), and one such point as the last of two would send
+// the prediction, and the track, astray. Older whole outlines would carry a
+// velocity from before a collision the cut sphere has since had. The gate
+// near contact counts from the last point of any kind.
 struct Prediction {
   bool have = false;
   Eigen::Vector2d at{0, 0};        ///< px, at the frame's time
@@ -22,26 +30,38 @@ struct Prediction {
   double t_last = 0;               ///< s, when it was last seen
 };
 
+constexpr int kWholeFrames = 8;
+
 Prediction predict(const std::vector<FrameData>& frames, const std::vector<int>& order, int upto,
-                   int track, double t) {
-  Prediction out;
-  int seen = 0;
-  Eigen::Vector2d p[2];
-  double tt[2] = {0, 0};
-  for (int i = upto; i >= 0 && seen < 2; --i) {
-    const FrameData& f = frames[order[i]];
-    if (const SphereMeasurement* m = trackAt(f, track)) {
-      p[seen] = {m->circle.u, m->circle.v};
-      tt[seen] = f.t;
-      ++seen;
-    }
+                   int dir, int track, double t) {
+  struct Point {
+    Eigen::Vector2d at;
+    double t;
+  };
+  // The track's last two points, and its last two whole ones within
+  // kWholeFrames steps.
+  std::vector<Point> any, whole;
+  const int n = static_cast<int>(frames.size());
+  for (int i = upto;; --i) {
+    const int step = upto + 1 - i;
+    if (any.size() == 2 && (whole.size() == 2 || step > kWholeFrames)) break;
+    const int k = i >= 0 ? order[i] : order[0] + i * dir;  // beyond the seed when i < 0
+    if (k < 0 || k >= n) break;
+    const SphereMeasurement* m = trackAt(frames[k], track);
+    if (!m) continue;
+    const Point p{{m->circle.u, m->circle.v}, frames[k].t};
+    if (any.size() < 2) any.push_back(p);
+    if (!m->cut_by_border && whole.size() < 2 && step <= kWholeFrames) whole.push_back(p);
   }
-  if (seen == 0) return out;
+  Prediction out;
+  if (any.empty()) return out;
   out.have = true;
-  out.last = p[0];
-  out.t_last = tt[0];
-  if (seen == 2 && tt[0] != tt[1]) out.velocity = (p[0] - p[1]) / (tt[0] - tt[1]);
-  out.at = p[0] + out.velocity * (t - tt[0]);
+  out.last = any[0].at;
+  out.t_last = any[0].t;
+  const std::vector<Point>& pair = whole.size() == 2 ? whole : any;
+  if (pair.size() == 2 && pair[0].t != pair[1].t)
+    out.velocity = (pair[0].at - pair[1].at) / (pair[0].t - pair[1].t);
+  out.at = pair[0].at + out.velocity * (t - pair[0].t);
   return out;
 }
 
@@ -66,8 +86,9 @@ void track(std::vector<FrameData>& frames, int seed, int dir, double gate, doubl
   for (int i = seed; i >= 0 && i < static_cast<int>(frames.size()); i += dir) order.push_back(i);
   for (std::size_t o = 1; o < order.size(); ++o) {
     FrameData& f = frames[order[o]];
-    const std::array<Prediction, 2> pred{predict(frames, order, static_cast<int>(o) - 1, 0, f.t),
-                                         predict(frames, order, static_cast<int>(o) - 1, 1, f.t)};
+    const int upto = static_cast<int>(o) - 1;
+    const std::array<Prediction, 2> pred{predict(frames, order, upto, dir, 0, f.t),
+                                         predict(frames, order, upto, dir, 1, f.t)};
     const std::array<double, 2> g = gates(pred, f.t, gate, contact_px);
     // Best assignment of up to one candidate per track (cost: distance to the
     // prediction; leaving a track empty costs its gate).
@@ -299,28 +320,111 @@ Result<SphereBlobs> selectSphereBlobs(std::vector<FrameData>& data,
         // a poor radius: left out, nothing to report.
         f.found.notes.push_back("a blob cut by the frame's edge measures " + fmt("%.1f", r) +
                                 " px in radius: left out");
-      } else {
-        ++out.third_blobs;
-        f.found.notes.push_back("a round blob of radius " + fmt("%.1f", r) +
-                                " px is not a sphere of this shot (expected " +
-                                fmt("%.1f", r_expect[0]) + " px): ignored");
-      }
+      }  // a whole one is counted (or not) once the tracks are known
     }
   }
   return out;
 }
 
+namespace {
+
+// The seed: the first frame with two separate spheres whose outlines are
+// whole, else (no such frame) whose outlines may be cut by the border. An
+// outline cut by the border measures a poor centre (a sphere entering through
+// a noisy border can give two cut circles, one of them wrong), and the first
+// steps from the seed set the track's velocity. -1: none.
+int seedFrame(const std::vector<FrameData>& data) {
+  for (const bool whole : {true, false})
+    for (int k = 0; k < static_cast<int>(data.size()); ++k) {
+      const FrameData& f = data[k];
+      if (f.candidates.size() != 2) continue;
+      const SphereMeasurement &a = f.found.spheres[f.candidates[0]],
+                              &b = f.found.spheres[f.candidates[1]];
+      if (a.touching || b.touching) continue;
+      if (whole && (a.cut_by_border || b.cut_by_border)) continue;
+      return k;
+    }
+  return -1;
+}
+
+// Where track s is in frame k: its own point there, else the line through
+// its two whole outlines nearest to k on one side (a sphere entering or
+// leaving through the border is whole only on one side of its cut frames),
+// else its one whole outline; nullopt: the track has none.
+std::optional<Eigen::Vector2d> trackPosition(const std::vector<FrameData>& data, int k, int s) {
+  if (const SphereMeasurement* m = trackAt(data[k], s))
+    return Eigen::Vector2d(m->circle.u, m->circle.v);
+  const int n = static_cast<int>(data.size());
+  auto wholeFrom = [&](int from, int dir) {
+    for (int j = from; j >= 0 && j < n; j += dir)
+      if (const SphereMeasurement* m = trackAt(data[j], s); m && !m->cut_by_border) return j;
+    return -1;
+  };
+  int best[2] = {-1, -1};
+  for (const int dir : {-1, +1}) {
+    const int j1 = wholeFrom(k + dir, dir);
+    if (j1 < 0 || (best[0] >= 0 && std::abs(j1 - k) >= std::abs(best[0] - k))) continue;
+    best[0] = j1;
+    best[1] = wholeFrom(j1 + dir, dir);
+  }
+  if (best[0] < 0) return std::nullopt;
+  const CircleFit& a = trackAt(data[best[0]], s)->circle;
+  Eigen::Vector2d at(a.u, a.v);
+  if (best[1] >= 0 && data[best[1]].t != data[best[0]].t) {
+    const CircleFit& b = trackAt(data[best[1]], s)->circle;
+    at += (at - Eigen::Vector2d(b.u, b.v)) * (data[k].t - data[best[0]].t) /
+          (data[best[0]].t - data[best[1]].t);
+  }
+  return at;
+}
+
+// The track (0, 1) whose sphere covers (u, v) in frame k (trackPosition);
+// -1: neither. A blob centred on a tracked sphere is that sphere read a
+// second time (a cut outline read twice through noise at the border), not
+// another object.
+int coveringTrack(const std::vector<FrameData>& data, int k, double u, double v,
+                  const std::array<double, 2>& r_px) {
+  for (int s = 0; s < 2; ++s)
+    if (const auto at = trackPosition(data, k, s);
+        at && (*at - Eigen::Vector2d(u, v)).norm() < r_px[s])
+      return s;
+  return -1;
+}
+
+// Blobs on neither track: a sliver cut by the border of the wrong size is
+// left out (noted by selectSphereBlobs); one centred on a tracked sphere is
+// noted as a second reading of it; any other is counted into third_blobs.
+void countThirdBlobs(std::vector<FrameData>& data, SphereBlobs& blobs) {
+  for (int k = 0; k < static_cast<int>(data.size()); ++k) {
+    FrameData& f = data[k];
+    for (int i = 0; i < static_cast<int>(f.found.spheres.size()); ++i) {
+      if (i == f.assigned[0] || i == f.assigned[1]) continue;
+      const SphereMeasurement& m = f.found.spheres[i];
+      const bool candidate =
+          std::find(f.candidates.begin(), f.candidates.end(), i) != f.candidates.end();
+      if (!candidate && m.cut_by_border) continue;
+      const int s = coveringTrack(data, k, m.circle.u, m.circle.v, blobs.r_expect_px);
+      if (s >= 0) {
+        f.found.notes.push_back("a round blob of radius " + fmt("%.1f", m.circle.radius) +
+                                " px centred on sphere " + std::to_string(s + 1) +
+                                " is a second reading of it: ignored");
+        continue;
+      }
+      ++blobs.third_blobs;
+      f.found.notes.push_back(candidate
+                                  ? std::string("a sphere-sized blob off both tracks: ignored")
+                                  : "a round blob of radius " + fmt("%.1f", m.circle.radius) +
+                                        " px is not a sphere of this shot (expected " +
+                                        fmt("%.1f", blobs.r_expect_px[0]) + " px): ignored");
+    }
+  }
+}
+
+}  // namespace
+
 Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
                     const std::array<double, 2>& diam) {
-  int seed = -1;
-  for (int k = 0; k < static_cast<int>(data.size()) && seed < 0; ++k) {
-    const FrameData& f = data[k];
-    if (f.candidates.size() != 2) continue;
-    const SphereMeasurement &a = f.found.spheres[f.candidates[0]],
-                            &b = f.found.spheres[f.candidates[1]];
-    if (a.touching || b.touching) continue;
-    seed = k;
-  }
+  const int seed = seedFrame(data);
   if (seed < 0) {
     int one = 0;
     for (const FrameData& f : data) one += !f.candidates.empty();
@@ -346,13 +450,7 @@ Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
                   " px, but the diameters given say the opposite: give the left sphere's "
                   "diameter first");
   }
-  for (FrameData& f : data) {
-    int used = (f.assigned[0] >= 0) + (f.assigned[1] >= 0);
-    if (static_cast<int>(f.candidates.size()) > used) {
-      blobs.third_blobs += static_cast<int>(f.candidates.size()) - used;
-      f.found.notes.emplace_back("a sphere-sized blob off both tracks: ignored");
-    }
-  }
+  countThirdBlobs(data, blobs);
   return Ok{};
 }
 

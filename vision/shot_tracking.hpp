@@ -54,7 +54,8 @@ int detectSpheres(
 
 /// Which blobs are spheres: the expected radius of each (one, or two for two
 /// sizes), checked against a given pixel size; every blob within 15 % of it
-/// becomes a candidate, the others are noted in their frame.
+/// becomes a candidate; slivers of another size cut by the border are noted
+/// in their frame; other blobs are judged by trackSpheres.
 struct SphereBlobs {
   std::array<double, 2> r_expect_px{0, 0};
   int third_blobs = 0;  ///< sphere-like blobs that are not this shot's
@@ -63,9 +64,12 @@ Result<SphereBlobs> selectSphereBlobs(std::vector<FrameData>& data,
                                       const std::array<double, 2>& diameter_m, double pixel_size_m);
 
 /// Track stage: seeds at the first frame with two separate spheres (the left
-/// one is sphere 1) and assigns candidates to the two tracks walking both ways
-/// (nearest to the constant-velocity prediction, gate half a radius). Counts
-/// candidates left off both tracks into blobs.third_blobs.
+/// one is sphere 1), whole outlines preferred to ones cut by the border, and
+/// assigns candidates to the two tracks walking both ways (nearest to the
+/// constant-velocity prediction, gate half a radius; the velocity from whole
+/// outlines while the track has recent ones). Counts the blobs left off both
+/// tracks into blobs.third_blobs, but for slivers cut by the border and blobs
+/// centred on a tracked sphere (a second reading of it), which are noted.
 Status trackSpheres(std::vector<FrameData>& data, SphereBlobs& blobs,
                     const std::array<double, 2>& diameter_m);
 
