@@ -33,9 +33,15 @@
 // that meet a dot, the other sphere, a highlight clipped at full scale or the
 // frame border are rejected. (4) An algebraic circle fit then a geometric
 // (Gauss-Newton) one with iterative outlier rejection; the covariance gives
-// each sphere's uncertainty. When the fitted circle lies farther from the
-// coarse one than the coarse stage errs (a blob that was only part of its
-// sphere), the profiles are read again around it, twice at most. With
+// each sphere's uncertainty. A stretch of the outline whose points lie off
+// the circle together is left out (fitCircle's leave_out_stretches; lit
+// spheres only, not those step 5 measures): near the terminator, where the
+// shadow line runs a few px inside the limb, the profile is a step, a
+// plateau and a rise that the shading shapes do not hold, and once the
+// sensor's noise hides it from the shading misfit its edge is read too
+// deep. When the fitted circle lies farther from the coarse one than the
+// coarse stage errs (a blob that was only part of its sphere), the profiles
+// are read again around it, twice at most. With
 // settings().camera the points are first mapped by the inverse of the outline's
 // shape (PinholeCamera::outlineShape: off the optical axis a sphere is an
 // ellipse up to ~1 % longer radially), so the fit sees a circle, and the circle
@@ -67,7 +73,12 @@
 // centre RMS where the profiles gave 0.33. Where the limb crosses the
 // backdrop's level it has no contrast: no edge there, and the profiles next
 // to it are the least certain (on 60 px spheres before a grey backdrop,
-// centre RMS about 0.075 px against 0.04-0.06 on a dark one).
+// centre RMS about 0.075 px against 0.04-0.06 on a dark one). On a noisy
+// sensor (a 4000 e- well under sim-lab's lamp) the shaded limb's faint edge
+// is lost in the noise, and the stretches either side of it are still read
+// somewhat deep: radius 0.5 px small, centre 0.6 px towards the lamp (0.6 and
+// 0.73 px before such stretches were left out; at a 20,000 e- well 0.03 and
+// 0.06 px).
 //
 // Image coordinates: u right, v down, origin at the top-left pixel's centre.
 #include <opencv2/core.hpp>
@@ -102,11 +113,16 @@ struct CircleFit {
 /// With `held_radius_px` > 0 only the centre is fitted, the radius held there;
 /// the radius' own standard uncertainty `held_radius_sigma_px` is carried into
 /// the centre's sigmas (as far as the points' arc lets the radius move it)
-/// and is the fit's sigma_radius.
+/// and is the fit's sigma_radius. With `leave_out_stretches`, a stretch of the
+/// outline (one of 16 sectors about the centre) whose points lie off the
+/// circle together, by more than 0.1 px and 4 standard errors, is left out
+/// and the circle refitted, the worst first, four at most, while half the
+/// points remain (the fine stage's limb near the terminator, read too deep).
 /// Errors: fewer than 5 points, collinear points, a fit that does not converge.
 Result<CircleFit> fitCircle(const std::vector<CirclePoint>& points, double reject_sigmas = 3.5,
                             double min_reject_px = 0.05, bool ordered = false,
-                            double held_radius_px = 0, double held_radius_sigma_px = 0);
+                            double held_radius_px = 0, double held_radius_sigma_px = 0,
+                            bool leave_out_stretches = false);
 
 struct SphereDetectorSettings {
   /// Bright spheres on a dark background (front light), dark silhouettes on a
