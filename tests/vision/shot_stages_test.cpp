@@ -258,8 +258,8 @@ TEST(TrackSpheres, ASphereEnteringThroughANoisyBorderIsFollowedFromItsWholeOutli
     const std::vector<SphereMeasurement> as_seen = f.found.spheres;
     for (const SphereMeasurement& m : as_seen) {
       if (m.circle.radius != tag[0] || !m.cut_by_border) continue;
-      // Misread by up to 18 px (within the gate of half a radius), and every
-      // other frame read a second time elsewhere on the sphere.
+      // Misread, and every other frame read a second time elsewhere on the
+      // sphere.
       SphereMeasurement& mine =
           *std::find_if(f.found.spheres.begin(), f.found.spheres.end(),
                         [&](const auto& x) { return x.circle.radius == tag[0]; });
