@@ -176,6 +176,9 @@ struct PresetResult {
   // bounds.
   Stat radius_change_px, radius_difference_px;
   Stat radius_change_noise_px;  ///< the change's standard error from the frames' scatter
+  // What the analysis measured of the radii's frame-to-frame scatter, and the
+  // radius bias' change it then allowed for (ShotAnalysis), per shot.
+  Stat analysis_radius_scatter_px, analysis_radius_systematic_px;
   // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
   Stat pe_all, pb_all, pg_all;
   // The stated sigmas of the unflagged shots (of beta where it is asked).
@@ -224,6 +227,10 @@ std::optional<RadiusChange> radiusChangeAndMean(const RadiusTrack& p) {
 // seen through the profile's lens. Shots without a lens are skipped.
 void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, PresetResult& out) {
   const vision::AnalysisSettings set = app::analysisSettingsFor(shot);
+  if (std::isfinite(r.radius_scatter_px)) {
+    out.analysis_radius_scatter_px.add(r.radius_scatter_px);
+    out.analysis_radius_systematic_px.add(r.radius_systematic_px);
+  }
   if (!set.camera) return;
   const PinholeCamera& cam = *set.camera;
   const hw::TruthRecord& t = *shot.truth;
@@ -690,6 +697,12 @@ void printDetectorBias(const PresetResult& r) {
     std::printf("; the two spheres' mean radius errors differ by %.3f px RMS over %zu sides",
                 r.radius_difference_px.rms(), r.radius_difference_px.v.size());
   std::printf("\n");
+  if (!r.analysis_radius_scatter_px.v.empty())
+    std::printf(
+        "     the analysis found the radii scattering by %.3f px from frame to frame (mean over "
+        "%zu shots) and allowed for a radius bias changing by %.3f px along a track\n",
+        r.analysis_radius_scatter_px.mean(), r.analysis_radius_scatter_px.v.size(),
+        r.analysis_radius_systematic_px.mean());
 }
 
 // The worst |error| of shots whose errors are drawn from their stated sigmas:

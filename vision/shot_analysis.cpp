@@ -328,11 +328,36 @@ void fillFrames(ShotAnalysis& out, const Burst& burst, const std::vector<FrameDa
   }
 }
 
+// A track's apparent radii (px), their sigmas and times, with the radius
+// the lens gives a sphere in the collision plane at each frame's place (px):
+// outlines cut by the border or merged with the other sphere's are left out
+// (their radii are not the sphere's). With the lens known, each frame's
+// radius is compared with what the lens makes of the sphere at that place on
+// the collision plane (off-axis growth, distortion); without it, with the
+// sphere's radius over the pixel size.
+struct TrackRadii {
+  std::vector<double> t, r, sr, r0;
+};
+TrackRadii trackRadiiOf(const std::vector<FrameData>& data, const SideFit& fit, int s,
+                        const AnalysisSettings& set, const PixelScale& scale) {
+  TrackRadii tr;
+  const double radius_m = 0.5 * set.diameter_m[s];
+  for (const int k : fit.frames) {
+    const SphereMeasurement& m = *trackAt(data[k], s);
+    if (m.cut_by_border || m.touching) continue;
+    const double plane_r = set.camera ? planeRadiusPx(*set.camera, m.circle.u, m.circle.v, radius_m)
+                                      : radius_m / scale.px;
+    if (!std::isfinite(plane_r)) continue;
+    tr.t.push_back(data[k].t);
+    tr.r.push_back(m.circle.radius);
+    tr.sr.push_back(std::max(m.circle.sigma_radius, 1e-3));
+    tr.r0.push_back(plane_r);
+  }
+  return tr;
+}
+
 // Each track's depth (towards the camera) from its apparent radius, when the
-// camera's distance is known: outlines cut by the border or merged with the
-// other sphere's are left out (their radii are not the sphere's). With the
-// lens known, each frame's radius is compared with what the lens makes of the
-// sphere at that place on the collision plane (off-axis growth, distortion).
+// camera's distance is known (trackRadiiOf's frames).
 DepthFits measureDepthMotion(std::vector<std::string>* notes, const std::vector<FrameData>& data,
                              const CollisionFits& fits, const AnalysisSettings& set,
                              const PixelScale& scale) {
@@ -340,27 +365,15 @@ DepthFits measureDepthMotion(std::vector<std::string>* notes, const std::vector<
   const double distance = set.camera_distance_m > 0 ? set.camera_distance_m
                                                     : (set.camera ? set.camera->centre_m.z() : 0);
   if (!(distance > 0)) return depth;
+  const auto vec = [](const std::vector<double>& v) {
+    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
+  };
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
-      const double radius_m = 0.5 * set.diameter_m[s];
-      std::vector<double> t, r, sr, r0;
-      for (const int k : fits.fit[s][side]->frames) {
-        const SphereMeasurement& m = *trackAt(data[k], s);
-        if (m.cut_by_border || m.touching) continue;
-        const double plane_r = set.camera
-                                   ? planeRadiusPx(*set.camera, m.circle.u, m.circle.v, radius_m)
-                                   : radius_m / scale.px;
-        if (!std::isfinite(plane_r)) continue;
-        t.push_back(data[k].t);
-        r.push_back(m.circle.radius);
-        sr.push_back(std::max(m.circle.sigma_radius, 1e-3));
-        r0.push_back(plane_r);
-      }
-      if (t.size() < 3) continue;
-      const auto vec = [](const std::vector<double>& v) {
-        return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
-      };
-      auto dm = fitDepthMotion(vec(t), vec(r), vec(sr), vec(r0), distance, fits.t_split);
+      const TrackRadii tr = trackRadiiOf(data, *fits.fit[s][side], s, set, scale);
+      if (tr.t.size() < 3) continue;
+      auto dm =
+          fitDepthMotion(vec(tr.t), vec(tr.r), vec(tr.sr), vec(tr.r0), distance, fits.t_split);
       if (!dm) {
         if (notes)
           notes->push_back("sphere " + std::to_string(s + 1) +
@@ -370,6 +383,67 @@ DepthFits measureDepthMotion(std::vector<std::string>* notes, const std::vector<
       depth[s][side] = *dm;
     }
   return depth;
+}
+
+// How much the outlines' radii scatter from frame to frame in this footage,
+// px: the robust spread of each track's radii (less the lens' radius at each
+// place) about a straight line in time (a steady drift in depth), pooled over
+// the tracks of at least 5 frames; NaN with none.
+double radiusScatterPx(const std::vector<FrameData>& data, const CollisionFits& fits,
+                       const AnalysisSettings& set, const PixelScale& scale) {
+  std::vector<double> pooled;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      const TrackRadii tr = trackRadiiOf(data, *fits.fit[s][side], s, set, scale);
+      const std::size_t n = tr.t.size();
+      if (n < 5) continue;
+      double mt = 0, my = 0;
+      for (std::size_t i = 0; i < n; ++i) mt += tr.t[i], my += tr.r[i] - tr.r0[i];
+      mt /= n, my /= n;
+      double stt = 0, sty = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        stt += (tr.t[i] - mt) * (tr.t[i] - mt), sty += (tr.t[i] - mt) * (tr.r[i] - tr.r0[i] - my);
+      const double slope = stt > 0 ? sty / stt : 0.0;
+      const double dof = std::sqrt(static_cast<double>(n) / (n - 2));  // two parameters fitted
+      for (std::size_t i = 0; i < n; ++i)
+        pooled.push_back(dof * std::abs(tr.r[i] - tr.r0[i] - my - slope * (tr.t[i] - mt)));
+    }
+  if (pooled.empty()) return std::nan("");
+  std::nth_element(pooled.begin(), pooled.begin() + pooled.size() / 2, pooled.end());
+  return 1.4826 * pooled[pooled.size() / 2];
+}
+
+// The radius bias' change along a track this shot is analysed with: the rig
+// profile's radius_systematic_px, or, where this footage's outlines scatter
+// more from frame to frame, kRadiusSystematicPerScatter times that scatter.
+// Noise that hides the edge from frame to frame also biases it, and that
+// bias changes as the track crosses the field: against the truth
+// (accuracy_bench --detector-bias, 20 shots each) the change along a track
+// beyond the frames' scatter was 0.66-0.71 times the scatter the analysis
+// measures on a 4000 e- sensor (0.21 px, outlines scattering by 0.32 px,
+// where the profile said 0.05) and on an 8-bit ADC, 0.4-0.8 times it on ten
+// other imagings. Blur and lenses bias the edge without scattering it
+// (1.3-2.0 times on a 400 us exposure, a grey backdrop, a strong lens):
+// there only the profile's measured value covers it. Says so in a note when
+// it raises the profile's value.
+constexpr double kRadiusSystematicPerScatter = 0.75;
+AnalysisSettings withRadiusScatter(const AnalysisSettings& set, const std::vector<FrameData>& data,
+                                   const CollisionFits& fits, const PixelScale& scale,
+                                   ShotAnalysis& out) {
+  AnalysisSettings shot = set;
+  const double scatter = radiusScatterPx(data, fits, set, scale);
+  out.radius_scatter_px = scatter;
+  const double floor = std::max(0.0, set.radius_systematic_px);
+  if (std::isfinite(scatter) && kRadiusSystematicPerScatter * scatter > floor) {
+    shot.radius_systematic_px = kRadiusSystematicPerScatter * scatter;
+    out.notes.push_back("the outlines' radii scatter by " + fmt("%.3f", scatter) +
+                        " px from frame to frame, so their bias is taken to change by up to " +
+                        fmt("%.3f", shot.radius_systematic_px) +
+                        " px along a track (the profile's radius_systematic_px says " +
+                        fmt("%.3f", floor) + "): the sigmas carry it");
+  }
+  out.radius_systematic_px = shot.radius_systematic_px;
+  return shot;
 }
 
 // Each sphere's post-impact depth line held to the v_z after the impact the
@@ -737,10 +811,11 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   auto fits =
       fitCollision(data, scale, contact, flight, burst.exposure_us * 1e-6, frames->frame_dt);
   if (!fits) return fits.error();
+  const AnalysisSettings shot_set = withRadiusScatter(set, data, *fits, scale, out);
 
   // ---- out-of-plane motion from the apparent size (when the camera's distance
   // is known); with the lens, the fits again with each centre at its depth
-  auto depth = fitDepths(out, data, *fits, scale, set, r_med, [&] {
+  auto depth = fitDepths(out, data, *fits, scale, shot_set, r_med, [&] {
     return fitCollision(data, scale, contact, flight, burst.exposure_us * 1e-6, frames->frame_dt);
   });
   if (!depth) return depth.error();
@@ -755,8 +830,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   int dark_frames = 0;
   for (const FrameData& f : data) dark_frames += f.found.dark_spheres ? 1 : 0;
   const bool dark = mostlyDark(dark_frames, static_cast<int>(data.size()));
-  const InverseInputs in{set,  spins,   r_med, *px,    burst.exposure_us * 1e-6,
-                         dark, contact, data,  flight, frames->frame_dt};
+  const InverseInputs in{shot_set, spins,   r_med, *px,    burst.exposure_us * 1e-6,
+                         dark,     contact, data,  flight, frames->frame_dt};
   const InversePass pass = withHeldDepths(in, inversePass(in, *fits, *depth, scale));
   out.collision.line_of_centres_z_from_size = pass.nz_size;
   const ShotUncertainty& u = pass.u;
@@ -764,7 +839,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
     return fail(
         "the measured kinematics are not a collision (the spheres do not approach at "
         "the contact instant); check the tracks");
-  const InstantAgreement instants = instantAgreement(pass.fits, u, set, pass.scale.px);
+  const InstantAgreement instants = instantAgreement(pass.fits, u, shot_set, pass.scale.px);
   fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, instants);
   withoutUnmeasuredSpins(out.collision, spins);
   if (set.error_budget) {
@@ -777,7 +852,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
 
   // ---- quality flags
   FlagInputs q;
-  q.settings = &set;
+  q.settings = &shot_set;
   q.burst = &burst;
   q.frames = &*frames;
   q.fits = &pass.fits;

@@ -13,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -91,7 +92,9 @@ struct AnalysisSettings {
   /// with a lens, as how far the centre drifts over each track (the lit limb
   /// seen from a changing angle): that over the track's span is in each fit's
   /// velocity sigma (centreDriftSigma_m_s, vision/shot_fits.hpp). The rig
-  /// profile's [analysis] radius_systematic_px.
+  /// profile's [analysis] radius_systematic_px. A floor: a shot whose
+  /// outlines scatter more from frame to frame is analysed with 0.75 times
+  /// that scatter (ShotAnalysis::radius_systematic_px).
   double radius_systematic_px = 0.1;
   /// Standard deviation of the measured centres' distance at contact beyond
   /// the diameters, px (the rig profile's [analysis] contact_distance_sigma_px):
@@ -245,6 +248,14 @@ struct ShotAnalysis {
   /// errorBudget), in quadrature about the collision's sigmas. Empty when not
   /// asked for.
   std::vector<ErrorBudgetRow> error_budget;
+  /// How much the outlines' radii scatter from frame to frame, px: the robust
+  /// spread of each track's radii about a straight line in time (less the
+  /// lens' radius at each place), pooled; NaN with no track of 5 frames.
+  double radius_scatter_px = std::numeric_limits<double>::quiet_NaN();
+  /// The radius bias' change along a track the sigmas carry, px: the
+  /// profile's radius_systematic_px, or 0.75 times radius_scatter_px where
+  /// that is larger (a note then says so).
+  double radius_systematic_px = 0;
   /// Sentences explaining flags and what was set aside (e.g. why a spin could
   /// not be had, the fall rate behind gravity_scale_mismatch).
   std::vector<std::string> notes;

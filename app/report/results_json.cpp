@@ -138,6 +138,9 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
   j["vs_m_s"] = number(c.vs_m_s.value);
   j["quality_flags"] = a.quality_flags;
   j["pixel_size_m"] = number(a.pixel_size_m);
+  j["radius_scatter_px"] = number(a.radius_scatter_px);
+  j["radius_systematic_px"] = number(a.radius_systematic_px);
+  j["notes"] = a.notes;
   json collision, uncertainty;
   const auto fields = measuredFields(c);
   for (std::size_t i = 0; i < fields.size(); ++i) {
@@ -209,6 +212,19 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
   auto px = readNumber(j, "pixel_size_m", "");
   if (!px) return px.error();
   r.pixel_size_m = *px;
+  for (auto [key, field] : {std::pair{"radius_scatter_px", &r.radius_scatter_px},
+                            std::pair{"radius_systematic_px", &r.radius_systematic_px}}) {
+    auto v = readNumber(j, key, "");
+    if (!v) return v.error();
+    *field = *v;
+  }
+  if (auto it = j.find("notes"); it != j.end()) {
+    if (!it->is_array()) return fail("results JSON: notes is not an array of strings");
+    for (const auto& n : *it) {
+      if (!n.is_string()) return fail("results JSON: notes is not an array of strings");
+      r.notes.push_back(n.get<std::string>());
+    }
+  }
 
   const json& collision = member(j, "collision");
   const json& uncertainty = member(j, "uncertainty");

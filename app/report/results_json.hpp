@@ -8,6 +8,10 @@
 //                                    (also under "collision"; null if unknown),
 //    "quality_flags": ["..."],
 //    "pixel_size_m": s,
+//    "radius_scatter_px": the outlines' radius scatter from frame to frame,
+//    "radius_systematic_px": the radius bias' change along a track the
+//                            sigmas carry,
+//    "notes": ["sentences explaining flags and what was set aside"],
 //    "sphere1"/"sphere2": {"velocity_before_m_s": [x,y,z], "velocity_after_m_s",
 //                          "spin_before_rad_s", "spin_after_rad_s",
 //                          "frames_before", "frames_after"},
@@ -60,6 +64,9 @@ struct ShotResults {
   vision::CollisionProperties collision;  ///< NaN where the JSON has null
   std::vector<std::string> quality_flags;
   std::vector<ErrorBudgetLine> error_budget;  ///< empty unless the analysis was asked for it
+  /// vision::ShotAnalysis's, NaN where the JSON has none (written before them).
+  double radius_scatter_px = 0, radius_systematic_px = 0;
+  std::vector<std::string> notes;
 };
 /// Errors: not JSON, not an object, another schema, a key of the wrong type
 /// (named, e.g. "collision.e").

@@ -36,6 +36,9 @@ vision::ShotAnalysis sample() {
   c.t_collision_before_s = next();
   c.t_collision_after_s = next();
   a.quality_flags = {"few_frames_after", "beta_untrustworthy_geometry"};
+  a.radius_scatter_px = next() * 1e-2;
+  a.radius_systematic_px = next() * 1e-2;
+  a.notes = {"sphere 1, after the impact: no dots", "the outlines' radii scatter"};
   return a;
 }
 
@@ -46,6 +49,9 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_FALSE(r->error.has_value());
   EXPECT_DOUBLE_EQ(r->pixel_size_m, a.pixel_size_m);
   EXPECT_EQ(r->quality_flags, a.quality_flags);
+  EXPECT_EQ(r->radius_scatter_px, a.radius_scatter_px);
+  EXPECT_EQ(r->radius_systematic_px, a.radius_systematic_px);
+  EXPECT_EQ(r->notes, a.notes);
   for (int s = 0; s < 2; ++s) {
     EXPECT_EQ(r->sphere[s].frames_before, a.sphere[s].frames_before);
     EXPECT_EQ(r->sphere[s].frames_after, a.sphere[s].frames_after);
@@ -144,6 +150,12 @@ TEST(ResultsJson, BadJsonNamesTheProblem) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("sphere2.spin_after_rad_s"), std::string::npos)
       << r.error().message;
+  r = parseResultsJson(R"({"notes": ["fine", 3]})");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("notes"), std::string::npos) << r.error().message;
+  r = parseResultsJson(R"({"radius_scatter_px": "0.1"})");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("radius_scatter_px"), std::string::npos) << r.error().message;
   r = parseResultsJson(R"({"schema": "collide.results/99"})");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("collide analyze"), std::string::npos) << r.error().message;

@@ -592,5 +592,54 @@ TEST(AnalyzeBurst, VelocityTowardsTheCameraFromTheApparentSize) {
   EXPECT_FALSE(r->collision.line_of_centres_z_from_size);
 }
 
+// The radii's frame-to-frame scatter the analysis reports, against the truth
+// (an orthographic camera: every frame's true radius is the sphere's over the
+// pixel size), and the radius bias it then allows for: the profile's where
+// the outlines are steady, 0.75 times the scatter, with a note, where the
+// sensor's noise makes them scatter more.
+TEST(AnalyzeBurst, RadiusScatterIsMeasuredAndWidensTheRadiusBiasOnlyWhenLarger) {
+  for (const double noise : {2.0, 40.0}) {
+    ShotSpec spec = quickSpec(61);
+    spec.noise_grey = noise;
+    SimulatedShot shot = simulateShot(spec);
+    shot.settings.radius_systematic_px = 0.05;
+    auto r = analyzeBurst(shot.burst, shot.settings);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    // The truth's scatter: each track's radius errors about their own mean,
+    // pooled (a track's mean bias is not scatter).
+    const double r_true = 0.5 * spec.diameter_m / spec.pixel_size_m;
+    double ss = 0;
+    int n = 0;
+    for (int s = 0; s < 2; ++s)
+      for (int side = 0; side < 2; ++side) {
+        std::vector<double> err;
+        for (const FrameDetections& f : r->frames) {
+          const auto& d = f.sphere[s];
+          if (!d || d->touching || d->cut_by_border) continue;
+          if ((f.t_s > r->collision.t_collision_s.value) != (side == 1)) continue;
+          err.push_back(d->radius_px - r_true);
+        }
+        if (err.size() < 5) continue;
+        double mean = 0;
+        for (const double e : err) mean += e / err.size();
+        for (const double e : err) ss += (e - mean) * (e - mean);
+        n += static_cast<int>(err.size()) - 1;
+      }
+    ASSERT_GT(n, 40);
+    const double truth = std::sqrt(ss / n);
+    std::printf("noise %.0f: radius scatter %.4f px (truth %.4f), bias allowed %.4f px\n", noise,
+                r->radius_scatter_px, truth, r->radius_systematic_px);
+    EXPECT_GT(r->radius_scatter_px, 0.7 * truth);
+    EXPECT_LT(r->radius_scatter_px, 1.4 * truth);
+    const bool raised = 0.75 * r->radius_scatter_px > 0.05;
+    EXPECT_EQ(raised, noise > 10) << "the clean shot's outlines should be steadier than 0.067 px";
+    EXPECT_DOUBLE_EQ(r->radius_systematic_px, raised ? 0.75 * r->radius_scatter_px : 0.05);
+    const bool noted = std::any_of(r->notes.begin(), r->notes.end(), [](const std::string& note) {
+      return note.find("radii scatter") != std::string::npos;
+    });
+    EXPECT_EQ(noted, raised);
+  }
+}
+
 }  // namespace
 }  // namespace collide::vision
