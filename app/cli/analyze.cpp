@@ -89,14 +89,17 @@ std::string budgetTable(const collide::app::ShotResults& r) {
   return out;
 }
 
-// One line per shot: what a physicist scans first (and the error budget when asked for).
+// One line per shot: what a physicist scans first; under it the analysis'
+// notes (why a flag fired, what was set aside) and the error budget when
+// asked for.
 std::string summaryLine(const collide::app::ShotResults& r) {
   const auto& c = r.collision;
-  std::string flags;
+  std::string flags, notes;
   for (const auto& f : r.quality_flags) flags += (flags.empty() ? "" : ",") + f;
+  for (const auto& n : r.notes) notes += "\n    note: " + n;
   return "e " + pm(c.e, 4) + "  beta " + pm(c.beta, 3) + "  f " + pm(c.f, 3) + "  gamma " +
          pm(c.gamma_deg, 1) + " deg  vn " + pm(c.vn_m_s, 3) + " m/s  vs " + pm(c.vs_m_s, 3) +
-         " m/s" + (flags.empty() ? "" : "  [" + flags + "]") + budgetTable(r);
+         " m/s" + (flags.empty() ? "" : "  [" + flags + "]") + notes + budgetTable(r);
 }
 
 std::string describe(const collide::app::AnalyzeOutcome& o) {

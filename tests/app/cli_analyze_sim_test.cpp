@@ -19,6 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace collide::testing;
 using ::testing::AnyOf;
+using ::testing::Contains;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
@@ -233,6 +234,48 @@ TEST_F(CliAnalyze, AWrongDiameterIsFlaggedOrRefusedNeverSilent) {
   } else {
     EXPECT_FALSE(run.err.empty());
   }
+}
+
+// What the analysis has to say beyond the numbers reaches the user: under a
+// noisy sensor (sim.toml's camera at 40 grey levels of noise, a profile
+// bounding the radius bias at 0.02 px) the outlines scatter by more, and the
+// radius bias allowed for is widened; the note saying so is
+// printed under the shot's line and stored with its results. The quiet
+// campaign's shots print no such note.
+TEST_F(CliAnalyze, TheAnalysisNotesArePrintedAndStored) {
+  ASSERT_EQ(campaign_->exit_code, 0) << campaign_->err;
+  std::ifstream in(kRig);
+  std::string rig((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string quiet = "noise_grey = 1.5";
+  const auto at = rig.find(quiet);
+  ASSERT_NE(at, std::string::npos) << "sim.toml's camera noise moved";
+  rig.replace(at, quiet.size(), "noise_grey = 40.0");
+  // The profile's own bound below what such outlines scatter by.
+  const auto analysis = rig.find("[analysis]\n");
+  ASSERT_NE(analysis, std::string::npos);
+  rig.insert(analysis + 11, "radius_systematic_px = 0.02\n");
+  const std::string noisy_rig = scratch_->file("noisy.toml");
+  std::ofstream(noisy_rig) << rig;
+  const std::string dir = scratch_->file("noisy-shots");
+  auto fired = runCollide("campaign --rig " + q(noisy_rig) + " --shots 1 --seed 5 --out " + q(dir),
+                          *scratch_);
+  ASSERT_EQ(fired.exit_code, 0) << fired.err;
+  auto run = runCollide("analyze " + q(dir), *scratch_);
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_THAT(run.out, HasSubstr("\n    note: the outlines' radii scatter by"));
+  const auto files = shotFiles(dir);
+  ASSERT_EQ(files.size(), 1u);
+  auto shot = collide::app::readShot(files[0], {.frames = false});
+  ASSERT_TRUE(shot.ok()) << shot.error().message;
+  auto r = collide::app::parseResultsJson(shot->results_json);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_GT(r->radius_systematic_px, 0.02) << "scatter " << r->radius_scatter_px;
+  ASSERT_FALSE(r->notes.empty());
+  EXPECT_THAT(r->notes, Contains(HasSubstr("radius_systematic_px says")));
+
+  auto quiet_run = runCollide("analyze " + q(shotFiles(dir_)[0]), *scratch_);
+  ASSERT_EQ(quiet_run.exit_code, 0) << quiet_run.err;
+  EXPECT_THAT(quiet_run.out, Not(HasSubstr("radii scatter")));
 }
 
 }  // namespace
