@@ -421,7 +421,7 @@ double radiusScatterPx(const std::vector<FrameData>& data, const CollisionFits& 
 // (accuracy_bench --detector-bias, 20 shots each) the change along a track
 // beyond the frames' scatter was 0.66-0.71 times the scatter the analysis
 // measures on a 4000 e- sensor (0.21 px, outlines scattering by 0.32 px,
-// where the profile said 0.05) and on an 8-bit ADC, 0.4-0.8 times it on ten
+// where the profile said 0.05) and on an 8-bit ADC, 0.4-0.8 times it on eight
 // other imagings. Blur and lenses bias the edge without scattering it
 // (1.3-2.0 times on a 400 us exposure, a grey backdrop, a strong lens):
 // there only the profile's measured value covers it. Says so in a note when
