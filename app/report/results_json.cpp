@@ -63,6 +63,19 @@ Result<double> readNumber(const json& obj, const std::string& key, const std::st
   if (!it->is_number()) return fail("results JSON: " + where + key + " is not a number");
   return it->get<double>();
 }
+// An array of strings (none when absent); anything else is an error naming the key.
+Result<std::vector<std::string>> readStrings(const json& obj, const std::string& key) {
+  std::vector<std::string> out;
+  auto it = obj.find(key);
+  if (it == obj.end()) return out;
+  const std::string bad = "results JSON: " + key + " is not an array of strings";
+  if (!it->is_array()) return fail(bad);
+  for (const auto& s : *it) {
+    if (!s.is_string()) return fail(bad);
+    out.push_back(s.get<std::string>());
+  }
+  return out;
+}
 Result<Vec3> readVec(const json& obj, const std::string& key, const std::string& where) {
   auto it = obj.find(key);
   if (it == obj.end() || it->is_null()) return Vec3(Vec3::Constant(kNaN));
@@ -202,28 +215,18 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
                 " (written by another collide version: re-run `collide analyze`)");
   ShotResults r;
   if (auto it = j.find("error"); it != j.end() && it->is_string()) r.error = it->get<std::string>();
-  if (auto it = j.find("quality_flags"); it != j.end()) {
-    if (!it->is_array()) return fail("results JSON: quality_flags is not an array of strings");
-    for (const auto& f : *it) {
-      if (!f.is_string()) return fail("results JSON: quality_flags is not an array of strings");
-      r.quality_flags.push_back(f.get<std::string>());
-    }
+  for (auto [key, field] :
+       {std::pair{"quality_flags", &r.quality_flags}, std::pair{"notes", &r.notes}}) {
+    auto v = readStrings(j, key);
+    if (!v) return v.error();
+    *field = std::move(*v);
   }
-  auto px = readNumber(j, "pixel_size_m", "");
-  if (!px) return px.error();
-  r.pixel_size_m = *px;
-  for (auto [key, field] : {std::pair{"radius_scatter_px", &r.radius_scatter_px},
+  for (auto [key, field] : {std::pair{"pixel_size_m", &r.pixel_size_m},
+                            std::pair{"radius_scatter_px", &r.radius_scatter_px},
                             std::pair{"radius_systematic_px", &r.radius_systematic_px}}) {
     auto v = readNumber(j, key, "");
     if (!v) return v.error();
     *field = *v;
-  }
-  if (auto it = j.find("notes"); it != j.end()) {
-    if (!it->is_array()) return fail("results JSON: notes is not an array of strings");
-    for (const auto& n : *it) {
-      if (!n.is_string()) return fail("results JSON: notes is not an array of strings");
-      r.notes.push_back(n.get<std::string>());
-    }
   }
 
   const json& collision = member(j, "collision");
