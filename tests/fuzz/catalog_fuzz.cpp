@@ -18,7 +18,7 @@ namespace {
 
 std::string folder() {
   static const std::string dir = [] {
-    std::string d = "/tmp/collide-catalog-fuzz-" + std::to_string(::getpid());
+    std::string d = collide::fuzz::scratchPath("catalog-fuzz");
     std::filesystem::create_directories(d);
     return d;
   }();

@@ -10,11 +10,12 @@
 #include <fstream>
 #include <string>
 
+#include "tests/fuzz/seeds.hpp"
 #include "vision/frame_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  static const std::string dir = "/tmp/collide-footage-fuzz-" + std::to_string(::getpid());
+  static const std::string dir = collide::fuzz::scratchPath("footage-fuzz");
   static const char* kExtensions[] = {".png", ".tif", ".pgm", ".bmp", ".jpg"};
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);

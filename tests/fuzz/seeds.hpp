@@ -3,7 +3,10 @@
 // on its command line (where libFuzzer also keeps what it finds): binary
 // inputs (a shot file, a catalog) are made by the current code, so they
 // always match the current format and need no binary blobs in the repository.
+#include <unistd.h>
+
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -23,6 +26,20 @@ inline std::string corpusFolder(int argc, char** argv) {
     if (!a.empty() && a[0] != '-' && std::filesystem::is_directory(a)) return a;
   }
   return "";
+}
+
+/// "/tmp/collide-<name>-<pid><suffix>": a scratch file or folder of this fuzz
+/// process, removed with whatever is under it when the process exits (a run's
+/// end, not a crash: a crash's input is kept by libFuzzer itself).
+inline std::string scratchPath(const std::string& name, const std::string& suffix = "") {
+  static std::vector<std::string> paths;
+  if (paths.empty())
+    std::atexit([] {
+      std::error_code ec;
+      for (const auto& p : paths) std::filesystem::remove_all(p, ec);
+    });
+  paths.push_back("/tmp/collide-" + name + "-" + std::to_string(::getpid()) + suffix);
+  return paths.back();
 }
 
 inline std::string readFile(const std::string& path) {

@@ -219,8 +219,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const std::string path =
-      "/tmp/collide-shot-content-fuzz-" + std::to_string(::getpid()) + ".h5";
+  static const std::string path = collide::fuzz::scratchPath("shot-content-fuzz", ".h5");
   FuzzedDataProvider in(data, size);
   const Seed& seed = seeds()[in.ConsumeIntegralInRange<std::size_t>(0, seeds().size() - 1)];
   {

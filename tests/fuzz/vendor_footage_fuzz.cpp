@@ -23,7 +23,7 @@ namespace t = collide::testing;
 
 const std::string& folder() {
   static const std::string dir = [] {
-    std::string d = "/tmp/collide-vendor-fuzz-" + std::to_string(::getpid());
+    std::string d = collide::fuzz::scratchPath("vendor-fuzz");
     std::filesystem::create_directories(d);
     return d;
   }();
