@@ -41,6 +41,17 @@ double beforeInstantWeight(double sigma_before_s, double sigma_after_s, double c
   return r0 + r1 > 0 ? r0 / (r0 + r1) : 0.5;
 }
 
+double kinkTime(const PlaneTrack& pre, const PlaneTrack& post, double t0_s) {
+  double t = t0_s;
+  for (int it = 0; it < 3; ++it) {
+    const Eigen::Vector2d dr = pre.pos(t) - post.pos(t), dv = pre.vel(t) - post.vel(t);
+    const double dv2 = dv.squaredNorm();
+    if (!(dv2 > 0)) break;
+    t -= dr.dot(dv) / dv2;
+  }
+  return std::isfinite(t) ? t : t0_s;
+}
+
 InstantAgreement compareInstants(double t_before_s, double t_after_s,
                                  const InstantAgreementModel& m) {
   InstantAgreement r;

@@ -55,6 +55,14 @@ double beforeInstantWeight(double sigma_before_s, double sigma_after_s);
 double beforeInstantWeight(double sigma_before_s, double sigma_after_s, double contact_sigma_m,
                            double vn_before_m_s, double vn_after_m_s);
 
+/// The instant at which one sphere's pre- and post-impact tracks meet: its
+/// centre does not jump at the impact, so the two fits, extended, cross
+/// where it happened, whatever the contact distance (a biased radius moves
+/// the instants at which the centres are one contact distance apart, not
+/// this one). Newton steps from t0_s on the tracks' separation along their
+/// velocity difference; t0_s where their velocities do not differ.
+double kinkTime(const PlaneTrack& pre, const PlaneTrack& post, double t0_s);
+
 /// What the two instants may differ by without anything being wrong.
 struct InstantAgreementModel {
   /// Standard deviation of (t_before - t_after) from the fits' random errors

@@ -51,6 +51,114 @@ std::array<double, 2> drawDriftPair(double sigma_before, double sigma_after, std
           sigma_after * (far_after - contact) / std::numbers::sqrt2};
 }
 
+namespace {
+
+// A fit's position variance at t_s on each image axis, m^2 (its covariance
+// times its inflation); infinite without the fit.
+Eigen::Vector2d positionVariance(const ShotModel& model, int s, int side, double t_s) {
+  const TrajectoryFit* f = model.fit[s][side];
+  if (!f) return Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  const Vec3 sigma = f->positionAt_m(t_s).sigma;
+  return model.inflation[s][side] * sigma.head<2>().array().square().matrix();
+}
+
+}  // namespace
+
+std::array<double, 2> contactPositionWeights(const ShotModel& model, double t_c_s) {
+  std::array<double, 2> w{1.0, 1.0};
+  for (int s = 0; s < 2; ++s) {
+    const double vb = positionVariance(model, s, 0, t_c_s).sum();
+    const double va = positionVariance(model, s, 1, t_c_s).sum();
+    if (std::isfinite(vb) && std::isfinite(va) && vb > 0 && va > 0) w[s] = va / (va + vb);
+  }
+  return w;
+}
+
+InstantWeights instantWeights(const ShotModel& model, double t_c_s) {
+  // Four estimates (t_before, t_after, kink of sphere 1, of sphere 2); their
+  // sensitivities to the fits' position errors (track 2 s + side, x and y)
+  // and to the contact distance's error.
+  const InstantWeights unchanged{model.w_before, {0.0, 0.0}};
+  constexpr int kEstimates = 4, kErrors = 9;
+  Eigen::Matrix<double, kEstimates, kErrors> sens =
+      Eigen::Matrix<double, kEstimates, kErrors>::Zero();
+  Eigen::Matrix<double, kErrors, 1> var = Eigen::Matrix<double, kErrors, 1>::Zero();
+  std::array<std::array<PlaneTrack, 2>, 2> track;
+  for (int s = 0; s < 2; ++s)
+    for (int side = 0; side < 2; ++side) {
+      if (!model.fit[s][side]) return unchanged;
+      std::mt19937_64 unused;  // nominal tracks draw nothing
+      track[s][side] = drawTrack(*model.fit[s][side], 1, Eigen::Vector2d::Zero(), 0, unused, true);
+      var.segment<2>(2 * (2 * s + side)) = positionVariance(model, s, side, t_c_s);
+    }
+  var[8] = model.contact_sigma * model.contact_sigma;
+  std::array<bool, kEstimates> usable{};
+  // Contact distance d reached: |r|^2 = d^2 with r = P1 - P2, so
+  // dt = (d dd - r . (dP1 - dP2)) / (r . v).
+  for (int side = 0; side < 2; ++side) {
+    const double t = side == 0 ? model.t_before : model.t_after;
+    const Eigen::Vector2d r = track[0][side].pos(t) - track[1][side].pos(t);
+    const double rv = r.dot(track[0][side].vel(t) - track[1][side].vel(t));
+    if (!(std::abs(rv) > 0)) continue;
+    sens.block<1, 2>(side, 2 * side) = -r.transpose() / rv;       // sphere 1's fit
+    sens.block<1, 2>(side, 2 * (2 + side)) = r.transpose() / rv;  // sphere 2's fit
+    sens(side, 8) = r.norm() / rv;
+    usable[side] = true;
+  }
+  // Kink: (P - Q) . dv = 0 with dv = P' - Q': dt = -(dP - dQ) . dv / |dv|^2.
+  for (int s = 0; s < 2; ++s) {
+    const Eigen::Vector2d dv = track[s][0].vel(t_c_s) - track[s][1].vel(t_c_s);
+    const double dv2 = dv.squaredNorm();
+    if (!(dv2 > 0)) continue;
+    sens.block<1, 2>(2 + s, 2 * (2 * s)) = -dv.transpose() / dv2;
+    sens.block<1, 2>(2 + s, 2 * (2 * s + 1)) = dv.transpose() / dv2;
+    usable[2 + s] = true;
+  }
+  std::vector<int> used;
+  for (int i = 0; i < kEstimates; ++i) {
+    bool finite = usable[i];
+    for (int k = 0; k < kErrors && finite; ++k) finite = sens(i, k) == 0 || std::isfinite(var[k]);
+    if (finite) used.push_back(i);
+  }
+  // Least squares' weights may come out negative where estimates share most
+  // of their errors; a negative weight leans on the model's linearity and
+  // amplifies what it leaves out (a fit's systematic error). The most
+  // negative estimate is left out and the rest weighed again, until none is.
+  std::array<double, kEstimates> w{};
+  for (;;) {
+    if (used.empty()) return unchanged;
+    const int m = static_cast<int>(used.size());
+    Eigen::MatrixXd cov(m, m);
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b) {
+        double c = 0;
+        for (int k = 0; k < kErrors; ++k)
+          if (sens(used[a], k) != 0 && sens(used[b], k) != 0)
+            c += sens(used[a], k) * sens(used[b], k) * var[k];
+        cov(a, b) = c;
+      }
+    // The estimates' errors can be (nearly) dependent: in the normal
+    // direction the two kinks add up to t_before + t_after. A ridge of 1e-9
+    // of the largest variance keeps the solve defined.
+    cov.diagonal().array() += 1e-9 * std::max(cov.diagonal().maxCoeff(), 1e-300);
+    const Eigen::VectorXd x = cov.ldlt().solve(Eigen::VectorXd::Ones(m));
+    const double sum = x.sum();
+    if (!x.allFinite() || !(sum > 0)) return unchanged;
+    Eigen::Index worst = 0;
+    if (x.minCoeff(&worst) >= 0) {
+      w = {};
+      for (int a = 0; a < m; ++a) w[used[a]] = x[a] / sum;
+      break;
+    }
+    used.erase(used.begin() + worst);
+  }
+  InstantWeights out;
+  const double contact = w[0] + w[1];
+  out.before = std::abs(contact) > 1e-12 ? w[0] / contact : 0.5;
+  out.kink = {w[2], w[3]};
+  return out;
+}
+
 ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, unsigned sources) {
   const auto drawn = [&](UncertaintySource s) { return !nominal && (sources & s); };
   ShotDraw o;
@@ -82,11 +190,14 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, u
           : in.contact;
   const double tb = nominal ? in.t_before : contactTime(d[0][0], d[1][0], contact, in.t_before);
   const double ta = nominal ? in.t_after : contactTime(d[0][1], d[1][1], contact, in.t_after);
-  o.t_c = in.w_before * tb + (1 - in.w_before) * ta;
+  o.t_c = (1 - in.w_kink[0] - in.w_kink[1]) * (in.w_before * tb + (1 - in.w_before) * ta);
+  for (int s = 0; s < 2; ++s)
+    if (in.w_kink[s] > 0) o.t_c += in.w_kink[s] * kinkTime(d[s][0], d[s][1], in.t_before);
   o.dt_ba = tb - ta;
   ContactState st;
   for (int s = 0; s < 2; ++s) {
-    st.position_m[s] = d[s][0].pos(o.t_c);
+    const double wp = in.w_position_before[s];
+    st.position_m[s] = wp * d[s][0].pos(o.t_c) + (1 - wp) * d[s][1].pos(o.t_c);
     o.v_before[s] = Vec3(d[s][0].vel(o.t_c).x(), d[s][0].vel(o.t_c).y(), 0);
     const double z = drawn(kOutOfPlaneSpeed) ? std::normal_distribution<double>()(rng) : 0.0;
     if (const auto& vz = in.vz_before[s]) {

@@ -49,6 +49,15 @@ struct ShotModel {
   double contact_sigma = 0;
   double t_before = 0, t_after = 0;  ///< the nominal instants (pre-, post-impact fits)
   double w_before = 0.5;             ///< weight of the pre-impact instant in t_c
+  /// Each sphere's position at contact is where its pre- and post-impact
+  /// fits meet (the centre does not jump): their positions at t_c averaged
+  /// with these weights of the pre-impact fit's. 1: the pre-impact fit alone.
+  /// contactPositionWeights gives the inverse-variance ones.
+  std::array<double, 2> w_position_before{1.0, 1.0};
+  /// Weight in t_c of each sphere's kinkTime (where its pre- and post-impact
+  /// tracks meet, analysis/contact.hpp); the contact-distance instants'
+  /// combination (w_before) takes the rest. 0: those instants alone.
+  std::array<double, 2> w_kink{0.0, 0.0};
   /// What is known of the line of centres' z part before the spins speak:
   /// its mean (a measurement, e.g. from the spheres' apparent sizes, or 0 for
   /// a prior) and standard deviation.
@@ -63,6 +72,31 @@ struct ShotModel {
   /// both (at most vz_before's sigma; the rest is drawn on its own).
   std::array<double, 2> vz_before_shared{};
 };
+
+/// The weight of each sphere's pre-impact fit in its position at contact
+/// (ShotModel::w_position_before): the inverse variance of each fit's
+/// position at the nominal instant t_c_s (its covariance times its
+/// inflation), against the post-impact fit's. Either fit's position variance
+/// not finite and > 0: 1 for that sphere (the pre-impact fit alone).
+std::array<double, 2> contactPositionWeights(const ShotModel& model, double t_c_s);
+
+/// The collision instant's four estimates, weighed: where the pre-impact
+/// fits are one contact distance apart (t_before), where the post-impact
+/// ones are (t_after), and where each sphere's two fits meet (kinkTime).
+/// Their errors, to first order in the four fits' position errors at the
+/// instant (each fit's covariance times its inflation) and in the contact
+/// distance's error (contact_sigma, which moves t_before and t_after apart
+/// and not the kinks), are correlated: the estimates share the fits. The
+/// weights are generalised least squares' over the four (C^-1 1 / 1' C^-1
+/// 1), which no other weighing of the same estimates beats. Evaluated on the
+/// fits at t_before, t_after and t_c_s; a kink whose fits' velocities do not
+/// differ, or an estimate on a fit without a finite position variance, gets
+/// no weight; with none usable, the model's w_before and no kinks.
+struct InstantWeights {
+  double before = 0.5;               ///< ShotModel::w_before
+  std::array<double, 2> kink{0, 0};  ///< ShotModel::w_kink
+};
+InstantWeights instantWeights(const ShotModel& model, double t_c_s);
 
 /// One draw (or the nominal evaluation) of a shot.
 struct ShotDraw {

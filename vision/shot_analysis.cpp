@@ -186,14 +186,23 @@ std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
   return vn;
 }
 
-// Collision instant: both estimates, combined by their uncertainties (with
-// the contact distance's, which moves them in opposite directions).
+// Collision instant: where the pre- and the post-impact fits are one contact
+// distance apart, and where each sphere's two fits meet, weighed by
+// generalised least squares (analysis/shot_uncertainty.hpp, instantWeights),
+// at the instant the first two give by their uncertainties (with the
+// contact distance's, which moves them in opposite directions). Each
+// sphere's position at contact from both its fits (contactPositionWeights).
 void useInstants(ShotModel& in, const CollisionFits& fits) {
   const std::array<double, 2> vn = normalSpeedsAtInstants(fits);
   in.w_before =
       beforeInstantWeight(fits.sigma_before, fits.sigma_after, in.contact_sigma, vn[0], vn[1]);
   in.t_before = fits.t_before;
   in.t_after = fits.t_after;
+  const double t_c = in.w_before * in.t_before + (1 - in.w_before) * in.t_after;
+  const InstantWeights w = instantWeights(in, t_c);
+  in.w_before = w.before;
+  in.w_kink = w.kink;
+  in.w_position_before = contactPositionWeights(in, t_c);
 }
 
 // The Monte Carlo's inputs: fits, their inflation and systematics, spins, the priors.

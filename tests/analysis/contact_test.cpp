@@ -40,6 +40,28 @@ TEST(ContactTime, ObliqueApproach) {
 // Two spheres on straight lines in 3D whose line of centres at contact
 // leaves the image plane by n_z: the image-plane tracks reach the in-plane
 // contact distance at the true instant, and the full diameter early.
+// A sphere at (0.1, 0.2) m at t = 0.0305 s, moving (2, -0.5) m/s before and
+// (-0.4, 1.1) m/s after, falling alike on both: its two tracks, extended,
+// cross at the impact, found from either side of it.
+TEST(KinkTime, TwoTracksOfOneSphereMeetAtTheImpact) {
+  const double tc = 0.0305, g = -9.81;
+  const auto through = [&](double vx, double vy) {
+    PlaneTrack p;
+    p.t_ref = 0.03;  // the fits' own reference, not the impact
+    const double tau = tc - p.t_ref;
+    p.c[0] = Eigen::Vector3d(0.1 - vx * tau, vx, 0);
+    p.c[1] = Eigen::Vector3d(0.2 - vy * tau + 0.5 * g * tau * tau, vy - g * tau, g / 2);
+    return p;
+  };
+  const PlaneTrack pre = through(2.0, -0.5), post = through(-0.4, 1.1);
+  EXPECT_LT((pre.pos(tc) - Eigen::Vector2d(0.1, 0.2)).norm(), 1e-12);
+  EXPECT_LT((post.pos(tc) - Eigen::Vector2d(0.1, 0.2)).norm(), 1e-12);
+  EXPECT_NEAR(kinkTime(pre, post, tc - 0.002), tc, 1e-12);
+  EXPECT_NEAR(kinkTime(pre, post, tc + 0.003), tc, 1e-12);
+  // Tracks that do not differ have no kink: the start is returned.
+  EXPECT_EQ(kinkTime(pre, pre, 0.029), 0.029);
+}
+
 TEST(InPlaneContactDistance, TiltedContactIsFoundAtTheTrueInstant) {
   const double d = 0.0254, nz = 0.05, t_contact = 0.01;
   const Eigen::Vector3d n(std::sqrt(1 - nz * nz) * std::cos(0.3),
