@@ -74,25 +74,31 @@ std::array<double, 2> contactPositionWeights(const ShotModel& model, double t_c_
   return w;
 }
 
-InstantWeights instantWeights(const ShotModel& model, double t_c_s) {
-  // Four estimates (t_before, t_after, kink of sphere 1, of sphere 2); their
-  // sensitivities to the fits' position errors (track 2 s + side, x and y)
-  // and to the contact distance's error.
-  const InstantWeights unchanged{model.w_before, {0.0, 0.0}};
-  constexpr int kEstimates = 4, kErrors = 9;
+namespace {
+
+// The instant's four estimates (t_before, t_after, the kink of sphere 1, of
+// sphere 2), to first order: how each moves per metre of each fit's position
+// error at the instant (track 2 s + side, x and y: columns 0-7) and of the
+// contact distance's error (column 8), and those errors' variances.
+struct InstantErrors {
+  static constexpr int kEstimates = 4, kErrors = 9;
   Eigen::Matrix<double, kEstimates, kErrors> sens =
       Eigen::Matrix<double, kEstimates, kErrors>::Zero();
   Eigen::Matrix<double, kErrors, 1> var = Eigen::Matrix<double, kErrors, 1>::Zero();
+  std::array<bool, kEstimates> usable{};
+};
+
+std::optional<InstantErrors> instantErrors(const ShotModel& model, double t_c_s) {
+  InstantErrors e;
   std::array<std::array<PlaneTrack, 2>, 2> track;
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
-      if (!model.fit[s][side]) return unchanged;
+      if (!model.fit[s][side]) return std::nullopt;
       std::mt19937_64 unused;  // nominal tracks draw nothing
       track[s][side] = drawTrack(*model.fit[s][side], 1, Eigen::Vector2d::Zero(), 0, unused, true);
-      var.segment<2>(2 * (2 * s + side)) = positionVariance(model, s, side, t_c_s);
+      e.var.segment<2>(2 * (2 * s + side)) = positionVariance(model, s, side, t_c_s);
     }
-  var[8] = model.contact_sigma * model.contact_sigma;
-  std::array<bool, kEstimates> usable{};
+  e.var[8] = model.contact_sigma * model.contact_sigma;
   // Contact distance d reached: |r|^2 = d^2 with r = P1 - P2, so
   // dt = (d dd - r . (dP1 - dP2)) / (r . v).
   for (int side = 0; side < 2; ++side) {
@@ -100,63 +106,79 @@ InstantWeights instantWeights(const ShotModel& model, double t_c_s) {
     const Eigen::Vector2d r = track[0][side].pos(t) - track[1][side].pos(t);
     const double rv = r.dot(track[0][side].vel(t) - track[1][side].vel(t));
     if (!(std::abs(rv) > 0)) continue;
-    sens.block<1, 2>(side, 2 * side) = -r.transpose() / rv;       // sphere 1's fit
-    sens.block<1, 2>(side, 2 * (2 + side)) = r.transpose() / rv;  // sphere 2's fit
-    sens(side, 8) = r.norm() / rv;
-    usable[side] = true;
+    e.sens.block<1, 2>(side, 2 * side) = -r.transpose() / rv;       // sphere 1's fit
+    e.sens.block<1, 2>(side, 2 * (2 + side)) = r.transpose() / rv;  // sphere 2's fit
+    e.sens(side, 8) = r.norm() / rv;
+    e.usable[side] = true;
   }
   // Kink: (P - Q) . dv = 0 with dv = P' - Q': dt = -(dP - dQ) . dv / |dv|^2.
   for (int s = 0; s < 2; ++s) {
     const Eigen::Vector2d dv = track[s][0].vel(t_c_s) - track[s][1].vel(t_c_s);
     const double dv2 = dv.squaredNorm();
     if (!(dv2 > 0)) continue;
-    sens.block<1, 2>(2 + s, 2 * (2 * s)) = -dv.transpose() / dv2;
-    sens.block<1, 2>(2 + s, 2 * (2 * s + 1)) = dv.transpose() / dv2;
-    usable[2 + s] = true;
+    e.sens.block<1, 2>(2 + s, 2 * (2 * s)) = -dv.transpose() / dv2;
+    e.sens.block<1, 2>(2 + s, 2 * (2 * s + 1)) = dv.transpose() / dv2;
+    e.usable[2 + s] = true;
   }
-  std::vector<int> used;
-  for (int i = 0; i < kEstimates; ++i) {
-    bool finite = usable[i];
-    for (int k = 0; k < kErrors && finite; ++k) finite = sens(i, k) == 0 || std::isfinite(var[k]);
-    if (finite) used.push_back(i);
-  }
-  // Least squares' weights may come out negative where estimates share most
-  // of their errors; a negative weight leans on the model's linearity and
-  // amplifies what it leaves out (a fit's systematic error). The most
-  // negative estimate is left out and the rest weighed again, until none is.
-  std::array<double, kEstimates> w{};
-  for (;;) {
-    if (used.empty()) return unchanged;
+  return e;
+}
+
+// Least squares' weights (C^-1 1 / 1' C^-1 1) of the estimates `used`, with
+// none negative: where estimates share most of their errors the plain
+// weights come out large and of both signs, which leans on the linear model
+// and amplifies what it leaves out (a fit's systematic error; unconstrained,
+// they flagged 5 of 30 ideal shots). The most negative estimate is left out
+// and the rest weighed again, until none is. Empty when none is left or the
+// solve fails.
+std::optional<std::array<double, InstantErrors::kEstimates>> nonNegativeWeights(
+    const InstantErrors& e, std::vector<int> used) {
+  while (!used.empty()) {
     const int m = static_cast<int>(used.size());
     Eigen::MatrixXd cov(m, m);
     for (int a = 0; a < m; ++a)
       for (int b = 0; b < m; ++b) {
         double c = 0;
-        for (int k = 0; k < kErrors; ++k)
-          if (sens(used[a], k) != 0 && sens(used[b], k) != 0)
-            c += sens(used[a], k) * sens(used[b], k) * var[k];
+        for (int k = 0; k < InstantErrors::kErrors; ++k)
+          if (e.sens(used[a], k) != 0 && e.sens(used[b], k) != 0)
+            c += e.sens(used[a], k) * e.sens(used[b], k) * e.var[k];
         cov(a, b) = c;
       }
-    // The estimates' errors can be (nearly) dependent: in the normal
-    // direction the two kinks add up to t_before + t_after. A ridge of 1e-9
-    // of the largest variance keeps the solve defined.
+    // The estimates' errors can be (nearly) dependent: along the line of
+    // centres the two kinks add up to t_before + t_after. A ridge of 1e-9 of
+    // the largest variance keeps the solve defined.
     cov.diagonal().array() += 1e-9 * std::max(cov.diagonal().maxCoeff(), 1e-300);
     const Eigen::VectorXd x = cov.ldlt().solve(Eigen::VectorXd::Ones(m));
     const double sum = x.sum();
-    if (!x.allFinite() || !(sum > 0)) return unchanged;
+    if (!x.allFinite() || !(sum > 0)) return std::nullopt;
     Eigen::Index worst = 0;
     if (x.minCoeff(&worst) >= 0) {
-      w = {};
+      std::array<double, InstantErrors::kEstimates> w{};
       for (int a = 0; a < m; ++a) w[used[a]] = x[a] / sum;
-      break;
+      return w;
     }
     used.erase(used.begin() + worst);
   }
-  InstantWeights out;
-  const double contact = w[0] + w[1];
-  out.before = std::abs(contact) > 1e-12 ? w[0] / contact : 0.5;
-  out.kink = {w[2], w[3]};
-  return out;
+  return std::nullopt;
+}
+
+}  // namespace
+
+InstantWeights instantWeights(const ShotModel& model, double t_c_s) {
+  const InstantWeights unchanged{model.w_before, {0.0, 0.0}};
+  const std::optional<InstantErrors> e = instantErrors(model, t_c_s);
+  if (!e) return unchanged;
+  // An estimate resting on a variance that is not finite is left out.
+  std::vector<int> used;
+  for (int i = 0; i < InstantErrors::kEstimates; ++i) {
+    bool finite = e->usable[i];
+    for (int k = 0; k < InstantErrors::kErrors && finite; ++k)
+      finite = e->sens(i, k) == 0 || std::isfinite(e->var[k]);
+    if (finite) used.push_back(i);
+  }
+  const auto w = nonNegativeWeights(*e, std::move(used));
+  if (!w) return unchanged;
+  const double contact = (*w)[0] + (*w)[1];
+  return {contact > 1e-12 ? (*w)[0] / contact : 0.5, {(*w)[2], (*w)[3]}};
 }
 
 ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, unsigned sources) {
