@@ -20,15 +20,20 @@ Vec3 drawVec(const Vec3& mean, const Eigen::Matrix3d& cov, std::mt19937_64& rng,
 
 }  // namespace
 
+PlaneTrack nominalTrack(const TrajectoryFit& f) {
+  PlaneTrack d;
+  d.t_ref = f.tRef_s();
+  for (int k = 0; k < 2; ++k) d.c[k] = f.coefficients(k);
+  return d;
+}
+
 PlaneTrack drawTrack(const TrajectoryFit& f, double inflation, const Eigen::Vector2d& drift_m_s,
                      double offset_m, std::mt19937_64& rng, bool nominal, unsigned sources) {
   std::normal_distribution<double> nd;
-  PlaneTrack d;
-  d.t_ref = f.tRef_s();
+  PlaneTrack d = nominalTrack(f);
+  if (nominal) return d;
   const int np = f.accelerationFixed() ? 2 : 3;
   for (int k = 0; k < 2; ++k) {
-    d.c[k] = f.coefficients(k);
-    if (nominal) continue;
     const Eigen::MatrixXd cov = f.covariance(k).topLeftCorner(np, np) * inflation;
     if (!cov.allFinite()) continue;
     const Eigen::LLT<Eigen::MatrixXd> llt(cov);
@@ -94,8 +99,7 @@ std::optional<InstantErrors> instantErrors(const ShotModel& model, double t_c_s)
   for (int s = 0; s < 2; ++s)
     for (int side = 0; side < 2; ++side) {
       if (!model.fit[s][side]) return std::nullopt;
-      std::mt19937_64 unused;  // nominal tracks draw nothing
-      track[s][side] = drawTrack(*model.fit[s][side], 1, Eigen::Vector2d::Zero(), 0, unused, true);
+      track[s][side] = nominalTrack(*model.fit[s][side]);
       e.var.segment<2>(2 * (2 * s + side)) = positionVariance(model, s, side, t_c_s);
     }
   e.var[8] = model.contact_sigma * model.contact_sigma;

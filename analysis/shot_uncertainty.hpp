@@ -125,6 +125,9 @@ enum UncertaintySource : unsigned {
 };
 constexpr unsigned kEverySource = (1u << 8) - 1;
 
+/// A trajectory fit's own coefficients as a track (drawTrack's nominal case).
+PlaneTrack nominalTrack(const TrajectoryFit& f);
+
 /// A trajectory fit's coefficients, drawn from their covariance (times
 /// `inflation`) plus a systematic position offset per axis, and shifted in
 /// velocity by `drift_m_s` (per axis, drawn by the caller: drawDriftPair);

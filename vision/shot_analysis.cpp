@@ -174,12 +174,9 @@ double massOf(const AnalysisSettings& set, int s) {
 std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
   std::array<double, 2> vn{0, 0};
   for (int side = 0; side < 2; ++side) {
-    std::mt19937_64 unused;  // nominal tracks draw nothing
     const double t = side == 0 ? fits.t_before : fits.t_after;
-    const PlaneTrack a =
-        drawTrack(fits.fit[0][side]->fit, 1, Eigen::Vector2d::Zero(), 0, unused, true);
-    const PlaneTrack b =
-        drawTrack(fits.fit[1][side]->fit, 1, Eigen::Vector2d::Zero(), 0, unused, true);
+    const PlaneTrack a = nominalTrack(fits.fit[0][side]->fit);
+    const PlaneTrack b = nominalTrack(fits.fit[1][side]->fit);
     const Eigen::Vector2d dr = a.pos(t) - b.pos(t), dv = a.vel(t) - b.vel(t);
     if (dr.norm() > 0) vn[side] = std::abs(dr.dot(dv)) / dr.norm();
   }
@@ -417,9 +414,7 @@ double radiusScatterPx(const std::vector<FrameData>& data, const CollisionFits& 
       for (std::size_t i = 0; i < n; ++i)
         pooled.push_back(dof * std::abs(tr.r[i] - tr.r0[i] - my - slope * (tr.t[i] - mt)));
     }
-  if (pooled.empty()) return std::nan("");
-  std::nth_element(pooled.begin(), pooled.begin() + pooled.size() / 2, pooled.end());
-  return 1.4826 * pooled[pooled.size() / 2];
+  return 1.4826 * median(std::move(pooled));  // NaN with none
 }
 
 // The radius bias' change along a track this shot is analysed with: the rig
