@@ -177,7 +177,7 @@ Grid sampleGrid(const cv::Mat& img, int step) {
   // each grid row reads every cache line of its image row: ask for the lines
   // of the rows kAhead grid rows on while this one is read, so the loads
   // overlap instead of waiting one row at a time.
-  constexpr int kAhead = 2;
+  constexpr int kAhead = 4;
   const auto prefetchRow = [&](int gy) {
     if (gy >= g.h) return;
     const char* at = reinterpret_cast<const char*>(img.ptr<T>(gy * step + g.off));
@@ -915,6 +915,11 @@ bool fitShadingOf(std::vector<Profile>& profiles, const EdgeContext& ctx, bool d
   std::array<int, kSectors> reach{};
   std::array<bool, kSectors> changed;  // a sector that lost profiles since the last round
   changed.fill(true);
+  // Per stretch: its own shape, whether it has one, and the residual variance
+  // about it (a stretch that did not change keeps them from the last round).
+  std::array<ShapeVec, kSectors> local;
+  std::array<bool, kSectors> has_local{};
+  std::array<double, kSectors> local_var{};
   for (int round = 0; round < 2; ++round) {
     Sums all;
     for (const Sums& z : sector) all.add(z);
@@ -936,17 +941,20 @@ bool fitShadingOf(std::vector<Profile>& profiles, const EdgeContext& ctx, bool d
           z.add(sector[(bin - w + kSectors) % kSectors]);
         }
         reach[bin] = w - 1;
+        has_local[bin] = z.n >= 4 && solve(z, local[bin]);
+        if (has_local[bin]) {
+          // Residual variance about the local shape.
+          const int dof = z.n * (ctx.n_in - 1) - kShape;
+          const double rss = std::max(0.0, z.s[ShadeMoments::yy] - z.s.cross(local[bin]));
+          local_var[bin] = dof > 0 ? rss / dof : 0;
+        }
       }
-      ShapeVec local;
-      if (z.n >= 4 && solve(z, local)) {
-        // Residual variance about the local shape, and how much better it is
-        // than the global one (a chi-square with kShape degrees of freedom
-        // when the shading is the same all round).
-        const int dof = z.n * (ctx.n_in - 1) - kShape;
-        const double rss = std::max(0.0, z.s[ShadeMoments::yy] - z.s.cross(local));
-        const double var = dof > 0 ? rss / dof : 0;
-        if (z.s.gramForm(local - global) > ctx.local_shape_chi2 * var) shape[bin] = local;
-      }
+      // How much better the local shape fits than the global one (a
+      // chi-square with kShape degrees of freedom when the shading is the
+      // same all round).
+      if (has_local[bin] &&
+          z.s.gramForm(local[bin] - global) > ctx.local_shape_chi2 * local_var[bin])
+        shape[bin] = local[bin];
     }
     bool dropped = false;
     any_root = false;
@@ -1135,14 +1143,16 @@ COLLIDE_AVX2_CLONES void profileEdges(const std::vector<float>& samples, int len
 template <class T>
 void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
                 std::vector<CirclePoint>& pts, EdgeStats& st) {
-  std::vector<Profile> profiles;
-  std::vector<float> samples;
-  std::vector<double> edges;
+  // The buffers are the thread's own and kept between calls (filled anew
+  // each time): allocating and zeroing them per sphere was 2-3 % of the
+  // detector's time.
+  thread_local std::vector<Profile> profiles;
+  thread_local std::vector<float> samples;
+  thread_local std::vector<double> edges;
+  thread_local std::vector<std::size_t> screened, shifted;
+  profiles.clear(), screened.clear(), shifted.clear();
   int len = 0, margin = 0;
-  profiles.reserve(static_cast<std::size_t>(6 * c.r) + 8);
-  samples.reserve(profiles.capacity() * 40);
   sampleProfiles<T>(img, c, ctx, profiles, samples, len, margin, st);
-  std::vector<std::size_t> screened;
   for (std::size_t k = 0; k < profiles.size(); ++k) {
     screenProfile(samples.data() + k * len, len, margin, ctx, profiles[k], st);
     if (profiles[k].ok) screened.push_back(k);
@@ -1158,7 +1168,6 @@ void edgePoints(const cv::Mat& img, const Circle& c, const EdgeContext& ctx,
   if (root) {
     std::array<double, 2 * kSectors> shift{};  // brighter limbs' sectors, then darker ones'
     std::array<int, 2 * kSectors> count{};
-    std::vector<std::size_t> shifted;
     profileEdges(samples, len, profiles, ctx, 2, nullptr, edges);
     for (std::size_t k = 0; k < profiles.size(); ++k) {
       const Profile& pr = profiles[k];
@@ -1534,20 +1543,33 @@ FrameSpheres detectTyped(const cv::Mat& img, const Grid& grid, int max_value,
 namespace {
 
 // Residuals of every point from circle c; returns the robust (MAD) standard
-// deviation of those in use.
+// deviation of those in use. A point out of use is given an infinite |residual|
+// for the median: the median of the m in use is then the (m/2)-th smallest of
+// all n, and the loop has no branch (built for AVX2 too: four square roots at
+// once).
 // (`scratch` two buffers of kthSmallest's.)
-double residuals(const PointArrays& p, const Circle& c, std::vector<double>& res,
-                 std::array<std::vector<double>, 2>& scratch) {
+COLLIDE_AVX2_CLONES double residuals(const PointArrays& p, const Circle& c,
+                                     std::vector<double>& res,
+                                     std::array<std::vector<double>, 2>& scratch) {
+  const std::size_t n = p.size();
   std::vector<double>& absr = scratch[0];
-  absr.clear();
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const double dx = p.u[i] - c.u, dy = p.v[i] - c.v;
-    res[i] = std::sqrt(dx * dx + dy * dy) - c.r;
+  absr.resize(n);
+  const double* __restrict pu = p.u.data();
+  const double* __restrict pv = p.v.data();
+  const double* __restrict pw = p.w.data();
+  double* __restrict out = res.data();
+  double* __restrict a = absr.data();
+  constexpr double kOut = std::numeric_limits<double>::infinity();
+  std::size_t used = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = pu[i] - c.u, dy = pv[i] - c.v;
+    const double r = std::sqrt(dx * dx + dy * dy) - c.r;
+    out[i] = r;
+    a[i] = pw[i] > 0 ? std::abs(r) : kOut;
+    used += pw[i] > 0;
   }
-  for (std::size_t i = 0; i < p.size(); ++i)
-    if (p.w[i] > 0) absr.push_back(std::abs(res[i]));
-  if (absr.empty()) return 0;
-  return 1.4826 * kthSmallest(absr.data(), absr.size(), absr.size() / 2, scratch[1]);
+  if (used == 0) return 0;
+  return 1.4826 * kthSmallest(a, n, used / 2, scratch[1]);
 }
 
 // The circle through three points; false if they are (nearly) collinear.
