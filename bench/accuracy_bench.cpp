@@ -28,7 +28,9 @@
 // analysis time; and issue 12's targets, pass or FAIL. A Markdown table closes the run.
 // Also the precision the analysis states (its sigmas, which the pulls check):
 // how large the worst of the run's shots is expected to be with such sigmas,
-// and the chance that every shot meets a per-shot target. --error-budget: the
+// and the chance that every shot meets a per-shot target; e's error and stated
+// sigma by impact angle (psi in 30-degree bins: e's precision falls as
+// cos(psi) towards grazing, and this says where). --error-budget: the
 // sigmas split by source (vision::AnalysisSettings::error_budget; the analysis
 // time then includes it).
 // Figures and the command used go in docs/benchmarks.md ("Accuracy").
@@ -183,6 +185,11 @@ struct PresetResult {
   Stat pe_all, pb_all, pg_all;
   // The stated sigmas of the unflagged shots (of beta where it is asked).
   Stat se, sb, sg_deg;
+  // e's errors and stated sigmas of the unflagged shots by impact angle psi
+  // (bins of kPsiBinDeg): the normal velocities, and with them e's precision,
+  // shrink as cos(psi).
+  static constexpr double kPsiBinDeg = 30;
+  std::map<int, Stat> de_by_psi, se_by_psi;
   // --error-budget: per source (in the analysis' order), the unflagged shots'
   // sigmas of e, beta and gamma with only that source drawn.
   std::vector<std::pair<std::string, std::array<Stat, 3>>> budget;
@@ -498,6 +505,11 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
   for (const std::string& f : flags) ++out.flag_count[f];
   scoreShot(pr, r, truth, tb, ta, spheres, out);
   const vision::CollisionProperties& c = r.collision;
+  if (flags.empty()) {
+    const int bin = static_cast<int>(psi_deg / PresetResult::kPsiBinDeg);
+    out.de_by_psi[bin].add(c.e.value - truth.e);
+    out.se_by_psi[bin].add(c.e.sigma);
+  }
   if (flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 && c.e.sigma > 0)
     out.points.push_back(app::campaignShotFrom(c));
   const double e_err = c.e.value - truth.e, b_err = c.beta.value - truth.beta;
@@ -748,6 +760,21 @@ void printPrecision(const PresetResult& r) {
   std::printf("\n");
 }
 
+// e's error RMS and stated sigmas' RMS by impact angle: the precision limit
+// of e as psi approaches grazing.
+void printByImpactAngle(const PresetResult& r) {
+  if (r.de_by_psi.empty()) return;
+  std::printf("   e by impact angle (unflagged; error RMS, stated sigma RMS):");
+  const char* sep = " ";
+  for (const auto& [bin, de] : r.de_by_psi) {
+    const double lo = bin * PresetResult::kPsiBinDeg;
+    std::printf("%spsi %.0f-%.0f deg: %zu shots, %.5f, %.5f", sep, lo,
+                lo + PresetResult::kPsiBinDeg, de.v.size(), de.rms(), r.se_by_psi.at(bin).rms());
+    sep = " | ";
+  }
+  std::printf("\n");
+}
+
 // --error-budget: each quantity's sigma by source, RMS over the unflagged shots.
 void printBudget(const PresetResult& r) {
   if (r.budget.empty()) return;
@@ -789,6 +816,7 @@ void printPreset(const PresetResult& r) {
       r.pe_all.rms(), r.pe_all.maxAbs(), r.pb_all.rms(), r.pb_all.maxAbs(), r.pg_all.rms(),
       r.pg_all.maxAbs());
   printPrecision(r);
+  printByImpactAngle(r);
   printBudget(r);
   if (r.friction)
     std::printf(
