@@ -1,12 +1,14 @@
 // kthSmallest against std::nth_element (an implementation written
 // elsewhere): the same value at every rank, for sizes around the insertion
 // sort's cut-off and well beyond it, with distinct values, many ties, all
-// values equal, sorted and reversed input.
+// values equal, sorted and reversed input, and +infinities among them.
 #include "vision/kth_smallest.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -57,4 +59,27 @@ TEST(KthSmallest, AgreesWithNthElementOnOrderedInput) {
   expectEveryRank(up);
   std::reverse(up.begin(), up.end());
   expectEveryRank(up);
+}
+
+// The circle fit's median sets the points out of use to +infinity
+// (vision/sphere_detector.cpp, residuals): at the ranks below them, the same
+// value as over the finite values alone.
+TEST(KthSmallest, InfinitiesRankAboveEveryFiniteValue) {
+  std::mt19937 rng(13);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::bernoulli_distribution out(0.2);
+  for (std::size_t n : {10, 30, 171, 300}) {
+    std::vector<double> v(n), finite;
+    for (double& x : v) {
+      x = out(rng) ? std::numeric_limits<double>::infinity() : std::abs(normal(rng));
+      if (std::isfinite(x)) finite.push_back(x);
+    }
+    expectEveryRank(v);
+    std::vector<double> scratch;
+    for (std::size_t k = 0; k < finite.size(); ++k) {
+      std::vector<double> w = v;
+      ASSERT_EQ(kthSmallest(w.data(), w.size(), k, scratch), reference(finite, k))
+          << "rank " << k << " of " << finite.size() << " finite among " << n;
+    }
+  }
 }
