@@ -422,8 +422,8 @@ std::vector<std::string> countedFlags(const Preset& pr, const vision::ShotAnalys
 
 // Errors of one analysed shot against the truth, into `out`.
 void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeasurement& truth,
-               const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta, int spheres,
-               PresetResult& out) {
+               double psi_deg, const std::array<Sphere, 2>& tb, const std::array<Sphere, 2>& ta,
+               int spheres, PresetResult& out) {
   const vision::CollisionProperties& c = r.collision;
   const bool flagged = !countedFlags(pr, r).empty();
   const double e_err = c.e.value - truth.e;
@@ -449,6 +449,9 @@ void scoreShot(const Preset& pr, const vision::ShotAnalysis& r, const WaltonMeas
   }
   out.de.add(e_err);
   out.pe.add(e_err / c.e.sigma);
+  const int psi_bin = static_cast<int>(psi_deg / PresetResult::kPsiBinDeg);
+  out.de_by_psi[psi_bin].add(e_err);
+  out.se_by_psi[psi_bin].add(c.e.sigma);
   out.dg_deg.add(g_err);
   out.pg.add(g_err / c.gamma_deg.sigma);
   if (beta_asked) {
@@ -503,13 +506,8 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
   const std::vector<std::string> flags = countedFlags(pr, r);
   out.flagged += !flags.empty();
   for (const std::string& f : flags) ++out.flag_count[f];
-  scoreShot(pr, r, truth, tb, ta, spheres, out);
+  scoreShot(pr, r, truth, psi_deg, tb, ta, spheres, out);
   const vision::CollisionProperties& c = r.collision;
-  if (flags.empty()) {
-    const int bin = static_cast<int>(psi_deg / PresetResult::kPsiBinDeg);
-    out.de_by_psi[bin].add(c.e.value - truth.e);
-    out.se_by_psi[bin].add(c.e.sigma);
-  }
   if (flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 && c.e.sigma > 0)
     out.points.push_back(app::campaignShotFrom(c));
   const double e_err = c.e.value - truth.e, b_err = c.beta.value - truth.beta;
