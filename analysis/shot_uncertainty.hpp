@@ -36,8 +36,10 @@ struct ShotModel {
       inflation{};  ///< of each fit's covariance (residual correlation)
   std::array<std::array<double, 2>, 2> drift{};       ///< systematic velocity sigma, m/s
   std::array<std::array<DepthCoupling, 2>, 2> depth;  ///< [sphere][side]
-  std::array<double, 2> offset{};                     ///< systematic position sigma, m
-  std::array<std::array<Vec3, 2>, 2> spin;            ///< [sphere][side], rad/s
+  /// Systematic position sigma per axis, m: an offset that holds over a
+  /// track, drawn for each of a sphere's two fits on its own.
+  std::array<double, 2> offset{};
+  std::array<std::array<Vec3, 2>, 2> spin;  ///< [sphere][side], rad/s
   std::array<std::array<Eigen::Matrix3d, 2>, 2> spin_cov;
   std::array<double, 2> diameter{}, mass{};
   double contact = 0;  ///< contact distance, m

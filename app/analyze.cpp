@@ -40,6 +40,7 @@ void applyProfileToAnalysis(const hw::RigProfile& profile, vision::AnalysisSetti
   s.unknown_spin_sigma_rad_s = profile.analysis.launch_spin_rad_s;
   s.contact_distance_sigma_px = profile.analysis.contact_distance_sigma_px;
   s.radius_systematic_px = profile.analysis.radius_systematic_px;
+  s.centre_offset_px = profile.analysis.centre_offset_px;
   s.air_density_kg_m3 = profile.analysis.air_density_kg_m3;
 }
 

@@ -171,6 +171,17 @@ struct PresetResult {
   // centre along the direction away from the axis (um).
   static constexpr double kBiasBinPx = 60;
   std::map<int, Stat> radius_bias_px, centre_bias_um;
+  // The same by the gap between the two true outlines (px, the lower edges of
+  // kGapBinsPx): the radius error (px) and the centre's error along the line
+  // of centres (um, positive towards the other sphere). Where the spheres
+  // close in, the detector leaves out the outline facing the other sphere.
+  static constexpr std::array<double, 7> kGapBinsPx{0, 2, 4, 8, 16, 32, 64};
+  std::map<int, Stat> radius_bias_by_gap_px, centre_bias_by_gap_um;
+  static constexpr int kTouchingBin = 100;  ///< added to the bin of a merged outline
+  // Per sphere and image axis, its pre-impact track's mean centre offset
+  // minus its post-impact one's (px), and per sphere the variance the
+  // frames' scatter puts in that (px^2): addTrackOffsets.
+  Stat track_offset_difference_px, track_offset_noise_px2;
   // Per track (a sphere on one side of the impact): how much its radius error
   // changes over the track (a line through it against time, its slope times
   // the track's span; px), and per side how the two spheres' mean radius
@@ -229,15 +240,86 @@ std::optional<RadiusChange> radiusChangeAndMean(const RadiusTrack& p) {
   return RadiusChange{slope * span, std::sqrt(ss / (n - 2) / stt) * span, sr};
 }
 
+// One outline's radius error and its centre's error along the line of
+// centres, by the gap between the two true outlines (PresetResult).
+void addBiasByGap(const PinholeCamera& cam, const hw::Shot& shot,
+                  const std::array<SphereState, 2>& st, int s, const vision::SphereDetection& d,
+                  PresetResult& out) {
+  const Vec3 c = st[s].position_m, other = st[1 - s].position_m;
+  const double radius_m = 0.5 * shot.scene.diameter_m[s];
+  const double other_m = 0.5 * shot.scene.diameter_m[1 - s];
+  const double gap_px = (cam.project(c) - cam.project(other)).norm() -
+                        apparentRadiusPx(cam, c, radius_m) - apparentRadiusPx(cam, other, other_m);
+  const auto& bins = PresetResult::kGapBinsPx;
+  int bin = static_cast<int>(std::upper_bound(bins.begin(), bins.end(), gap_px) - bins.begin()) - 1;
+  if (bin < 0) return;
+  bin += d.touching ? PresetResult::kTouchingBin : 0;
+  const Vec3 back = cam.sphereCentre(d.u_px, d.v_px, radius_m, c.z());
+  const Eigen::Vector2d towards = (other - c).head<2>().normalized();
+  out.centre_bias_by_gap_um[bin].add(1e6 * (back - c).head<2>().dot(towards));
+  out.radius_bias_by_gap_px[bin].add(d.radius_px - apparentRadiusPx(cam, c, radius_m));
+}
+
+// How far each track's detected centres sit, on average, from the true ones
+// (px per image axis, back at the true depth through the lens, or through
+// the pixel size): per sphere, the pre-impact track's mean offset minus the
+// post-impact one's, and the variance the frames' own scatter gives that
+// difference. What is left beyond the scatter is an offset that holds over a
+// track and differs between tracks: the profile's centre_offset_px.
+void addTrackOffsets(const hw::Shot& shot, const vision::ShotAnalysis& r,
+                     const vision::AnalysisSettings& set, PresetResult& out) {
+  if (!(set.pixel_size_m > 0)) return;
+  const hw::TruthRecord& t = *shot.truth;
+  std::map<std::int64_t, std::size_t> by_id;
+  for (std::size_t k = 0; k < t.frame_id.size(); ++k) by_id[t.frame_id[k]] = k;
+  std::array<std::array<std::vector<Eigen::Vector2d>, 2>, 2> off;  // [sphere][side], px
+  for (const vision::FrameDetections& fd : r.frames)
+    for (int s = 0; s < 2; ++s) {
+      const auto& d = fd.sphere[s];
+      const auto k = by_id.find(fd.frame_id);
+      if (!d || d->cut_by_border || d->touching || k == by_id.end()) continue;
+      const Vec3 c = t.states[k->second][s].position_m;
+      const Eigen::Vector2d seen =
+          set.camera
+              ? set.camera->sphereCentre(d->u_px, d->v_px, 0.5 * shot.scene.diameter_m[s], c.z())
+                    .head<2>()
+              : Eigen::Vector2d((d->u_px - set.origin_u_px) * set.pixel_size_m,
+                                -(d->v_px - set.origin_v_px) * set.pixel_size_m);
+      off[s][fd.t_s > r.collision.t_collision_s.value].push_back((seen - c.head<2>()) /
+                                                                 set.pixel_size_m);
+    }
+  for (int s = 0; s < 2; ++s) {
+    std::array<Eigen::Vector2d, 2> mean;
+    double noise = 0;  // variance of the difference from the frames' scatter, px^2 per axis
+    bool ok = true;
+    for (int side = 0; side < 2; ++side) {
+      const auto& v = off[s][side];
+      if (v.size() < 5) ok = false;
+      if (!ok) break;
+      mean[side] = Eigen::Vector2d::Zero();
+      for (const auto& x : v) mean[side] += x;
+      mean[side] /= static_cast<double>(v.size());
+      double ss = 0;
+      for (const auto& x : v) ss += (x - mean[side]).squaredNorm();
+      noise += ss / (2.0 * (v.size() - 1)) / v.size();
+    }
+    if (!ok) continue;
+    for (int k = 0; k < 2; ++k) out.track_offset_difference_px.add(mean[0][k] - mean[1][k]);
+    out.track_offset_noise_px2.add(noise);
+  }
+}
+
 // The detector's radius and centre in every frame where a sphere was
 // measured whole (neither merged nor cut by the border), against the truth
-// seen through the profile's lens. Shots without a lens are skipped.
+// seen through the profile's lens; shots without a lens give only their
+// tracks' centre offsets (addTrackOffsets).
 void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, PresetResult& out) {
   const vision::AnalysisSettings set = app::analysisSettingsFor(shot);
   if (std::isfinite(r.radius_scatter_px)) {
     out.analysis_radius_scatter_px.add(r.radius_scatter_px);
     out.analysis_radius_systematic_px.add(r.radius_systematic_px);
   }
+  addTrackOffsets(shot, r, set, out);
   if (!set.camera) return;
   const PinholeCamera& cam = *set.camera;
   const hw::TruthRecord& t = *shot.truth;
@@ -248,6 +330,8 @@ void addDetectorBias(const hw::Shot& shot, const vision::ShotAnalysis& r, Preset
     for (int s = 0; s < 2; ++s) {
       const auto& d = fd.sphere[s];
       const auto k = by_id.find(fd.frame_id);
+      if (d && !d->cut_by_border && k != by_id.end())
+        addBiasByGap(cam, shot, t.states[k->second], s, *d, out);
       if (!d || d->touching || d->cut_by_border || k == by_id.end()) continue;
       const Vec3 c = t.states[k->second][s].position_m;
       const double radius_m = 0.5 * shot.scene.diameter_m[s];
@@ -685,6 +769,17 @@ const char* verdict(double value, double bound) {
 }
 
 void printDetectorBias(const PresetResult& r) {
+  if (!r.track_offset_difference_px.v.empty()) {
+    // Each difference holds two tracks' offsets: per track, half its excess variance.
+    const double diff = r.track_offset_difference_px.rms(),
+                 noise = std::sqrt(r.track_offset_noise_px2.mean());
+    std::printf(
+        "   centre offset per track: the two tracks' mean offsets differ by %.4f px RMS per axis "
+        "over %zu spheres (the frames' scatter alone: %.4f px); per track beyond it: %.4f px "
+        "(the profile's centre_offset_px)\n",
+        diff, r.track_offset_noise_px2.v.size(), noise,
+        std::sqrt(std::max(0.0, 0.5 * (diff * diff - noise * noise))));
+  }
   if (r.radius_bias_px.empty() && r.radius_change_px.v.empty()) return;
   std::printf("   detector against the truth, by distance from the principal point:\n");
   for (const auto& [bin, radius] : r.radius_bias_px) {
@@ -694,6 +789,23 @@ void printDetectorBias(const PresetResult& r) {
         "(sd %.1f)\n",
         bin * PresetResult::kBiasBinPx, (bin + 1) * PresetResult::kBiasBinPx, radius.v.size(),
         radius.mean(), radius.sd(), centre.mean(), centre.sd());
+  }
+  std::printf("   the same by the gap between the two true outlines:\n");
+  for (const auto& [key, radius] : r.radius_bias_by_gap_px) {
+    const Stat& centre = r.centre_bias_by_gap_um.at(key);
+    const auto& edges = PresetResult::kGapBinsPx;
+    const bool merged = key >= PresetResult::kTouchingBin;
+    const int bin = key % PresetResult::kTouchingBin;
+    std::printf(
+        "     gap %3.0f-%3s px%s: %5zu outlines, radius %+.3f px (sd %.3f), centre %+.1f um "
+        "towards "
+        "the other sphere (sd %.1f)\n",
+        edges[bin],
+        bin + 1 < static_cast<int>(edges.size())
+            ? std::to_string(static_cast<int>(edges[bin + 1])).c_str()
+            : "",
+        merged ? ", merged" : "", radius.v.size(), radius.mean(), radius.sd(), centre.mean(),
+        centre.sd());
   }
   // The change's systematic part: its RMS less what the frames' own scatter
   // puts into a line's slope.

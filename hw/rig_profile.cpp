@@ -535,8 +535,9 @@ Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
       a.radius_systematic_px,
       r.number("radius_systematic_px", a.radius_systematic_px, {.ge = 0.0, .le = 2.0}));
   COLLIDE_ASSIGN_OR_RETURN(
-      a.air_density_kg_m3,
-      r.number("air_density_kg_m3", a.air_density_kg_m3, {.ge = 0.0, .le = 2.0}));
+      a.centre_offset_px, r.number("centre_offset_px", a.centre_offset_px, {.ge = 0.0, .le = 2.0}));
+  COLLIDE_ASSIGN_OR_RETURN(a.air_density_kg_m3, r.number("air_density_kg_m3", a.air_density_kg_m3,
+                                                         {.ge = 0.0, .le = 2.0}));
   return r.finish("[analysis]");
 }
 

@@ -178,6 +178,15 @@ struct AnalysisProfile {
   /// front-lit spheres; a bare backlit silhouette's sharp edge is good to
   /// about 0.01 px.
   double radius_systematic_px = 0.1;
+  /// How far a detected centre may sit from the true one by an amount that
+  /// holds over a track and differs from one track to the next (standard
+  /// deviation per image axis, pixels): the dots' and the shaded limb's pull
+  /// on the outline, averaged over the track. It moves each fit's position
+  /// at the contact, so the instant found where a sphere's two fits meet, and
+  /// at grazing incidence the line of centres and e. Measure it with
+  /// accuracy_bench --detector-bias ("per track" line); 0: only the dots'
+  /// pull on evenly lit spheres (vision/shot_fits.hpp, dotBiasPx).
+  double centre_offset_px = 0.0;
   /// The air the spheres fly through (kg/m^3): 1.204 for dry air at 20
   /// degrees C and 101.325 kPa (1.16 at 30 degrees C, 1.06 at 1000 m). The
   /// trajectory fits take its drag out (analysis/air_drag.hpp): unmodelled, it

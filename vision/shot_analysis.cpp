@@ -222,7 +222,8 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.spin_cov[s][side] = spins.side[s][side].cov;
     }
   // The dots' slow pull on the outline and, under a lens, the lamp's
-  // (vision/shot_fits.hpp).
+  // (vision/shot_fits.hpp); each track's centre offset: the dots' and the
+  // profile's centre_offset_px.
   for (int s = 0; s < 2; ++s) {
     const auto& sides = spins.side[s];
     const bool dots_seen = !(sides[0].unknown_reason && sides[1].unknown_reason);
@@ -238,6 +239,7 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.drift[s][side] =
           centreDriftSigma_m_s(f, dots, set.camera.has_value(), set.radius_systematic_px, px);
     }
+    in.offset[s] = std::hypot(in.offset[s], std::max(0.0, set.centre_offset_px) * px);
   }
   useInstants(in, fits);
   return in;

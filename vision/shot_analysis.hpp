@@ -100,6 +100,11 @@ struct AnalysisSettings {
   /// the diameters, px (the rig profile's [analysis] contact_distance_sigma_px):
   /// drawn in the Monte Carlo, so the sigmas at grazing incidence carry it.
   double contact_distance_sigma_px = 0.0;
+  /// Standard deviation per image axis of a centre offset that holds over a
+  /// track and differs between tracks, px (the rig profile's [analysis]
+  /// centre_offset_px): combined with the dots' own (dotBias_m) in
+  /// ShotModel::offset, drawn in the Monte Carlo and in the instant's weights.
+  double centre_offset_px = 0.0;
   /// Distance from the camera's projection centre to the object plane (where
   /// pixel_size_m holds), m. When > 0 the apparent radius's change along each
   /// track gives the sphere's velocity towards the camera
