@@ -173,7 +173,7 @@ InstantWeights instantWeights(const ShotModel& model, double t_c_s) {
   if (!e) return unchanged;
   // An estimate resting on a variance that is not finite is left out.
   std::vector<int> used;
-  for (int i = 0; i < InstantErrors::kEstimates; ++i) {
+  for (int i = model.contact_reached ? 0 : 2; i < InstantErrors::kEstimates; ++i) {
     bool finite = e->usable[i];
     for (int k = 0; k < InstantErrors::kErrors && finite; ++k)
       finite = e->sens(i, k) == 0 || std::isfinite(e->var[k]);
@@ -214,12 +214,20 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, u
       drawn(kContactDistance)
           ? in.contact + in.contact_sigma * std::normal_distribution<double>()(rng)
           : in.contact;
-  const double tb = nominal ? in.t_before : contactTime(d[0][0], d[1][0], contact, in.t_before);
-  const double ta = nominal ? in.t_after : contactTime(d[0][1], d[1][1], contact, in.t_after);
-  o.t_c = (1 - in.w_kink[0] - in.w_kink[1]) * (in.w_before * tb + (1 - in.w_before) * ta);
+  // Without the contact distance reached, the instant is where the tracks
+  // bend: the kinks alone (their weights add up to 1), both instants there.
+  const bool reached = in.contact_reached;
+  const double tb =
+      nominal || !reached ? in.t_before : contactTime(d[0][0], d[1][0], contact, in.t_before);
+  const double ta =
+      nominal || !reached ? in.t_after : contactTime(d[0][1], d[1][1], contact, in.t_after);
+  const double w_kinks = in.w_kink[0] + in.w_kink[1];
+  o.t_c = reached ? (1 - w_kinks) * (in.w_before * tb + (1 - in.w_before) * ta) : 0.0;
   for (int s = 0; s < 2; ++s)
-    if (in.w_kink[s] > 0) o.t_c += in.w_kink[s] * kinkTime(d[s][0], d[s][1], in.t_before);
-  o.dt_ba = tb - ta;
+    if (in.w_kink[s] > 0)
+      o.t_c += in.w_kink[s] / (reached ? 1.0 : w_kinks) * kinkTime(d[s][0], d[s][1], in.t_before);
+  if (!reached && !(w_kinks > 0)) o.t_c = in.t_before;
+  o.dt_ba = reached ? tb - ta : 0.0;
   ContactState st;
   for (int s = 0; s < 2; ++s) {
     const double wp = in.w_position_before[s];

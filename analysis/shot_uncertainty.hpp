@@ -60,6 +60,12 @@ struct ShotModel {
   /// tracks meet, analysis/contact.hpp); the contact-distance instants'
   /// combination (w_before) takes the rest. 0: those instants alone.
   std::array<double, 2> w_kink{0.0, 0.0};
+  /// False when the fits never came within the contact distance (a nearly
+  /// grazing impact, vision/shot_fits.hpp kinkInstant): t_before = t_after
+  /// are where the spheres' tracks bend, and the instant rests on the kinks
+  /// alone (instantWeights leaves the contact-distance instants out; the
+  /// draws do not look for them).
+  bool contact_reached = true;
   /// What is known of the line of centres' z part before the spins speak:
   /// its mean (a measurement, e.g. from the spheres' apparent sizes, or 0 for
   /// a prior) and standard deviation.
@@ -95,7 +101,8 @@ std::array<double, 2> contactPositionWeights(const ShotModel& model, double t_c_
 /// leaves out and flagged 5 of 30 ideal shots). Evaluated on the
 /// fits at t_before, t_after and t_c_s; a kink whose fits' velocities do not
 /// differ, or an estimate on a fit without a finite position variance, gets
-/// no weight; with none usable, the model's w_before and no kinks.
+/// no weight; with none usable, the model's w_before and no kinks. Without
+/// the contact reached (ShotModel::contact_reached), the kinks alone.
 struct InstantWeights {
   double before = 0.5;               ///< ShotModel::w_before
   std::array<double, 2> kink{0, 0};  ///< ShotModel::w_kink

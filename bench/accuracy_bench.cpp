@@ -724,7 +724,10 @@ PresetResult runPreset(const Preset& pr, const hw::RigProfile& base, int shots,
     });
     std::array<Sphere, 2> tb, ta;
     if (!truthAtContact(shot, tb, ta)) {
-      out.failures.push_back("shot " + std::to_string(i) + ": no collision in the truth");
+      // Spheres that missed each other: the analysis must not find a collision.
+      out.failures.push_back(
+          "shot " + std::to_string(i) + ": no collision in the truth; " +
+          (r ? "the analysis found one (WRONG)" : "the analysis found none: " + r.error().message));
       continue;
     }
     auto truth = measureCollision(tb, ta);

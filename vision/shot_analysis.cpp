@@ -190,6 +190,7 @@ std::array<double, 2> normalSpeedsAtInstants(const CollisionFits& fits) {
 // contact distance's, which moves them in opposite directions). Each
 // sphere's position at contact from both its fits (contactPositionWeights).
 void useInstants(ShotModel& in, const CollisionFits& fits) {
+  in.contact_reached = fits.contact_reached;
   const std::array<double, 2> vn = normalSpeedsAtInstants(fits);
   in.w_before =
       beforeInstantWeight(fits.sigma_before, fits.sigma_after, in.contact_sigma, vn[0], vn[1]);
@@ -594,7 +595,12 @@ void flagTracks(ShotAnalysis& out, const FlagInputs& q) {
   g.frames_per_side = std::min({out.sphere[0].frames_before, out.sphere[0].frames_after,
                                 out.sphere[1].frames_before, out.sphere[1].frames_after});
   const CollisionProperties& c = out.collision;
-  if (relativeVelocityError(g, c.vn_m_s.value) > 0.05) addFlag(out, "e_untrustworthy_geometry");
+  // e also when v_n's own sigma (the Monte Carlo's: the line of centres'
+  // direction from the instant included, which eq. 5.1 leaves out) is more
+  // than 5 % of it: a nearly grazing impact.
+  if (relativeVelocityError(g, c.vn_m_s.value) > 0.05 ||
+      !(c.vn_m_s.sigma <= 0.05 * std::abs(c.vn_m_s.value)))
+    addFlag(out, "e_untrustworthy_geometry");
   if (relativeVelocityError(g, c.vs_m_s.value) > 0.05) addFlag(out, "beta_untrustworthy_geometry");
 }
 
@@ -665,7 +671,7 @@ struct InverseInputs {
   std::array<double, 2> r_med;
   double px, exposure_s;
   bool dark;
-  double contact;
+  double contact, contact_sigma;  ///< m
   const std::vector<FrameData>& data;
   FreeFlight flight;
   double frame_dt;
@@ -689,7 +695,7 @@ struct InversePass {
 void touchInPlane(InversePass& p, const InverseInputs& in) {
   const double m = p.model.nz_mean, s = p.model.nz_sigma;
   const double d = inPlaneContactDistance(in.contact, m, s);
-  if (!(d < in.contact) || !findInstants(p.fits, d)) return;
+  if (!(d < in.contact) || !findInstants(p.fits, d, p.model.contact_sigma)) return;
   p.model.contact = d;
   p.model.contact_sigma = std::hypot(p.model.contact_sigma, in.contact * std::abs(m) * s,
                                      in.contact * s * s / std::numbers::sqrt2);
@@ -726,7 +732,8 @@ InversePass withHeldDepths(const InverseInputs& in, InversePass first) {
   if (!holdDepthsToImpulse(held, first.u, first.fits.t_split)) return first;
   PixelScale held_scale = first.scale;
   setDepths(held_scale, held, first.fits.t_split);
-  auto refit = fitCollision(in.data, held_scale, in.contact, in.flight, in.exposure_s, in.frame_dt);
+  auto refit = fitCollision(in.data, held_scale, in.contact, in.contact_sigma, in.flight,
+                            in.exposure_s, in.frame_dt);
   if (!refit) return first;
   InversePass second = inversePass(in, std::move(*refit), std::move(held), std::move(held_scale));
   return second.u.nominal.ok ? second : first;
@@ -814,15 +821,17 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
 
   // ---- trajectory fits on each side, the two collision instants
   const double contact = 0.5 * (diam[0] + diam[1]);
-  auto fits =
-      fitCollision(data, scale, contact, flight, burst.exposure_us * 1e-6, frames->frame_dt);
+  const double contact_sigma = std::max(0.0, set.contact_distance_sigma_px) * *px;
+  auto fits = fitCollision(data, scale, contact, contact_sigma, flight, burst.exposure_us * 1e-6,
+                           frames->frame_dt);
   if (!fits) return fits.error();
   const AnalysisSettings shot_set = withRadiusScatter(set, data, *fits, scale, out);
 
   // ---- out-of-plane motion from the apparent size (when the camera's distance
   // is known); with the lens, the fits again with each centre at its depth
   auto depth = fitDepths(out, data, *fits, scale, shot_set, r_med, [&] {
-    return fitCollision(data, scale, contact, flight, burst.exposure_us * 1e-6, frames->frame_dt);
+    return fitCollision(data, scale, contact, contact_sigma, flight, burst.exposure_us * 1e-6,
+                        frames->frame_dt);
   });
   if (!depth) return depth.error();
 
@@ -836,8 +845,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   int dark_frames = 0;
   for (const FrameData& f : data) dark_frames += f.found.dark_spheres ? 1 : 0;
   const bool dark = mostlyDark(dark_frames, static_cast<int>(data.size()));
-  const InverseInputs in{shot_set, spins,   r_med, *px,    burst.exposure_us * 1e-6,
-                         dark,     contact, data,  flight, frames->frame_dt};
+  const InverseInputs in{shot_set, spins,         r_med, *px,    burst.exposure_us * 1e-6, dark,
+                         contact,  contact_sigma, data,  flight, frames->frame_dt};
   const InversePass pass = withHeldDepths(in, inversePass(in, *fits, *depth, scale));
   out.collision.line_of_centres_z_from_size = pass.nz_size;
   const ShotUncertainty& u = pass.u;
@@ -846,6 +855,13 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         "the measured kinematics are not a collision (the spheres do not approach at "
         "the contact instant); check the tracks");
   const InstantAgreement instants = instantAgreement(pass.fits, u, shot_set, pass.scale.px);
+  if (!pass.fits.contact_reached)
+    out.notes.push_back(
+        "the fitted centres never came within the contact distance (nearly "
+        "grazing: at the instant found they were " +
+        fmt("%.0f", 1e6 * pass.fits.shortfall_m) +
+        " um further apart): the collision instant is where each sphere's track "
+        "bends, from the kinks alone");
   fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, instants);
   withoutUnmeasuredSpins(out.collision, spins);
   if (set.error_budget) {

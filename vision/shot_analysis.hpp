@@ -225,6 +225,8 @@ struct ShotAnalysis {
   ///    scatter below 1 px only widens the fits' sigmas (scaled by chi^2);
   ///  "e_untrustworthy_geometry", "beta_untrustworthy_geometry": SPEC eq. 5.1
   ///    (with the residual scatter as s) gives |v_n| or v_s a relative error > 5 %;
+  ///    e's also when v_n's stated sigma exceeds 5 % of |v_n| (at grazing
+  ///    incidence the line of centres' direction, which eq. 5.1 leaves out);
   ///  "no_spin_before", "no_spin_after": a sphere's spin could not be measured
   ///    on that side (taken as 0 +- 50 rad/s per axis, so the sigmas of gamma,
   ///    v_s and f show it); beta (and vs_after after, beta_from_impulse

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <string>
 
+#include "analysis/contact.hpp"
 #include "analysis/residual_structure.hpp"
+#include "analysis/shot_uncertainty.hpp"
 
 namespace collide::vision {
 
@@ -76,20 +78,77 @@ Result<SideFit> fitSide(const std::vector<FrameData>& data, std::vector<int> fra
   return fail("unreachable");
 }
 
-Status findInstants(CollisionFits& fits, double contact_m) {
+Status kinkInstant(CollisionFits& fits, double contact_m, double contact_sigma_m) {
+  // Each sphere's meeting instant and its variance, where its velocity changed.
+  double sum = 0, weights = 0;
+  for (int s = 0; s < 2; ++s) {
+    const TrajectoryFit &pre = fits.fit[s][0]->fit, &post = fits.fit[s][1]->fit;
+    const double t = kinkTime(nominalTrack(pre), nominalTrack(post), fits.t_split);
+    const Vec3 dv = pre.velocityAt_m_s(t).value - post.velocityAt_m_s(t).value;
+    const double dv_norm = dv.head<2>().norm();
+    if (!(dv_norm > 0)) continue;
+    const Eigen::Vector2d dir = dv.head<2>() / dv_norm;
+    const auto along = [&](const Vec3& sigma) {
+      return dir.cwiseProduct(sigma.head<2>()).squaredNorm();
+    };
+    const double dv_var = along(pre.velocityAt_m_s(t).sigma) + along(post.velocityAt_m_s(t).sigma);
+    const double pos_var = along(pre.positionAt_m(t).sigma) + along(post.positionAt_m(t).sigma);
+    if (!(dv_norm > 5 * std::sqrt(dv_var)) || !(pos_var > 0)) continue;
+    const double w = dv_norm * dv_norm / pos_var;  // 1 / the instant's variance
+    sum += w * t, weights += w;
+  }
+  if (!(weights > 0))
+    return fail("neither sphere's velocity changed beyond 5 of its sigmas: the spheres missed");
+  const double t = sum / weights;
+  // At that instant, how far beyond the contact distance each side's fits are.
+  double shortfall = 0;
+  for (int side = 0; side < 2; ++side) {
+    const Estimate3 a = fits.fit[0][side]->fit.positionAt_m(t);
+    const Estimate3 b = fits.fit[1][side]->fit.positionAt_m(t);
+    const Eigen::Vector2d r = (a.value - b.value).head<2>();
+    const Eigen::Vector2d dir = r.normalized();
+    const double var = dir.cwiseProduct(a.sigma.head<2>()).squaredNorm() +
+                       dir.cwiseProduct(b.sigma.head<2>()).squaredNorm() +
+                       contact_sigma_m * contact_sigma_m;
+    const double beyond = r.norm() - contact_m;
+    if (beyond > 4 * std::sqrt(var))
+      return fail(std::string("where the spheres' tracks bend, their ") +
+                  (side == 0 ? "pre" : "post") + "-impact fits are " + fmt("%.0f", 1e6 * beyond) +
+                  " um further apart than the contact distance, " +
+                  fmt("%.1f", beyond / std::sqrt(var)) + " times its uncertainty");
+    shortfall = std::max(shortfall, beyond);
+  }
+  fits.t_before = fits.t_after = t;
+  fits.sigma_before = fits.sigma_after = 1 / std::sqrt(weights);
+  fits.contact_reached = false;
+  fits.shortfall_m = shortfall;
+  return Ok{};
+}
+
+Status findInstants(CollisionFits& fits, double contact_m, double contact_sigma_m) {
   const auto cb =
       collisionInstant(fits.fit[0][0]->fit, fits.fit[1][0]->fit, contact_m, CollisionSide::kBefore);
   const auto ca =
       collisionInstant(fits.fit[0][1]->fit, fits.fit[1][1]->fit, contact_m, CollisionSide::kAfter);
-  if (!cb || !ca) return fail(cb ? ca.error().message : cb.error().message);
+  if (!cb || !ca) {
+    const std::string why = cb ? ca.error().message : cb.error().message;
+    CollisionFits kinked = fits;
+    if (Status st = kinkInstant(kinked, contact_m, contact_sigma_m); !st)
+      return fail(why +
+                  "; nor do the tracks bend where the spheres could touch: " + st.error().message);
+    fits = std::move(kinked);
+    return Ok{};
+  }
   fits.t_before = cb->t_s, fits.sigma_before = cb->sigma_s;
   fits.t_after = ca->t_s, fits.sigma_after = ca->sigma_s;
+  fits.contact_reached = true;
+  fits.shortfall_m = 0;
   return Ok{};
 }
 
 Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& sc,
-                                   double contact, const FreeFlight& flight, double exposure_s,
-                                   double frame_dt) {
+                                   double contact, double contact_sigma_m, const FreeFlight& flight,
+                                   double exposure_s, double frame_dt) {
   // The closest approach splits the tracks.
   int k_min = -1;
   double d_min = 1e300;
@@ -126,7 +185,7 @@ Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const Pix
                       " the collision: " + f.error().message);
         out.fit[s][side] = std::move(f).value();
       }
-    if (Status st = findInstants(out, contact); !st)
+    if (Status st = findInstants(out, contact, contact_sigma_m); !st)
       return fail("no collision found: " + st.error().message + " (closest approach " +
                   fmt("%.1f", d_min) + " px between centres, contact at " +
                   fmt("%.1f", contact / sc.px) + " px)");

@@ -116,12 +116,33 @@ struct CollisionFits {
   double t_split = 0;                                        ///< closest approach's frame time
   double t_before = 0, t_after = 0;                          ///< collision instants, s
   double sigma_before = 0, sigma_after = 0;                  ///< their fit uncertainties, s
+  /// False when the fitted centres never came within the contact distance on
+  /// some side (a nearly grazing impact): t_before and t_after are then both
+  /// where each sphere's two fits meet (kinkInstant), and `shortfall_m` how
+  /// far beyond the contact distance the fits' centres were there.
+  bool contact_reached = true;
+  double shortfall_m = 0;
 };
 
 /// Both collision instants of `fits` (collisionInstant: from the pre-impact
 /// fits and from the post-impact ones) where the centres are `contact_m`
-/// apart, with their sigmas; on failure the fits are left as they were.
-Status findInstants(CollisionFits& fits, double contact_m);
+/// apart, with their sigmas. Where the fits never come that close on a side,
+/// the instant where each sphere's two fits meet (kinkInstant), if it is
+/// one. On failure the fits are left as they were.
+Status findInstants(CollisionFits& fits, double contact_m, double contact_sigma_m);
+
+/// A nearly grazing impact whose fitted centres pass just outside the contact
+/// distance (the radius' bias, the fits' errors) still bent each sphere's
+/// track where the spheres touched: the instant where a sphere's pre- and
+/// post-impact fits meet (kinkTime), the spheres' two weighed by how
+/// precisely each places it (its fits' position sigmas along its velocity
+/// change). A sphere counts when its velocity changed by more than 5 sigmas
+/// (spheres that missed each other did not change theirs). Errors: no sphere
+/// counts; at that instant the pre- or post-impact fits' centres lie further
+/// apart than the contact distance by more than 4 sigmas (the contact
+/// distance's `contact_sigma_m` and the fits' own). Sets t_before = t_after,
+/// their sigma, contact_reached false and shortfall_m.
+Status kinkInstant(CollisionFits& fits, double contact_m, double contact_sigma_m);
 
 /// Splits the tracks at the closest approach, fits each side, finds the
 /// contact instants; the closest frame then joins the side it was exposed on
@@ -129,8 +150,8 @@ Status findInstants(CollisionFits& fits, double contact_m);
 /// Errors: too few frames on a side, a failed fit, no contact found, an
 /// instant outside the burst.
 Result<CollisionFits> fitCollision(const std::vector<FrameData>& data, const PixelScale& scale,
-                                   double contact_m, const FreeFlight& flight, double exposure_s,
-                                   double frame_dt);
+                                   double contact_m, double contact_sigma_m,
+                                   const FreeFlight& flight, double exposure_s, double frame_dt);
 
 /// The acceleration along gravity (image direction gdir, unit) from free
 /// fits (acceleration fitted) of every side with at least 6 frames, weighted

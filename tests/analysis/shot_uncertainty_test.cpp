@@ -538,3 +538,27 @@ TEST(PropagateShot, ATrackOffsetMovesTheInstantAsTheGeometrySays) {
         << expected;
   }
 }
+
+// Without the contact distance reached (a nearly grazing impact whose fits
+// pass just outside it), the instant rests on the kinks alone: their weights
+// add up to 1, the draws place it where the drawn tracks bend (exact tracks:
+// the truth's instant), and the two contact instants are not looked for.
+TEST(PropagateShot, WithoutTheContactReachedTheKinksAlonePlaceTheInstant) {
+  std::mt19937_64 rng(5);
+  const Truth t = collision(1.3);
+  MeasuredShot s = measured(t, 2e-6, rng);
+  bind(s);
+  s.model.contact_reached = false;
+  s.model.t_before = s.model.t_after = kTc + 3e-6;  // a start near the kinks
+  const InstantWeights w = instantWeights(s.model, kTc);
+  EXPECT_NEAR(w.kink[0] + w.kink[1], 1.0, 1e-12);
+  EXPECT_GT(w.kink[0], 0.0);
+  EXPECT_GT(w.kink[1], 0.0);
+  s.model.w_kink = w.kink;
+  const ShotUncertainty u = propagateShot(s.model, 400);
+  ASSERT_TRUE(u.nominal.ok);
+  EXPECT_NEAR(u.nominal.t_c, kTc, 5 * u.t_c.sigma());
+  EXPECT_GT(u.t_c.sigma(), 0.0);
+  EXPECT_EQ(u.dt_ba.sigma(), 0.0);
+  EXPECT_NEAR(u.nominal.inverse.m.e, 0.97, 5 * u.e.sigma());
+}

@@ -1,6 +1,7 @@
 // analyzeBurst's image stages on their own (vision/shot_tracking.hpp,
 // shot_fits.hpp, shot_spins.hpp), against simulated shots with known truth
 // (shot_fixture.hpp).
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 namespace collide::vision {
 namespace {
 
+using ::testing::HasSubstr;
 using testing::ShotSpec;
 using testing::SimulatedShot;
 using testing::simulateShot;
@@ -361,8 +363,8 @@ TEST(FitCollision, BothInstantsFindTheTrueContact) {
   for (const std::uint64_t seed : {43, 44, 45}) {
     const Staged s = detectAndTrack(seed);
     const double contact = s.shot.settings.diameter_m[0];
-    auto fits =
-        fitCollision(s.frames.data, s.scale, contact, flightOf(s.shot), 0.0, s.frames.frame_dt);
+    auto fits = fitCollision(s.frames.data, s.scale, contact, 0.0, flightOf(s.shot), 0.0,
+                             s.frames.frame_dt);
     ASSERT_TRUE(fits.ok()) << fits.error().message;
     EXPECT_NEAR(fits->t_before, s.shot.t_collision_s, 5 * fits->sigma_before + 1e-6);
     EXPECT_NEAR(fits->t_after, s.shot.t_collision_s, 5 * fits->sigma_after + 1e-6);
@@ -383,10 +385,52 @@ TEST(FitCollision, BothInstantsFindTheTrueContact) {
   }
 }
 
+// A nearly grazing impact (83 degrees) whose fits are told a contact
+// distance 1 % short of the diameter: the relative path passes d sin(83 deg)
+// = 0.9927 d from the other centre, so the fits never come that close. The
+// instant is then where the tracks bend (the truth's, within its sigma), and
+// the shortfall is the 1 % (the fits' centres are d apart there), accepted
+// when the contact distance is stated that uncertain and refused when not.
+// Spheres whose tracks do not bend (the post-impact fits the pre-impact
+// ones) missed each other: no instant.
+TEST(FitCollision, ANearlyGrazingImpactShortOfContactIsPlacedWhereTheTracksBend) {
+  ShotSpec spec = quick(48);
+  spec.contact_angle_rad = 1.45;
+  spec.vy_spread_m_s = 0;
+  const Staged s = detectAndTrack(spec);
+  const double d = s.shot.settings.diameter_m[0], short_of = 0.99 * d;
+  const auto fit = [&](double contact, double contact_sigma) {
+    return fitCollision(s.frames.data, s.scale, contact, contact_sigma, flightOf(s.shot), 0.0,
+                        s.frames.frame_dt);
+  };
+  const auto reached = fit(d, 0.0);
+  ASSERT_TRUE(reached.ok()) << reached.error().message;
+  EXPECT_TRUE(reached->contact_reached);
+
+  const auto kinked = fit(short_of, 100e-6);  // 254 um short: 2.5 of its sigmas
+  ASSERT_TRUE(kinked.ok()) << kinked.error().message;
+  EXPECT_FALSE(kinked->contact_reached);
+  EXPECT_EQ(kinked->t_before, kinked->t_after);
+  EXPECT_GT(kinked->sigma_before, 0.0);
+  EXPECT_NEAR(kinked->t_before, s.shot.t_collision_s, 5 * kinked->sigma_before);
+  EXPECT_NEAR(kinked->shortfall_m, d - short_of, 20e-6);
+
+  const auto refused = fit(short_of, 20e-6);  // 12.7 sigmas
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.error().message, HasSubstr("further apart than the contact distance"));
+
+  CollisionFits straight = *reached;
+  for (int i = 0; i < 2; ++i) straight.fit[i][1] = straight.fit[i][0];
+  const Status missed = kinkInstant(straight, short_of, 100e-6);
+  ASSERT_FALSE(missed.ok());
+  EXPECT_THAT(missed.error().message, HasSubstr("missed"));
+  EXPECT_TRUE(straight.contact_reached);  // left as it was
+}
+
 TEST(MeasureSpins, SpinsOfBothSidesMatchTheTruth) {
   const Staged s = detectAndTrack(46);
-  auto fits = fitCollision(s.frames.data, s.scale, s.shot.settings.diameter_m[0], flightOf(s.shot),
-                           0.0, s.frames.frame_dt);
+  auto fits = fitCollision(s.frames.data, s.scale, s.shot.settings.diameter_m[0], 0.0,
+                           flightOf(s.shot), 0.0, s.frames.frame_dt);
   ASSERT_TRUE(fits.ok()) << fits.error().message;
   const ShotSpins spins =
       measureSpins(s.shot.burst, s.frames.data, *fits, s.r_med, s.frames.max_value, 50.0);
@@ -408,7 +452,7 @@ TEST(MeasureSpins, AnUnseenSpinIsZeroWithTheLaunchersSpread) {
   spec.dots = false;
   const Staged s = detectAndTrack(spec);
   const auto& set = s.shot.settings;
-  auto fits = fitCollision(s.frames.data, s.scale, set.diameter_m[0], flightOf(s.shot), 0.0,
+  auto fits = fitCollision(s.frames.data, s.scale, set.diameter_m[0], 0.0, flightOf(s.shot), 0.0,
                            s.frames.frame_dt);
   ASSERT_TRUE(fits.ok()) << fits.error().message;
   for (const double spread : {12.0, 50.0}) {
