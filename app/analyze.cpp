@@ -41,6 +41,8 @@ void applyProfileToAnalysis(const hw::RigProfile& profile, vision::AnalysisSetti
   s.contact_distance_sigma_px = profile.analysis.contact_distance_sigma_px;
   s.radius_systematic_px = profile.analysis.radius_systematic_px;
   s.centre_offset_px = profile.analysis.centre_offset_px;
+  s.blur_offset_onset_px = profile.analysis.blur_offset_onset_px;
+  s.blur_offset_per_px2 = profile.analysis.blur_offset_per_px2;
   s.air_density_kg_m3 = profile.analysis.air_density_kg_m3;
 }
 

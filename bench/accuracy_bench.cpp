@@ -182,6 +182,10 @@ struct PresetResult {
   // minus its post-impact one's (px), and per sphere the variance the
   // frames' scatter puts in that (px^2): addTrackOffsets.
   Stat track_offset_difference_px, track_offset_noise_px2;
+  // The same by the sphere's faster track's smear over the exposure (bins of
+  // 1 px, the last open): that difference squared per axis, and the noise.
+  static constexpr int kSmearBins = 6;
+  std::map<int, std::array<Stat, 2>> track_offset_by_smear;
   // Per track (a sphere on one side of the impact): how much its radius error
   // changes over the track (a line through it against time, its slope times
   // the track's span; px), and per side how the two spheres' mean radius
@@ -306,6 +310,21 @@ void addTrackOffsets(const hw::Shot& shot, const vision::ShotAnalysis& r,
     if (!ok) continue;
     for (int k = 0; k < 2; ++k) out.track_offset_difference_px.add(mean[0][k] - mean[1][k]);
     out.track_offset_noise_px2.add(noise);
+    // By the faster track's smear over the exposure (its mean speed there
+    // times the exposure, px): what motion blur adds.
+    double smear = 0;
+    for (int side = 0; side < 2; ++side) {
+      double sum = 0;
+      int n = 0;
+      for (std::size_t k = 0; k < t.t_s.size(); ++k)
+        if ((t.t_s[k] > t.t_collision_s) == (side == 1))
+          sum += t.states[k][s].velocity_m_s.head<2>().norm(), ++n;
+      if (n > 0)
+        smear = std::max(smear, sum / n * shot.burst.exposure_us * 1e-6 / set.pixel_size_m);
+    }
+    const int bin = std::min(static_cast<int>(smear), PresetResult::kSmearBins - 1);
+    out.track_offset_by_smear[bin][0].add(0.5 * (mean[0] - mean[1]).squaredNorm());
+    out.track_offset_by_smear[bin][1].add(noise);
   }
 }
 
@@ -782,6 +801,12 @@ void printDetectorBias(const PresetResult& r) {
         "(the profile's centre_offset_px)\n",
         diff, r.track_offset_noise_px2.v.size(), noise,
         std::sqrt(std::max(0.0, 0.5 * (diff * diff - noise * noise))));
+    std::printf("   centre offset per track by smear (the faster track's, speed x exposure):");
+    for (const auto& [bin, st] : r.track_offset_by_smear)
+      std::printf(" %d-%s px: %zu spheres, %.4f px;", bin,
+                  bin + 1 < PresetResult::kSmearBins ? std::to_string(bin + 1).c_str() : "",
+                  st[0].v.size(), std::sqrt(std::max(0.0, 0.5 * (st[0].mean() - st[1].mean()))));
+    std::printf("\n");
   }
   if (r.radius_bias_px.empty() && r.radius_change_px.v.empty()) return;
   std::printf("   detector against the truth, by distance from the principal point:\n");

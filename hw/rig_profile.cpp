@@ -536,6 +536,12 @@ Status parseAnalysis(const SettingsTable& t, RigProfile& p) {
       r.number("radius_systematic_px", a.radius_systematic_px, {.ge = 0.0, .le = 2.0}));
   COLLIDE_ASSIGN_OR_RETURN(
       a.centre_offset_px, r.number("centre_offset_px", a.centre_offset_px, {.ge = 0.0, .le = 2.0}));
+  COLLIDE_ASSIGN_OR_RETURN(
+      a.blur_offset_onset_px,
+      r.number("blur_offset_onset_px", a.blur_offset_onset_px, {.ge = 0.0, .le = 100.0}));
+  COLLIDE_ASSIGN_OR_RETURN(
+      a.blur_offset_per_px2,
+      r.number("blur_offset_per_px2", a.blur_offset_per_px2, {.ge = 0.0, .le = 1.0}));
   COLLIDE_ASSIGN_OR_RETURN(a.air_density_kg_m3, r.number("air_density_kg_m3", a.air_density_kg_m3,
                                                          {.ge = 0.0, .le = 2.0}));
   return r.finish("[analysis]");

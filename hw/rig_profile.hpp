@@ -187,6 +187,15 @@ struct AnalysisProfile {
   /// accuracy_bench --detector-bias ("per track" line); 0: only the dots'
   /// pull on evenly lit spheres (vision/shot_fits.hpp, dotBiasPx).
   double centre_offset_px = 0.0;
+  /// The same offset from motion blur, which grows once a sphere's smear
+  /// over the exposure (its speed times the exposure, px) passes
+  /// `blur_offset_onset_px`: blur_offset_per_px2 (smear - onset)^2 px per
+  /// axis, combined with centre_offset_px. Under one-sided light the
+  /// detector's edge window (+-2.5 px about the limb) then cuts the smeared,
+  /// shaded limb. Measure both with accuracy_bench --detector-bias at several
+  /// exposures ("centre offset per track by smear"); 0: no such term.
+  double blur_offset_onset_px = 0.0;
+  double blur_offset_per_px2 = 0.0;
   /// The air the spheres fly through (kg/m^3): 1.204 for dry air at 20
   /// degrees C and 101.325 kPa (1.16 at 30 degrees C, 1.06 at 1000 m). The
   /// trajectory fits take its drag out (analysis/air_drag.hpp): unmodelled, it

@@ -203,6 +203,20 @@ void useInstants(ShotModel& in, const CollisionFits& fits) {
   in.w_position_before = contactPositionWeights(in, t_c);
 }
 
+// The centre offset per track that motion blur adds to sphere s (px, per
+// axis; AnalysisSettings::blur_offset_*): from its faster track's smear.
+double blurOffsetPx(const AnalysisSettings& set, const CollisionFits& fits, int s,
+                    double exposure_s, double px) {
+  if (!(set.blur_offset_per_px2 > 0) || !(exposure_s > 0) || !(px > 0)) return 0.0;
+  double smear = 0;
+  for (int side = 0; side < 2; ++side) {
+    const TrajectoryFit& f = fits.fit[s][side]->fit;
+    smear = std::max(smear, f.velocityAt_m_s(f.tRef_s()).value.head<2>().norm() * exposure_s / px);
+  }
+  const double beyond = std::max(0.0, smear - set.blur_offset_onset_px);
+  return set.blur_offset_per_px2 * beyond * beyond;
+}
+
 // The Monte Carlo's inputs: fits, their inflation and systematics, spins, the priors.
 ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, const ShotSpins& spins,
                     const std::array<double, 2>& r_med, double px, double exposure_s, bool dark) {
@@ -240,7 +254,9 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
       in.drift[s][side] =
           centreDriftSigma_m_s(f, dots, set.camera.has_value(), set.radius_systematic_px, px);
     }
-    in.offset[s] = std::hypot(in.offset[s], std::max(0.0, set.centre_offset_px) * px);
+    const double profile_px =
+        std::hypot(std::max(0.0, set.centre_offset_px), blurOffsetPx(set, fits, s, exposure_s, px));
+    in.offset[s] = std::hypot(in.offset[s], profile_px * px);
   }
   useInstants(in, fits);
   return in;

@@ -105,6 +105,10 @@ struct AnalysisSettings {
   /// centre_offset_px): combined with the dots' own (dotBias_m) in
   /// ShotModel::offset, drawn in the Monte Carlo and in the instant's weights.
   double centre_offset_px = 0.0;
+  /// The part of that offset motion blur adds (the rig profile's
+  /// blur_offset_onset_px and blur_offset_per_px2): per sphere, k (s -
+  /// onset)^2 px with s its faster track's smear over the exposure, px.
+  double blur_offset_onset_px = 0.0, blur_offset_per_px2 = 0.0;
   /// Distance from the camera's projection centre to the object plane (where
   /// pixel_size_m holds), m. When > 0 the apparent radius's change along each
   /// track gives the sphere's velocity towards the camera

@@ -40,13 +40,14 @@ TEST(AnalysisProfile, AbsentGivesTodaysPriors) {
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.0);
   EXPECT_DOUBLE_EQ(r->analysis.radius_systematic_px, 0.1);
   EXPECT_DOUBLE_EQ(r->analysis.centre_offset_px, 0.0);
+  EXPECT_DOUBLE_EQ(r->analysis.blur_offset_per_px2, 0.0);
 }
 
 TEST(AnalysisProfile, StatedAlignmentIsRead) {
   const auto r = withAnalysis(
       "line_of_centres_tilt_deg = 3.0\nlaunch_out_of_plane_fraction = 0.03\n"
       "contact_distance_sigma_px = 0.2\nradius_systematic_px = 0.02\nlaunch_spin_rad_s = 12.5\n"
-      "centre_offset_px = 0.03\n");
+      "centre_offset_px = 0.03\nblur_offset_onset_px = 2.5\nblur_offset_per_px2 = 0.05\n");
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_DOUBLE_EQ(r->analysis.launch_spin_rad_s, 12.5);
   EXPECT_DOUBLE_EQ(r->analysis.line_of_centres_tilt_deg, 3.0);
@@ -54,6 +55,8 @@ TEST(AnalysisProfile, StatedAlignmentIsRead) {
   EXPECT_DOUBLE_EQ(r->analysis.contact_distance_sigma_px, 0.2);
   EXPECT_DOUBLE_EQ(r->analysis.radius_systematic_px, 0.02);
   EXPECT_DOUBLE_EQ(r->analysis.centre_offset_px, 0.03);
+  EXPECT_DOUBLE_EQ(r->analysis.blur_offset_onset_px, 2.5);
+  EXPECT_DOUBLE_EQ(r->analysis.blur_offset_per_px2, 0.05);
 }
 
 TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchScatter) {
@@ -75,12 +78,13 @@ TEST(AnalysisProfile, TheSimulatedRigStatesItsLaunchSpin) {
 }
 
 TEST(AnalysisProfile, ImpossibleOrUnknownValuesAreRefusedByName) {
-  for (const char* bad : {"line_of_centres_tilt_deg = 0.0\n", "line_of_centres_tilt_deg = 45.0\n",
-                          "launch_out_of_plane_fraction = -0.01\n",
-                          "contact_distance_sigma_px = -0.1\n", "contact_distance_sigma_px = 9.0\n",
-                          "radius_systematic_px = -0.01\n", "radius_systematic_px = 3.0\n",
-                          "centre_offset_px = -0.01\n", "centre_offset_px = 3.0\n",
-                          "launch_spin_rad_s = 0.0\n", "launch_spin_rad_s = 5000.0\n"}) {
+  for (const char* bad :
+       {"line_of_centres_tilt_deg = 0.0\n", "line_of_centres_tilt_deg = 45.0\n",
+        "launch_out_of_plane_fraction = -0.01\n", "contact_distance_sigma_px = -0.1\n",
+        "contact_distance_sigma_px = 9.0\n", "radius_systematic_px = -0.01\n",
+        "radius_systematic_px = 3.0\n", "centre_offset_px = -0.01\n", "centre_offset_px = 3.0\n",
+        "blur_offset_onset_px = -1.0\n", "blur_offset_per_px2 = 2.0\n", "launch_spin_rad_s = 0.0\n",
+        "launch_spin_rad_s = 5000.0\n"}) {
     const auto r = withAnalysis(bad);
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_THAT(r.error().message, HasSubstr(std::string(bad).substr(0, 20))) << bad;
