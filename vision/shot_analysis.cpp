@@ -203,16 +203,20 @@ void useInstants(ShotModel& in, const CollisionFits& fits) {
   in.w_position_before = contactPositionWeights(in, t_c);
 }
 
+// The contact distance's standard uncertainty (m): the profile's
+// contact_distance_sigma_px at the shot's pixel size.
+double contactSigma_m(const AnalysisSettings& set, double px) {
+  return std::max(0.0, set.contact_distance_sigma_px) * px;
+}
+
 // The centre offset per track that motion blur adds to sphere s (px, per
 // axis; AnalysisSettings::blur_offset_*): from its faster track's smear.
 double blurOffsetPx(const AnalysisSettings& set, const CollisionFits& fits, int s,
                     double exposure_s, double px) {
   if (!(set.blur_offset_per_px2 > 0) || !(exposure_s > 0) || !(px > 0)) return 0.0;
   double smear = 0;
-  for (int side = 0; side < 2; ++side) {
-    const TrajectoryFit& f = fits.fit[s][side]->fit;
-    smear = std::max(smear, f.velocityAt_m_s(f.tRef_s()).value.head<2>().norm() * exposure_s / px);
-  }
+  for (int side = 0; side < 2; ++side)
+    smear = std::max(smear, smearPx(fits.fit[s][side]->fit, exposure_s, px));
   const double beyond = std::max(0.0, smear - set.blur_offset_onset_px);
   return set.blur_offset_per_px2 * beyond * beyond;
 }
@@ -223,7 +227,7 @@ ShotModel shotModel(const AnalysisSettings& set, const CollisionFits& fits, cons
   ShotModel in;
   const std::array<double, 2>& diam = set.diameter_m;
   in.contact = 0.5 * (diam[0] + diam[1]);
-  in.contact_sigma = std::max(0.0, set.contact_distance_sigma_px) * px;
+  in.contact_sigma = contactSigma_m(set, px);
   in.nz_sigma = set.line_of_centres_z_sigma;
   in.vz_fraction = std::max(0.0, set.out_of_plane_speed_fraction);
   in.diameter = diam;
@@ -837,7 +841,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
 
   // ---- trajectory fits on each side, the two collision instants
   const double contact = 0.5 * (diam[0] + diam[1]);
-  const double contact_sigma = std::max(0.0, set.contact_distance_sigma_px) * *px;
+  const double contact_sigma = contactSigma_m(set, *px);
   auto fits = fitCollision(data, scale, contact, contact_sigma, flight, burst.exposure_us * 1e-6,
                            frames->frame_dt);
   if (!fits) return fits.error();

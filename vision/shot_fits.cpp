@@ -15,10 +15,13 @@ double dotBiasPx(double radius_px, double blur_px, bool dark) {
   return 0.22 / radius_px * std::max(blur_px, 0.5) / 1.9;
 }
 
+double smearPx(const TrajectoryFit& fit, double exposure_s, double pixel_m) {
+  return fit.velocityAt_m_s(fit.tRef_s()).value.norm() * exposure_s / pixel_m;
+}
+
 double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s,
                  bool dark) {
-  const double blur_px = fit.velocityAt_m_s(fit.tRef_s()).value.norm() * exposure_s / pixel_m;
-  return dotBiasPx(radius_px, blur_px, dark) * pixel_m;
+  return dotBiasPx(radius_px, smearPx(fit, exposure_s, pixel_m), dark) * pixel_m;
 }
 
 double dotDriftSigma_m_s(const TrajectoryFit& fit, double radius_px, double pixel_m,

@@ -73,6 +73,10 @@ struct SideFit {
 inline constexpr double kDarkDotBiasPx2 = 1.4;
 double dotBiasPx(double radius_px, double blur_px, bool dark = false);
 
+/// How far a track's sphere moves over one exposure (px): its speed at the
+/// fit's reference instant times the exposure, over the pixel size.
+double smearPx(const TrajectoryFit& fit, double exposure_s, double pixel_m);
+
 /// That bias for a track (m), its blur from the track's speed over the
 /// exposure.
 double dotBias_m(const TrajectoryFit& fit, double radius_px, double pixel_m, double exposure_s,
