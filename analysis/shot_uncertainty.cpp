@@ -167,6 +167,31 @@ std::optional<std::array<double, InstantErrors::kEstimates>> nonNegativeWeights(
 
 }  // namespace
 
+namespace {
+
+// A sphere's pre- and post-impact tracks bend at the instant: their
+// velocities there differ (kinkTime has a root to find).
+bool bends(const PlaneTrack& pre, const PlaneTrack& post, double t_s) {
+  return (pre.vel(t_s) - post.vel(t_s)).squaredNorm() > 0;
+}
+
+// ShotUncertainty::kink_gap_var_per_offset_var: a per-axis offset of sigma o
+// on each of a sphere's two tracks moves its kink by (dP_pre - dP_post) . dv
+// / |dv|^2, of variance 2 o^2 / |dv|^2; the spheres' tracks are their own.
+double kinkGapVarPerOffsetVar(const ShotModel& model, double t_c_s) {
+  double sum = 0;
+  for (int s = 0; s < 2; ++s) {
+    if (!model.fit[s][0] || !model.fit[s][1]) return std::numeric_limits<double>::quiet_NaN();
+    const PlaneTrack pre = nominalTrack(*model.fit[s][0]), post = nominalTrack(*model.fit[s][1]);
+    const double dv2 = (pre.vel(t_c_s) - post.vel(t_c_s)).squaredNorm();
+    if (!(dv2 > 0)) return std::numeric_limits<double>::quiet_NaN();
+    sum += 2 / dv2;
+  }
+  return sum;
+}
+
+}  // namespace
+
 InstantWeights instantWeights(const ShotModel& model, double t_c_s) {
   const InstantWeights unchanged{model.w_before, {0.0, 0.0}};
   const std::optional<InstantErrors> e = instantErrors(model, t_c_s);
@@ -223,9 +248,13 @@ ShotDraw evaluateShot(const ShotModel& in, std::mt19937_64& rng, bool nominal, u
       nominal || !reached ? in.t_after : contactTime(d[0][1], d[1][1], contact, in.t_after);
   const double w_kinks = in.w_kink[0] + in.w_kink[1];
   o.t_c = reached ? (1 - w_kinks) * (in.w_before * tb + (1 - in.w_before) * ta) : 0.0;
-  for (int s = 0; s < 2; ++s)
-    if (in.w_kink[s] > 0)
-      o.t_c += in.w_kink[s] / (reached ? 1.0 : w_kinks) * kinkTime(d[s][0], d[s][1], in.t_before);
+  std::array<double, 2> kink{};
+  for (int s = 0; s < 2; ++s) {
+    kink[s] = kinkTime(d[s][0], d[s][1], in.t_before);
+    if (in.w_kink[s] > 0) o.t_c += in.w_kink[s] / (reached ? 1.0 : w_kinks) * kink[s];
+  }
+  if (bends(d[0][0], d[0][1], in.t_before) && bends(d[1][0], d[1][1], in.t_before))
+    o.kink_gap = kink[0] - kink[1];
   if (!reached && !(w_kinks > 0)) o.t_c = in.t_before;
   o.dt_ba = reached ? tb - ta : 0.0;
   ContactState st;
@@ -281,6 +310,7 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
   std::mt19937_64 rng(seed);
   u.nominal = evaluateShot(model, rng, true);
   if (!u.nominal.ok) return u;
+  u.kink_gap_var_per_offset_var = kinkGapVarPerOffsetVar(model, u.nominal.t_c);
   for (int i = 0; i < draws; ++i) {
     const ShotDraw o = evaluateShot(model, rng, false, sources);
     if (!o.ok) continue;
@@ -292,6 +322,7 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
     u.kinetic_energy_change.add(o.inverse.kinetic_energy_change_J);
     u.n_z.add(o.inverse.n_z);
     u.beta_spin_minus_impulse.add(m.beta - m.beta_from_impulse);
+    u.kink_gap.add(o.kink_gap);
     for (int s = 0; s < 2; ++s)
       for (int k = 0; k < 3; ++k)
         u.v_before[s][k].add(o.v_before[s][k]), u.v_after[s][k].add(o.v_after[s][k]);

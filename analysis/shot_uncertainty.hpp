@@ -7,6 +7,7 @@
 // uncertainty. Pure maths, SI units.
 #include <Eigen/Dense>
 #include <array>
+#include <limits>
 #include <optional>
 #include <random>
 #include <vector>
@@ -113,6 +114,10 @@ InstantWeights instantWeights(const ShotModel& model, double t_c_s);
 struct ShotDraw {
   double t_c = 0;    ///< combined collision instant
   double dt_ba = 0;  ///< pre-impact minus post-impact collision instant
+  /// Sphere 1's kink minus sphere 2's (kinkTime, s; NaN where a sphere's
+  /// fits do not bend): one impulse bends both tracks at once, so it is 0
+  /// but for the errors of the four fits' positions at the instant.
+  double kink_gap = std::numeric_limits<double>::quiet_NaN();
   std::array<Vec3, 2> v_before, v_after, w_before, w_after;
   ShotInverse inverse;  ///< n_z, Walton's measurement, v_s', energy change
   bool ok = false;
@@ -181,6 +186,12 @@ struct ShotUncertainty {
   /// yardstick of the angular-momentum check (both share most inputs).
   Spread beta_spin_minus_impulse;
   std::array<std::array<Spread, 3>, 2> v_before, v_after;  ///< [sphere][axis]
+  Spread kink_gap;                                         ///< ShotDraw::kink_gap
+  /// How much kink_gap's variance grows per m^2 of a further centre offset
+  /// per track (per axis, each of the four tracks its own): 2 (1/|dv_1|^2 +
+  /// 1/|dv_2|^2), s^2/m^2, dv_s each sphere's velocity change at the nominal
+  /// instant. NaN where a sphere's velocity does not change.
+  double kink_gap_var_per_offset_var = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Nominal evaluation, then `draws` random ones (of the inputs in `sources`)

@@ -51,6 +51,7 @@
 
 #include "analysis/campaign.hpp"
 #include "analysis/depth_from_size.hpp"
+#include "analysis/track_offset.hpp"
 #include "analysis/walton.hpp"
 #include "app/analyze.hpp"
 #include "app/campaign.hpp"
@@ -196,6 +197,10 @@ struct PresetResult {
   // What the analysis measured of the radii's frame-to-frame scatter, and the
   // radius bias' change it then allowed for (ShotAnalysis), per shot.
   Stat analysis_radius_scatter_px, analysis_radius_systematic_px;
+  // Every analysed shot's kinks (ShotAnalysis::kink_gap), and the centre
+  // offset per track the profile states: what `collide fit` measures from them.
+  std::vector<KinkGap> kink_gaps;
+  double stated_centre_offset_px = 0;
   // Pulls over every analysed shot, flagged or not (do the sigmas cover?).
   Stat pe_all, pb_all, pg_all;
   // The stated sigmas of the unflagged shots (of beta where it is asked).
@@ -610,6 +615,8 @@ void recordShot(const Preset& pr, const hw::Shot& shot, std::size_t i, double ps
   out.flagged += !flags.empty();
   for (const std::string& f : flags) ++out.flag_count[f];
   scoreShot(pr, r, truth, psi_deg, tb, ta, spheres, out);
+  out.kink_gaps.push_back(r.kink_gap);
+  out.stated_centre_offset_px = app::analysisSettingsFor(shot).centre_offset_px;
   const vision::CollisionProperties& c = r.collision;
   if (flags.empty() && std::isfinite(c.beta.value) && c.beta.sigma > 0 && c.e.sigma > 0)
     out.points.push_back(app::campaignShotFrom(c));
@@ -913,6 +920,21 @@ void printByImpactAngle(const PresetResult& r) {
   std::printf("\n");
 }
 
+// The kinks' gaps: their pulls, and the centre offset per track they imply
+// (analysis/track_offset.hpp), as `collide fit` reports it on a campaign.
+void printKinkGaps(const PresetResult& r) {
+  const auto est = trackOffsetFromKinkGaps(r.kink_gaps);
+  if (!est) {
+    std::printf("   kinks' gaps: %s\n", est.error().message.c_str());
+    return;
+  }
+  std::printf(
+      "   kinks' gaps over %d shots: pulls RMS %.2f; a centre offset per track beyond what was "
+      "drawn of %+.4f px (variance %+.2e +- %.1e px^2): centre_offset_px %.4f -> %.4f\n",
+      est->shots, est->pull_rms, est->excessPx(), est->excess_px2, est->sigma_px2,
+      r.stated_centre_offset_px, est->suggestedPx(r.stated_centre_offset_px));
+}
+
 // --error-budget: each quantity's sigma by source, RMS over the unflagged shots.
 void printBudget(const PresetResult& r) {
   if (r.budget.empty()) return;
@@ -955,6 +977,7 @@ void printPreset(const PresetResult& r) {
       r.pg_all.maxAbs());
   printPrecision(r);
   printByImpactAngle(r);
+  printKinkGaps(r);
   printBudget(r);
   if (r.friction)
     std::printf(

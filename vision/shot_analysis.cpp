@@ -883,6 +883,8 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
         " um further apart): the collision instant is where each sphere's track "
         "bends, from the kinks alone");
   fillKinematics(out, u, pass.fits, spins, pass.model.vz_fraction, instants);
+  out.kink_gap = {u.nominal.kink_gap, u.kink_gap.sigma(),
+                  u.kink_gap_var_per_offset_var * pass.scale.px * pass.scale.px};
   withoutUnmeasuredSpins(out.collision, spins);
   if (set.error_budget) {
     out.error_budget = errorBudget(boundModel(pass));

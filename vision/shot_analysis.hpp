@@ -22,6 +22,7 @@
 #include "analysis/camera_model.hpp"
 #include "analysis/result.hpp"
 #include "analysis/shot_uncertainty.hpp"
+#include "analysis/track_offset.hpp"
 #include "analysis/trajectory.hpp"
 #include "analysis/types.hpp"
 #include "analysis/walton.hpp"
@@ -267,6 +268,11 @@ struct ShotAnalysis {
   /// profile's radius_systematic_px, or 0.75 times radius_scatter_px where
   /// that is larger (a note then says so).
   double radius_systematic_px = 0;
+  /// Where each sphere's tracks bend, sphere 1's minus sphere 2's, against
+  /// its spread over the draws (analysis/track_offset.hpp): a campaign's
+  /// gaps measure the centre offset its tracks carry (`collide fit`). NaN
+  /// where a sphere's velocity does not change.
+  KinkGap kink_gap;
   /// Sentences explaining flags and what was set aside (e.g. why a spin could
   /// not be had, the fall rate behind gravity_scale_mismatch).
   std::vector<std::string> notes;

@@ -138,6 +138,16 @@ void printReport(const collide::app::CampaignFitReport& report) {
     std::printf("launchers' spin not measured: %s\n", report.launch_spin_error.c_str());
   if (!report.launch_spin_advice.empty())
     std::printf("note: %s\n", report.launch_spin_advice.c_str());
+  if (const auto& t = report.track_offset)
+    std::printf(
+        "tracks' centre offset beyond what the analysis drew: %+.4f px per axis (variance "
+        "%+.2g ± %.1g px^2; the kinks' gaps of %d shots, pulls RMS %.2f): the rig profile's "
+        "[analysis] centre_offset_px\n",
+        t->excessPx(), t->excess_px2, t->sigma_px2, t->shots, t->pull_rms);
+  else
+    std::printf("tracks' centre offset not measured: %s\n", report.track_offset_error.c_str());
+  if (!report.centre_offset_advice.empty())
+    std::printf("note: %s\n", report.centre_offset_advice.c_str());
   if (!report.error_budget.empty()) {
     std::printf(
         "sigma by source, RMS over %d shots analysed with --error-budget:\n"

@@ -417,6 +417,8 @@ CampaignView::Loaded loadFolder(const std::string& dir) {
                   .arg(ls->spins);
     if (!report->launch_spin_advice.empty())
       text += QObject::tr(". Note: %1").arg(QString::fromStdString(report->launch_spin_advice));
+    if (!report->centre_offset_advice.empty())
+      text += QObject::tr(". Note: %1").arg(QString::fromStdString(report->centre_offset_advice));
   } else {
     text += QObject::tr("No fit yet: %1").arg(QString::fromStdString(report.error().message));
   }

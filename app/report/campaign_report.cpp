@@ -60,7 +60,10 @@ std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& fil
                                              bool include_flagged) {
   std::vector<CampaignEntry> entries;
   // A campaign's shots mostly share one profile: parse each text once.
-  std::map<std::string, std::optional<double>> launch_spin_of;
+  struct Stated {
+    std::optional<double> launch_spin_rad_s, centre_offset_px;
+  };
+  std::map<std::string, Stated> stated_of;
   for (const auto& file : files) {
     CampaignEntry entry;
     entry.file = file;
@@ -71,11 +74,12 @@ std::vector<CampaignEntry> loadCampaignFiles(const std::vector<std::string>& fil
       continue;
     }
     entry.id = shot->id;
-    auto [it, fresh] = launch_spin_of.try_emplace(shot->rig_profile_toml);
+    auto [it, fresh] = stated_of.try_emplace(shot->rig_profile_toml);
     if (fresh)
       if (auto profile = hw::parseRigProfile(shot->rig_profile_toml, entry.id))
-        it->second = profile->analysis.launch_spin_rad_s;
-    entry.profile_launch_spin_rad_s = it->second;
+        it->second = {profile->analysis.launch_spin_rad_s, profile->analysis.centre_offset_px};
+    entry.profile_launch_spin_rad_s = it->second.launch_spin_rad_s;
+    entry.profile_centre_offset_px = it->second.centre_offset_px;
     if (shot->status == hw::ShotStatus::Failed) {
       entry.excluded_because = "failed shot: " + shot->failure_reason;
     } else if (shot->results_json.empty()) {
@@ -114,15 +118,24 @@ std::vector<Estimate3> measuredLaunchSpins(const std::vector<CampaignEntry>& ent
   return spins;
 }
 
+std::vector<KinkGap> measuredKinkGaps(const std::vector<CampaignEntry>& entries) {
+  std::vector<KinkGap> gaps;
+  for (const auto& e : entries)
+    if (e.results && !e.results->error && e.excluding_flags.empty() && e.results->kink_gap.usable())
+      gaps.push_back(e.results->kink_gap);
+  return gaps;
+}
+
 namespace {
 
-// The value the analysed shots' profiles state, when they agree.
-std::optional<double> statedLaunchSpin(const std::vector<CampaignEntry>& entries) {
+// The value the analysed shots' profiles state (`field`), when they agree.
+std::optional<double> statedValue(const std::vector<CampaignEntry>& entries,
+                                  std::optional<double> CampaignEntry::*field) {
   std::optional<double> stated;
   for (const auto& e : entries) {
-    if (!e.results || !e.profile_launch_spin_rad_s) continue;
-    if (stated && *stated != *e.profile_launch_spin_rad_s) return std::nullopt;
-    stated = e.profile_launch_spin_rad_s;
+    if (!e.results || !(e.*field)) continue;
+    if (stated && *stated != *(e.*field)) return std::nullopt;
+    stated = e.*field;
   }
   return stated;
 }
@@ -146,6 +159,26 @@ std::string launchSpinAdvice(const CampaignFitReport& r) {
                           "dots are not seen pessimistic"
                         : "a narrower value makes the sigmas of gamma, beta and f of shots whose "
                           "dots are not seen optimistic");
+  return buf;
+}
+
+std::string centreOffsetAdvice(const CampaignFitReport& r) {
+  if (!r.track_offset || !r.stated_centre_offset_px) return "";
+  const TrackOffsetExcess& t = *r.track_offset;
+  const double stated = *r.stated_centre_offset_px, suggest = t.suggestedPx(stated);
+  const double gap = std::abs(suggest - stated);
+  if (std::abs(t.excess_px2) <= 3 * t.sigma_px2 || gap <= 0.2 * std::max(suggest, stated) ||
+      gap <= 0.005)
+    return "";
+  char buf[480];
+  std::snprintf(buf, sizeof buf,
+                "the kinks of %d shots put each track's centre %.3g px %s than the analysis "
+                "drew (the rig profile states [analysis] centre_offset_px = %.3g): set it to "
+                "%.3g and analyse again (%s)",
+                t.shots, std::sqrt(std::abs(t.excess_px2)),
+                t.excess_px2 > 0 ? "further off" : "less far off", stated, suggest,
+                t.excess_px2 > 0 ? "the sigmas of e and gamma at grazing impacts are optimistic"
+                                 : "the sigmas of e and gamma at grazing impacts are pessimistic");
   return buf;
 }
 
@@ -192,8 +225,15 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
     report.launch_spin = *spread;
   else
     report.launch_spin_error = spread.error().message;
-  report.stated_launch_spin_rad_s = statedLaunchSpin(entries);
+  report.stated_launch_spin_rad_s = statedValue(entries, &CampaignEntry::profile_launch_spin_rad_s);
   report.launch_spin_advice = launchSpinAdvice(report);
+  // Its bootstrap is cheap: always 200 resamples (`resamples` is the friction fit's).
+  if (auto offset = trackOffsetFromKinkGaps(measuredKinkGaps(entries), 200, seed))
+    report.track_offset = *offset;
+  else
+    report.track_offset_error = offset.error().message;
+  report.stated_centre_offset_px = statedValue(entries, &CampaignEntry::profile_centre_offset_px);
+  report.centre_offset_advice = centreOffsetAdvice(report);
   addErrorBudget(entries, report);
   std::size_t k = 0;  // index into the fitted shots
   for (const auto& e : entries) {
@@ -447,6 +487,21 @@ json launchSpinJson(const CampaignFitReport& report) {
   return j;
 }
 
+json trackOffsetJson(const CampaignFitReport& report) {
+  if (!report.track_offset) return {{"error", report.track_offset_error}};
+  const TrackOffsetExcess& t = *report.track_offset;
+  json j = {{"excess_px2", {{"value", t.excess_px2}, {"sigma", t.sigma_px2}}},
+            {"excess_px", t.excessPx()},
+            {"kink_gap_pull_rms", t.pull_rms},
+            {"shots", t.shots}};
+  if (const auto& stated = report.stated_centre_offset_px) {
+    j["profile_states_px"] = *stated;
+    j["suggested_centre_offset_px"] = t.suggestedPx(*stated);
+  }
+  if (!report.centre_offset_advice.empty()) j["advice"] = report.centre_offset_advice;
+  return j;
+}
+
 // "shots_used" (with each one's regime and robust weights) and
 // "shots_left_out" (with the reason), into `j`.
 void shotsJson(const std::vector<CampaignEntry>& entries, const CampaignFitReport& report,
@@ -495,6 +550,7 @@ std::string campaignReportJson(const std::vector<CampaignEntry>& entries,
   j["restitution_laws"] = restitutionLawsJson(report);
   j["bootstrap"] = bootstrapJson(report);
   j["launch_spin"] = launchSpinJson(report);
+  j["track_offset"] = trackOffsetJson(report);
   j["loss"] = robustLossName(report.loss);
   json down = json::array();
   for (const auto& d : report.down_weighted)

@@ -11,6 +11,7 @@
 #include "analysis/campaign.hpp"
 #include "analysis/launch_spin.hpp"
 #include "analysis/result.hpp"
+#include "analysis/track_offset.hpp"
 #include "app/report/plot.hpp"
 #include "app/report/results_json.hpp"
 
@@ -28,6 +29,8 @@ struct CampaignEntry {
   /// The shot's recorded rig profile's [analysis] launch_spin_rad_s (rad/s),
   /// when the profile parses.
   std::optional<double> profile_launch_spin_rad_s;
+  /// Its [analysis] centre_offset_px (px), when the profile parses.
+  std::optional<double> profile_centre_offset_px;
 };
 
 /// Quality flags that leave a shot out of the fits: its numbers are not to be
@@ -80,7 +83,22 @@ struct CampaignFitReport {
   /// one). Empty when no shot does.
   std::vector<ErrorBudgetLine> error_budget;
   int error_budget_shots = 0;  ///< how many shots that RMS is over
+  /// The centre offset per track the shots' kinks imply beyond what their
+  /// analyses drew (measuredKinkGaps, analysis/track_offset.hpp).
+  std::optional<TrackOffsetExcess> track_offset;
+  std::string track_offset_error;  ///< why there is none
+  /// What the shots' rig profiles state for [analysis] centre_offset_px, when
+  /// they all state one value.
+  std::optional<double> stated_centre_offset_px;
+  /// Set when the kinks' excess is beyond 3 of its sigmas and the offset it
+  /// suggests differs from the stated one by more than 20 % and 0.005 px:
+  /// what to set, and why.
+  std::string centre_offset_advice;
 };
+
+/// The kinks' gaps (ShotResults::kink_gap) of every analysed shot that no
+/// excluding quality flag leaves out (--include-flagged or not).
+std::vector<KinkGap> measuredKinkGaps(const std::vector<CampaignEntry>& entries);
 
 /// The pre-impact spins of both spheres of every analysed shot whose spins
 /// before the impact were measured and trusted (no "no_spin_before",

@@ -153,6 +153,9 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
   j["pixel_size_m"] = number(a.pixel_size_m);
   j["radius_scatter_px"] = number(a.radius_scatter_px);
   j["radius_systematic_px"] = number(a.radius_systematic_px);
+  j["kink_gap"] = {{"gap_s", number(a.kink_gap.gap_s)},
+                   {"sigma_s", number(a.kink_gap.sigma_s)},
+                   {"var_per_px2_s2", number(a.kink_gap.var_per_px2)}};
   j["notes"] = a.notes;
   json collision, uncertainty;
   const auto fields = measuredFields(c);
@@ -225,6 +228,14 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
                             std::pair{"radius_scatter_px", &r.radius_scatter_px},
                             std::pair{"radius_systematic_px", &r.radius_systematic_px}}) {
     auto v = readNumber(j, key, "");
+    if (!v) return v.error();
+    *field = *v;
+  }
+  const json& kink = member(j, "kink_gap");
+  for (auto [key, field] :
+       {std::pair{"gap_s", &r.kink_gap.gap_s}, std::pair{"sigma_s", &r.kink_gap.sigma_s},
+        std::pair{"var_per_px2_s2", &r.kink_gap.var_per_px2}}) {
+    auto v = readNumber(kink, key, "kink_gap.");
     if (!v) return v.error();
     *field = *v;
   }

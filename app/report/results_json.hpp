@@ -11,6 +11,10 @@
 //    "radius_scatter_px": the outlines' radius scatter from frame to frame,
 //    "radius_systematic_px": the radius bias' change along a track the
 //                            sigmas carry,
+//    "kink_gap": {"gap_s", "sigma_s", "var_per_px2_s2"}: where the spheres'
+//                tracks bend, sphere 1's minus sphere 2's, its spread over
+//                the draws and its variance per px^2 of further centre
+//                offset per track (analysis/track_offset.hpp),
 //    "notes": ["sentences explaining flags and what was set aside"],
 //    "sphere1"/"sphere2": {"velocity_before_m_s": [x,y,z], "velocity_after_m_s",
 //                          "spin_before_rad_s", "spin_after_rad_s",
@@ -66,6 +70,7 @@ struct ShotResults {
   std::vector<ErrorBudgetLine> error_budget;  ///< empty unless the analysis was asked for it
   /// vision::ShotAnalysis's, NaN where the JSON has none (written before them).
   double radius_scatter_px = 0, radius_systematic_px = 0;
+  KinkGap kink_gap;  ///< NaN where the JSON has none
   std::vector<std::string> notes;
 };
 /// Errors: not JSON, not an object, another schema, a key of the wrong type

@@ -539,6 +539,41 @@ TEST(PropagateShot, ATrackOffsetMovesTheInstantAsTheGeometrySays) {
   }
 }
 
+// One impulse bends both spheres' tracks at once: on exact tracks the kinks'
+// gap is 0; a per-track offset o spreads it by 2 o^2 (1/|dv_1|^2 +
+// 1/|dv_2|^2) (the truth's velocity changes); with centre noise alone the
+// gaps of many shots are spread as their stated sigmas say.
+TEST(PropagateShot, TheKinksGapIsZeroAtTheTruthAndSpreadsAsItsSourcesSay) {
+  std::mt19937_64 rng(5);
+  const Truth t = collision(0.9);
+  MeasuredShot exact = measured(t, 0.0, rng);
+  bind(exact);
+  const double o = 20e-6;
+  exact.model.offset = {o, o};
+  const ShotUncertainty u = propagateShot(exact.model, 4000, 7, kPositionOffset);
+  ASSERT_TRUE(u.nominal.ok);
+  EXPECT_NEAR(u.nominal.kink_gap, 0.0, 1e-9);
+  double per_var = 0;
+  for (int s = 0; s < 2; ++s)
+    per_var += 2 / (t.after[s].velocity_m_s - t.before[s].velocity_m_s).head<2>().squaredNorm();
+  EXPECT_NEAR(u.kink_gap_var_per_offset_var / per_var, 1.0, 1e-3);
+  // 4000 draws: a standard deviation known to about 1.1 %.
+  EXPECT_NEAR(u.kink_gap.sigma() / (o * std::sqrt(per_var)), 1.0, 0.05);
+
+  double pull2 = 0;
+  const int n = 80;
+  for (int shot = 0; shot < n; ++shot) {
+    MeasuredShot s = measured(t, 2e-5, rng);
+    bind(s);
+    const ShotUncertainty v = propagateShot(s.model, 300, 11 + shot, kFitNoise);
+    ASSERT_TRUE(v.nominal.ok);
+    pull2 += std::pow(v.nominal.kink_gap / v.kink_gap.sigma(), 2);
+  }
+  // 80 pulls: their RMS is known to about 8 % (as StatedSigmasMatchTheErrorsMade).
+  EXPECT_GT(std::sqrt(pull2 / n), 0.75);
+  EXPECT_LT(std::sqrt(pull2 / n), 1.3);
+}
+
 // Without the contact distance reached (a nearly grazing impact whose fits
 // pass just outside it), the instant rests on the kinks alone: their weights
 // add up to 1, the draws place it where the drawn tracks bend (exact tracks:

@@ -341,6 +341,87 @@ TEST(CampaignReport, SaysWhenTheProfilesLaunchSpinIsFarFromTheMeasuredOne) {
   }
 }
 
+// The kinks' gaps of a campaign whose tracks carry 0.02 px of centre offset
+// (drawn as analysis/track_offset.hpp models them), analysed with the offset
+// config/sim-lab.toml's centre_offset_px states: stated 0 (too small) and
+// 0.06 (too large), `collide fit` says to set about 0.02, which way the
+// sigmas lean, and `collide fit` prints it; stated 0.02, nothing.
+TEST(CampaignReport, SaysWhenTheKinksShowAnotherCentreOffsetThanTheProfiles) {
+  std::ifstream in(std::string(COLLIDE_SOURCE_DIR) + "/config/sim-lab.toml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string lab = text.str();
+  const std::string key = "centre_offset_px = 0.02";
+  const auto line = lab.find(key);
+  ASSERT_NE(line, std::string::npos);
+  for (const double stated : {0.0, 0.02, 0.06}) {
+    testing::ScratchDir dir;
+    std::string profile = lab;
+    profile.replace(line, key.size(), "centre_offset_px = " + std::to_string(stated));
+    std::mt19937 rng(9);
+    std::mt19937_64 gap_rng(10);
+    std::normal_distribution<double> unit(0, 1);
+    std::uniform_real_distribution<double> fit_sigma(2e-6, 20e-6), per_px2(2e-7, 2e-5);
+    for (int i = 0; i < 200; ++i) {
+      testing::ShotSpec spec;
+      spec.id = idFor(i);
+      auto shot = testing::makeShot(spec);
+      shot.rig_profile_toml = profile;
+      auto j = nlohmann::json::parse(resultsAt(10.0 + 0.35 * i, rng));
+      const double fit = fit_sigma(gap_rng), k2 = per_px2(gap_rng);
+      j["kink_gap"] = {{"gap_s", std::sqrt(fit * fit + k2 * 0.02 * 0.02) * unit(gap_rng)},
+                       {"sigma_s", std::sqrt(fit * fit + k2 * stated * stated)},
+                       {"var_per_px2_s2", k2}};
+      shot.results_json = j.dump();
+      ASSERT_TRUE(saveShot(dir.path(), shot).ok());
+    }
+    auto entries = loadCampaign(dir.path());
+    ASSERT_TRUE(entries.ok()) << entries.error().message;
+    EXPECT_EQ(measuredKinkGaps(*entries).size(), 200u);
+    auto report = fitCampaignFolder(*entries, 0, 3);
+    ASSERT_TRUE(report.ok()) << report.error().message;
+    ASSERT_TRUE(report->track_offset.has_value()) << report->track_offset_error;
+    ASSERT_TRUE(report->stated_centre_offset_px.has_value());
+    EXPECT_DOUBLE_EQ(*report->stated_centre_offset_px, stated);
+    EXPECT_NEAR(report->track_offset->suggestedPx(stated), 0.02, 0.005) << stated;
+    const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+    EXPECT_DOUBLE_EQ(j["track_offset"]["profile_states_px"].get<double>(), stated);
+    EXPECT_EQ(j["track_offset"]["shots"].get<int>(), 200);
+    auto run = testing::runCollide("fit " + testing::q(dir.path()) + " --bootstrap 0", dir);
+    EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
+    EXPECT_THAT(run.out,
+                ::testing::HasSubstr("tracks' centre offset beyond what the analysis drew"));
+    if (stated == 0.02) {
+      EXPECT_EQ(report->centre_offset_advice, "") << report->centre_offset_advice;
+      EXPECT_FALSE(j["track_offset"].contains("advice"));
+      EXPECT_THAT(run.out, ::testing::Not(::testing::HasSubstr("note: the kinks of")));
+    } else {
+      EXPECT_THAT(report->centre_offset_advice,
+                  ::testing::HasSubstr(stated == 0 ? "optimistic" : "pessimistic"));
+      EXPECT_THAT(report->centre_offset_advice, ::testing::HasSubstr("centre_offset_px = "));
+      EXPECT_TRUE(j["track_offset"].contains("advice"));
+      EXPECT_THAT(run.out, ::testing::HasSubstr("note: the kinks of 200 shots"));
+    }
+  }
+}
+
+// Shots analysed before the kinks' gaps were written (none in their JSON), or
+// too few: no offset, and the reason.
+TEST(CampaignReport, SaysWhyTheTracksOffsetIsNotMeasured) {
+  testing::ScratchDir dir;
+  std::mt19937 rng(4);
+  ASSERT_NO_FATAL_FAILURE(saveSweep(dir.path(), 12, 5.0, 80.0, rng));
+  auto entries = loadCampaign(dir.path());
+  ASSERT_TRUE(entries.ok()) << entries.error().message;
+  EXPECT_TRUE(measuredKinkGaps(*entries).empty());
+  auto report = fitCampaignFolder(*entries, 0, 3);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  EXPECT_FALSE(report->track_offset.has_value());
+  EXPECT_THAT(report->track_offset_error, ::testing::HasSubstr("at least 5 shots"));
+  const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
+  EXPECT_THAT(j["track_offset"]["error"].get<std::string>(), ::testing::HasSubstr("(got 0)"));
+}
+
 // Spins no dot showed (0 +- the prior), poorly measured ones and ones that
 // break angular momentum do not count.
 TEST(CampaignReport, UnseenOrUntrustedSpinsDoNotCountForTheLaunchers) {

@@ -38,6 +38,7 @@ vision::ShotAnalysis sample() {
   a.quality_flags = {"few_frames_after", "beta_untrustworthy_geometry"};
   a.radius_scatter_px = next() * 1e-2;
   a.radius_systematic_px = next() * 1e-2;
+  a.kink_gap = {next() * 1e-6, next() * 1e-6, next() * 1e-9};
   a.notes = {"sphere 1, after the impact: no dots", "the outlines' radii scatter"};
   return a;
 }
@@ -51,6 +52,9 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(r->quality_flags, a.quality_flags);
   EXPECT_EQ(r->radius_scatter_px, a.radius_scatter_px);
   EXPECT_EQ(r->radius_systematic_px, a.radius_systematic_px);
+  EXPECT_EQ(r->kink_gap.gap_s, a.kink_gap.gap_s);
+  EXPECT_EQ(r->kink_gap.sigma_s, a.kink_gap.sigma_s);
+  EXPECT_EQ(r->kink_gap.var_per_px2, a.kink_gap.var_per_px2);
   EXPECT_EQ(r->notes, a.notes);
   for (int s = 0; s < 2; ++s) {
     EXPECT_EQ(r->sphere[s].frames_before, a.sphere[s].frames_before);
@@ -76,6 +80,21 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(c.kinetic_energy_change_J.value, a.collision.kinetic_energy_change_J.value);
   EXPECT_EQ(c.line_of_centres_z.value, a.collision.line_of_centres_z.value);
   EXPECT_EQ(c.line_of_centres_z.sigma, a.collision.line_of_centres_z.sigma);
+}
+
+// Results written before the kinks' gaps: none (NaN, not usable); a gap
+// that is not a number is named.
+TEST(ResultsJson, KinkGapIsOptionalAndCheckedByName) {
+  auto j = nlohmann::json::parse(resultsToJson(sample()));
+  j.erase("kink_gap");
+  auto r = parseResultsJson(j.dump());
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(std::isnan(r->kink_gap.gap_s));
+  EXPECT_FALSE(r->kink_gap.usable());
+  j["kink_gap"] = {{"gap_s", "soon"}};
+  r = parseResultsJson(j.dump());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("kink_gap.gap_s"), std::string::npos) << r.error().message;
 }
 
 // The out-of-plane measurements: written when measured, null when not.
