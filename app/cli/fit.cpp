@@ -138,14 +138,19 @@ void printReport(const collide::app::CampaignFitReport& report) {
     std::printf("launchers' spin not measured: %s\n", report.launch_spin_error.c_str());
   if (!report.launch_spin_advice.empty())
     std::printf("note: %s\n", report.launch_spin_advice.c_str());
-  if (const auto& t = report.track_offset)
+  if (const auto& t = report.track_offset) {
     std::printf(
         "tracks' centre offset beyond what the analysis drew: %+.4f px per axis (variance "
-        "%+.2g ± %.1g px^2; the kinks' gaps of %d shots, pulls RMS %.2f): the rig profile's "
-        "[analysis] centre_offset_px\n",
+        "%+.2g ± %.1g px^2; the kinks' gaps of %d shots, pulls RMS %.2f)",
         t->excessPx(), t->excess_px2, t->sigma_px2, t->shots, t->pull_rms);
-  else
+    if (const auto& stated = report.stated_centre_offset_px)
+      std::printf(": the rig profile's [analysis] centre_offset_px %.4g would be %.4g px\n",
+                  *stated, t->suggestedPx(*stated));
+    else
+      std::printf(": for the rig profile's [analysis] centre_offset_px\n");
+  } else {
     std::printf("tracks' centre offset not measured: %s\n", report.track_offset_error.c_str());
+  }
   if (!report.centre_offset_advice.empty())
     std::printf("note: %s\n", report.centre_offset_advice.c_str());
   if (!report.error_budget.empty()) {
