@@ -228,7 +228,13 @@ Result<CampaignFitReport> fitCampaignFolder(const std::vector<CampaignEntry>& en
   report.stated_launch_spin_rad_s = statedValue(entries, &CampaignEntry::profile_launch_spin_rad_s);
   report.launch_spin_advice = launchSpinAdvice(report);
   // Its bootstrap is cheap: always 200 resamples (`resamples` is the friction fit's).
-  if (auto offset = trackOffsetFromKinkGaps(measuredKinkGaps(entries), 200, seed))
+  const std::vector<KinkGap> gaps = measuredKinkGaps(entries);
+  if (gaps.empty())
+    report.track_offset_error =
+        "no analysed shot states where its two spheres' tracks bend (kink_gap): sphere-on-wall "
+        "shots have one sphere, and shots analysed by an earlier collide need `collide analyze` "
+        "again";
+  else if (auto offset = trackOffsetFromKinkGaps(gaps, 200, seed))
     report.track_offset = *offset;
   else
     report.track_offset_error = offset.error().message;

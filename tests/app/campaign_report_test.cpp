@@ -417,9 +417,32 @@ TEST(CampaignReport, SaysWhyTheTracksOffsetIsNotMeasured) {
   auto report = fitCampaignFolder(*entries, 0, 3);
   ASSERT_TRUE(report.ok()) << report.error().message;
   EXPECT_FALSE(report->track_offset.has_value());
-  EXPECT_THAT(report->track_offset_error, ::testing::HasSubstr("at least 5 shots"));
+  EXPECT_THAT(report->track_offset_error, ::testing::HasSubstr("no analysed shot states"));
+  EXPECT_THAT(report->track_offset_error, ::testing::HasSubstr("`collide analyze` again"));
   const auto j = nlohmann::json::parse(campaignReportJson(*entries, *report));
-  EXPECT_THAT(j["track_offset"]["error"].get<std::string>(), ::testing::HasSubstr("(got 0)"));
+  EXPECT_THAT(j["track_offset"]["error"].get<std::string>(),
+              ::testing::HasSubstr("no analysed shot states"));
+
+  // Three shots that state it: too few, and the estimator says how many.
+  testing::ScratchDir few;
+  for (int i = 0; i < 3; ++i) {
+    testing::ShotSpec spec;
+    spec.id = idFor(50 + i);  // beside saveSweep's idFor(0..11)
+    auto shot = testing::makeShot(spec);
+    auto results = nlohmann::json::parse(resultsAt(20.0 + 10 * i, rng));
+    results["kink_gap"] = {{"gap_s", 1e-6}, {"sigma_s", 2e-6}, {"var_per_px2_s2", 1e-8}};
+    shot.results_json = results.dump();
+    ASSERT_TRUE(saveShot(few.path(), shot).ok());
+  }
+  ASSERT_NO_FATAL_FAILURE(saveSweep(few.path(), 12, 5.0, 80.0, rng));
+  auto few_entries = loadCampaign(few.path());
+  ASSERT_TRUE(few_entries.ok()) << few_entries.error().message;
+  EXPECT_EQ(measuredKinkGaps(*few_entries).size(), 3u);
+  auto few_report = fitCampaignFolder(*few_entries, 0, 3);
+  ASSERT_TRUE(few_report.ok()) << few_report.error().message;
+  EXPECT_FALSE(few_report->track_offset.has_value());
+  EXPECT_THAT(few_report->track_offset_error, ::testing::HasSubstr("at least 5 shots"));
+  EXPECT_THAT(few_report->track_offset_error, ::testing::HasSubstr("(got 3)"));
 }
 
 // Spins no dot showed (0 +- the prior), poorly measured ones and ones that
