@@ -417,6 +417,12 @@ CampaignView::Loaded loadFolder(const std::string& dir) {
                   .arg(ls->spins);
     if (!report->launch_spin_advice.empty())
       text += QObject::tr(". Note: %1").arg(QString::fromStdString(report->launch_spin_advice));
+    if (const auto& t = report->track_offset)
+      text += QObject::tr(
+                  "; tracks' centre offset beyond what the analysis drew %1 px per axis (the "
+                  "kinks of %2 shots; the profile's [analysis] centre_offset_px)")
+                  .arg(t->excessPx(), 0, 'f', 4)
+                  .arg(t->shots);
     if (!report->centre_offset_advice.empty())
       text += QObject::tr(". Note: %1").arg(QString::fromStdString(report->centre_offset_advice));
   } else {

@@ -406,6 +406,9 @@ TEST(MainWindowGui, RunASmallCampaign) {
   EXPECT_TRUE(has_line) << view->summary().toStdString();
   // The launchers' spin from the dotted shots, for the profile's prior.
   EXPECT_TRUE(view->summary().contains("launchers' spin ")) << view->summary().toStdString();
+  // The tracks' centre offset from the shots' kinks, for centre_offset_px.
+  EXPECT_TRUE(view->summary().contains("tracks' centre offset beyond what the analysis drew"))
+      << view->summary().toStdString();
   // The calibration dialog finds the measured exit speeds of the folder's
   // shots: each within 1 % of the speed the simulation launched at (the
   // horizontal velocity, which gravity leaves alone).
