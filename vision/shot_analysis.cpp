@@ -319,6 +319,7 @@ void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const Collision
           static_cast<int>(fits.fit[s][side]->frames.size());
       out.trajectory[s][side] = fits.fit[s][side]->fit;
     }
+    kin.spin_before_prior_directions = spins.side[s][0].prior_directions;
     kin.velocity_before_m_s.value = nominal.v_before[s];
     kin.velocity_after_m_s.value = nominal.v_after[s];
     for (int k = 0; k < 3; ++k) {
@@ -663,8 +664,16 @@ void flagGravity(ShotAnalysis& out, const FlagInputs& q) {
 
 // A measured spin no better known than an unmeasured one (simulated
 // thesis-like shots: 130-480 rad/s sigma against at most 22 on every other
-// shot): beta and gamma rest on the contact point's velocity.
-void flagPoorSpins(ShotAnalysis& out, const ShotSpins& spins) {
+// shot): beta and gamma rest on the contact point's velocity. Before the
+// impact the launchers' spread stands in where the dots pin a direction less
+// well than it (measureSpins); a note says so. After it nothing does.
+void flagPoorSpins(ShotAnalysis& out, const ShotSpins& spins, double launch_spin_rad_s) {
+  for (int s = 0; s < 2; ++s)
+    if (const int n = spins.side[s][0].prior_directions; n > 0)
+      out.notes.push_back("sphere " + std::to_string(s + 1) + ", before the impact: its dots pin " +
+                          std::to_string(n) + " of the spin's 3 directions less well than the " +
+                          "launchers' spread (launch_spin_rad_s " + fmt("%.1f", launch_spin_rad_s) +
+                          " rad/s), which was combined with them there");
   const std::vector<std::string> notes = poorlyMeasuredSpins(spins);
   if (notes.empty()) return;
   addFlag(out, "spin_poorly_measured");
@@ -859,7 +868,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
   const ShotSpins spins = measureSpins(burst, data, *fits, r_med, frames->max_value,
                                        set.unknown_spin_sigma_rad_s, &scale);
   flagUnmeasuredSpins(out, spins);
-  flagPoorSpins(out, spins);
+  flagPoorSpins(out, spins, set.unknown_spin_sigma_rad_s);
 
   // ---- Walton's inverse, and its spread over draws of every fitted input
   int dark_frames = 0;

@@ -172,6 +172,11 @@ struct SphereKinematics {
   Estimate3 velocity_before_m_s, velocity_after_m_s;  ///< at the collision instant
   Estimate3 spin_before_rad_s, spin_after_rad_s;
   int frames_before = 0, frames_after = 0;  ///< frames used by the fits
+  /// Directions of spin_before the dots pinned less well than the launchers'
+  /// spread (the rig profile's launch_spin_rad_s), taken with it as a prior
+  /// there (analysis/spin_prior.hpp): 0 to 3. Such a spin is not a measure of
+  /// the launchers' spread (collide fit leaves it out of it).
+  int spin_before_prior_directions = 0;
   /// Velocity towards the camera from the apparent radius under perspective
   /// (analysis/depth_from_size.hpp), [0 before, 1 after], m/s; set when
   /// AnalysisSettings::camera_distance_m > 0 (or a lens is given) and a side

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "analysis/spin_prior.hpp"
 #include "vision/frame_parallel.hpp"
 #include "vision/shot_tracking.hpp"
 #include "vision/spin_fit.hpp"
@@ -83,6 +84,12 @@ ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,
       r.spin = spin->spin_rad_s;
       r.cov = spin->covariance * (kSpinSigmaScale * kSpinSigmaScale);
       if (scale && scale->camera) addLensSpinSystematic(r.cov, r.spin);
+      if (side == 0) {  // before the impact: the launcher's spin where the dots do not pin it
+        const SpinWithPrior p = combineWithLaunchPrior(r.spin, r.cov, unknown_spin_sigma);
+        r.spin = p.spin_rad_s;
+        r.cov = p.cov;
+        r.prior_directions = p.prior_directions;
+      }
       r.sigma = r.cov.diagonal().cwiseSqrt();
     } else {
       // Unknown spin: zero, with the spread of the spins these launches give,

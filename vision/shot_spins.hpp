@@ -42,6 +42,9 @@ struct SideSpin {
   Eigen::Matrix3d cov = Eigen::Matrix3d::Identity();  ///< scaled by kSpinSigmaScale^2
   Vec3 sigma = Vec3::Zero();                  ///< reported per-axis sigma (NaN when unknown)
   std::optional<std::string> unknown_reason;  ///< set when no spin could be fitted
+  /// Before the impact: directions the dots pinned less well than the
+  /// launchers' spread, combined with it (analysis/spin_prior.hpp), 0 to 3.
+  int prior_directions = 0;
 };
 
 struct ShotSpins {
@@ -51,7 +54,9 @@ struct ShotSpins {
 
 /// Finds the dots of each sphere in the frames its side fits used and fits
 /// the spins. An unknown spin is zero with `unknown_spin_sigma` (rad/s) per
-/// axis: the launchers' spin, as the rig profile states it. When
+/// axis: the launchers' spin, as the rig profile states it. A spin measured
+/// before the impact is combined with that prior in the directions its dots
+/// pin less well than it (combineWithLaunchPrior). When
 /// `scale` carries the camera's lens, each dot is lifted onto its sphere
 /// through the lens (liftThroughLens) rather than orthographically.
 ShotSpins measureSpins(const Burst& burst, const std::vector<FrameData>& data,

@@ -9,9 +9,11 @@
 #include "analysis/residual_structure.hpp"
 #include "analysis/shot_inverse.hpp"
 #include "analysis/shot_uncertainty.hpp"
+#include "analysis/spin_prior.hpp"
 #include "vision/dot_detector.hpp"
 #include "vision/shot_fits.hpp"
 #include "vision/shot_spins.hpp"
+#include "vision/shot_tracking.hpp"
 #include "vision/sphere_detector.hpp"
 #include "vision/spin_fit.hpp"
 #include "vision/wall_line.hpp"
@@ -501,6 +503,19 @@ WallSpins measureSpins(const Burst& burst, const WallAnalysisSettings& s,
   w.r_med_px = radii[radii.size() / 2];
   w.before = spinOf(burst, sides.before, w.r_med_px, s.camera, R, s.unknown_spin_sigma_rad_s);
   w.after = spinOf(burst, sides.after, w.r_med_px, s.camera, R, s.unknown_spin_sigma_rad_s);
+  if (w.before.known) {  // the launcher's spin where the dots do not pin it (as measureSpins)
+    const SpinWithPrior p =
+        combineWithLaunchPrior(w.before.spin, w.before.cov, s.unknown_spin_sigma_rad_s);
+    w.before.spin = p.spin_rad_s;
+    w.before.cov = p.cov;
+    a.spin_before_prior_directions = p.prior_directions;
+    if (p.prior_directions > 0)
+      a.notes.push_back("before the impact the dots pin " + std::to_string(p.prior_directions) +
+                        " of the spin's 3 directions less well than the launchers' spread "
+                        "(launch_spin_rad_s " +
+                        fmt("%.1f", s.unknown_spin_sigma_rad_s) +
+                        " rad/s), which was combined with them there");
+  }
   for (SpinSide* side : {&w.before, &w.after})
     if (dark && !side->known) side->why = "backlit, no dots seen on the silhouette: " + side->why;
   const SpinSide &sb = w.before, &sa = w.after;

@@ -79,6 +79,9 @@ struct WallShotAnalysis {
   Sphere sphere_before, sphere_after;  ///< at contact: velocity, spin (position: before)
   bool spin_before_known = false, spin_after_known = false;
   Vec3 spin_sigma_before = Vec3::Zero(), spin_sigma_after = Vec3::Zero();
+  /// Directions of the spin before that the dots pinned less well than the
+  /// launchers' spread, combined with it (analysis/spin_prior.hpp): 0 to 3.
+  int spin_before_prior_directions = 0;
   /// Velocity sigmas at contact and at separation: the fits' sigmas with the
   /// residuals' lag-1 inflation and the dots' drift (x, y; under a lens also
   /// the lamp's, radius_systematic_px over the track), widened under a lens

@@ -112,7 +112,9 @@ std::vector<Estimate3> measuredLaunchSpins(const std::vector<CampaignEntry>& ent
         }))
       continue;
     for (const auto& sphere : e.results->sphere)
-      if (sphere.spin_before_rad_s.value.allFinite() && sphere.spin_before_rad_s.sigma.allFinite())
+      // A spin partly taken from the profile's launch_spin_rad_s cannot measure it.
+      if (sphere.spin_before_prior_directions == 0 && sphere.spin_before_rad_s.value.allFinite() &&
+          sphere.spin_before_rad_s.sigma.allFinite())
         spins.push_back(sphere.spin_before_rad_s);
   }
   return spins;

@@ -103,7 +103,10 @@ std::vector<KinkGap> measuredKinkGaps(const std::vector<CampaignEntry>& entries)
 /// The pre-impact spins of both spheres of every analysed shot whose spins
 /// before the impact were measured and trusted (no "no_spin_before",
 /// "spin_poorly_measured" or "spin_impulse_disagree"), flagged shots of
-/// other kinds included: their spins before the impact are as good.
+/// other kinds included: their spins before the impact are as good. A spin
+/// the analysis took partly from the launchers' spread (its dots pinned some
+/// direction less well, spin_before_prior_directions > 0) is left out: it
+/// would measure the profile's own value.
 std::vector<Estimate3> measuredLaunchSpins(const std::vector<CampaignEntry>& entries);
 /// Fits the usable shots (analysis/campaign.hpp fitCampaign, with `loss`)
 /// and bootstraps the friction fit (`resamples` >= 10, or 0 for none).

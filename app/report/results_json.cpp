@@ -179,6 +179,7 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
     }
     values["frames_before"] = a.sphere[s].frames_before;
     values["frames_after"] = a.sphere[s].frames_after;
+    values["spin_before_prior_directions"] = a.sphere[s].spin_before_prior_directions;
     // Towards the camera, from the apparent size (null when not measured).
     json vz = json::array(), vz_sigma = json::array();
     for (const auto& m : a.sphere[s].vz_from_size_m_s) {
@@ -268,8 +269,10 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
       if (!sg) return sg.error();
       *vf[i] = {*v, *sg};
     }
-    for (auto [key, field] : {std::pair{"frames_before", &r.sphere[s].frames_before},
-                              std::pair{"frames_after", &r.sphere[s].frames_after}}) {
+    for (auto [key, field] :
+         {std::pair{"frames_before", &r.sphere[s].frames_before},
+          std::pair{"frames_after", &r.sphere[s].frames_after},
+          std::pair{"spin_before_prior_directions", &r.sphere[s].spin_before_prior_directions}}) {
       auto v = readNumber(values, key, name + ".");
       if (!v) return v.error();
       *field = std::isfinite(*v) ? static_cast<int>(*v) : 0;

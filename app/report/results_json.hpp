@@ -18,7 +18,10 @@
 //    "notes": ["sentences explaining flags and what was set aside"],
 //    "sphere1"/"sphere2": {"velocity_before_m_s": [x,y,z], "velocity_after_m_s",
 //                          "spin_before_rad_s", "spin_after_rad_s",
-//                          "frames_before", "frames_after"},
+//                          "frames_before", "frames_after",
+//                          "spin_before_prior_directions": directions of the
+//                          spin before that the dots pinned less well than the
+//                          launchers' spread, combined with it, 0-3},
 //    "collision": {"e", "beta", "beta_from_impulse", "f", "gamma_deg", "vn_m_s",
 //                  "vs_m_s", "vs_after_m_s", "t_collision_s",
 //                  "t_collision_before_s", "t_collision_after_s"},

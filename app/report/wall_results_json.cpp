@@ -74,6 +74,7 @@ std::string wallResultsToJson(const vision::WallShotAnalysis& a, int indent) {
   s1u["spin_after_rad_s"] = vec(a.spin_sigma_after);
   s1["frames_before"] = a.frames_used_before;
   s1["frames_after"] = a.frames_used_after;
+  s1["spin_before_prior_directions"] = a.spin_before_prior_directions;
   j["sphere1"] = s1;
   u["sphere1"] = s1u;
   j["collision"] = c;
