@@ -445,8 +445,8 @@ TEST(CampaignReport, SaysWhyTheTracksOffsetIsNotMeasured) {
   EXPECT_THAT(few_report->track_offset_error, ::testing::HasSubstr("(got 3)"));
 }
 
-// Spins no dot showed (0 +- the prior), poorly measured ones and ones that
-// break angular momentum do not count.
+// Spins no dot showed (0 +- the prior), poorly measured ones, ones that
+// break angular momentum and ones partly taken from the prior do not count.
 TEST(CampaignReport, UnseenOrUntrustedSpinsDoNotCountForTheLaunchers) {
   testing::ScratchDir dir;
   std::mt19937 rng(4);
@@ -461,6 +461,10 @@ TEST(CampaignReport, UnseenOrUntrustedSpinsDoNotCountForTheLaunchers) {
   auto entries = loadCampaign(dir.path(), /*include_flagged=*/true);
   ASSERT_TRUE(entries.ok()) << entries.error().message;
   EXPECT_EQ(measuredLaunchSpins(*entries).size(), 4u);  // the last two dotted shots
+  // A spin partly taken from the launchers' spread does not measure it.
+  for (CampaignEntry& e : *entries)
+    if (e.results) e.results->sphere[0].spin_before_prior_directions = 1;
+  EXPECT_EQ(measuredLaunchSpins(*entries).size(), 2u);  // their spheres 2
 }
 
 // A campaign of bare backlit silhouettes has no spins: `collide fit` gives e

@@ -27,6 +27,7 @@ vision::ShotAnalysis sample() {
     }
     s.frames_before = static_cast<int>(next());
     s.frames_after = static_cast<int>(next());
+    s.spin_before_prior_directions = static_cast<int>(next()) % 4;
   }
   auto& c = a.collision;
   for (vision::Measured* m :
@@ -59,6 +60,8 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   for (int s = 0; s < 2; ++s) {
     EXPECT_EQ(r->sphere[s].frames_before, a.sphere[s].frames_before);
     EXPECT_EQ(r->sphere[s].frames_after, a.sphere[s].frames_after);
+    EXPECT_EQ(r->sphere[s].spin_before_prior_directions,
+              a.sphere[s].spin_before_prior_directions);
     EXPECT_EQ(r->sphere[s].velocity_before_m_s.value, a.sphere[s].velocity_before_m_s.value);
     EXPECT_EQ(r->sphere[s].velocity_after_m_s.sigma, a.sphere[s].velocity_after_m_s.sigma);
     EXPECT_EQ(r->sphere[s].spin_before_rad_s.value, a.sphere[s].spin_before_rad_s.value);
