@@ -1,6 +1,7 @@
 #include "analysis/shot_uncertainty.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <limits>
@@ -330,7 +331,38 @@ ShotUncertainty propagateShot(const ShotModel& model, int draws, std::uint64_t s
   return u;
 }
 
-std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws, std::uint64_t seed) {
+double betaSpinWeight(double vs, double vi, double vd) {
+  if (!std::isfinite(vs) || !std::isfinite(vi) || !std::isfinite(vd) || !(vi > 0) || !(vd > 0))
+    return 1.0;
+  const double cov = 0.5 * (vs + vi - vd);
+  return std::clamp((vi - cov) / vd, 0.0, 1.0);
+}
+
+double combinedBetaSigma(double vs, double vi, double vd, double w) {
+  if (w >= 1.0) return std::sqrt(vs);
+  const double cov = 0.5 * (vs + vi - vd);
+  return std::sqrt(std::max(0.0, w * w * vs + (1 - w) * (1 - w) * vi + 2 * w * (1 - w) * cov));
+}
+
+namespace {
+std::array<double, 3> betaVariances(const ShotUncertainty& u) {
+  return {std::pow(u.beta.sigma(), 2), std::pow(u.beta_from_impulse.sigma(), 2),
+          std::pow(u.beta_spin_minus_impulse.sigma(), 2)};
+}
+}  // namespace
+
+double betaSpinWeight(const ShotUncertainty& u) {
+  const auto [vs, vi, vd] = betaVariances(u);
+  return betaSpinWeight(vs, vi, vd);
+}
+
+double combinedBetaSigma(const ShotUncertainty& u, double w) {
+  const auto [vs, vi, vd] = betaVariances(u);
+  return combinedBetaSigma(vs, vi, vd, w);
+}
+
+std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws, std::uint64_t seed,
+                                        double beta_spin_weight) {
   static constexpr std::pair<UncertaintySource, const char*> kRows[] = {
       {kFitNoise, "trajectory_fits"},
       {kCentreDrift, "centre_drift"},
@@ -346,7 +378,8 @@ std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws, std::
     const ShotUncertainty u = propagateShot(model, draws, seed, source);
     if (!u.nominal.ok) return {};
     // NaN where the quantity is (beta without spins).
-    rows.push_back({source, name, u.e.sigma(), u.beta.sigma(), u.gamma_deg.sigma()});
+    rows.push_back(
+        {source, name, u.e.sigma(), combinedBetaSigma(u, beta_spin_weight), u.gamma_deg.sigma()});
   }
   return rows;
 }

@@ -200,8 +200,26 @@ struct ShotUncertainty {
 ShotUncertainty propagateShot(const ShotModel& model, int draws = 300, std::uint64_t seed = 12345,
                               unsigned sources = kEverySource);
 
+/// beta from the spins after the impact (`beta`) and `beta_from_impulse`
+/// (the velocities' change and the spins before, thesis eq. A.4: angular
+/// momentum about the contact point) are two estimates of one value that
+/// share the inputs before the impact. Their least-variance combination
+/// w beta + (1 - w) beta_from_impulse takes the weight
+/// w = (V_i - C) / V_d from the draws (V_i beta_from_impulse's variance,
+/// V_d their difference's, C = (V_s + V_i - V_d) / 2 their covariance), held
+/// to [0, 1] (no extrapolation beyond either estimate). 1 where
+/// beta_from_impulse has no spread or the difference has none (the two are
+/// one estimate), or where a spread is unknown.
+double betaSpinWeight(double var_spins, double var_impulse, double var_difference);
+double betaSpinWeight(const ShotUncertainty& u);
+/// The standard deviation of w beta + (1 - w) beta_from_impulse over the
+/// draws (exact for their sample moments).
+double combinedBetaSigma(double var_spins, double var_impulse, double var_difference, double w);
+double combinedBetaSigma(const ShotUncertainty& u, double w);
+
 /// One row of an error budget: e's, beta's and gamma's standard deviations
-/// (gamma in degrees) when only `source` is drawn.
+/// (gamma in degrees) when only `source` is drawn; beta's is that of the
+/// combination with the whole propagation's weight (betaSpinWeight).
 struct ErrorBudgetRow {
   UncertaintySource source{};
   const char* name = "";  ///< as the results JSON names it, e.g. "trajectory_fits"
@@ -216,6 +234,6 @@ struct ErrorBudgetRow {
 /// propagations: asked for, not done on every shot (AnalysisSettings::
 /// error_budget).
 std::vector<ErrorBudgetRow> errorBudget(const ShotModel& model, int draws = 300,
-                                        std::uint64_t seed = 12345);
+                                        std::uint64_t seed = 12345, double beta_spin_weight = 1.0);
 
 }  // namespace collide

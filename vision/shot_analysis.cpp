@@ -292,8 +292,13 @@ void fillKinematics(ShotAnalysis& out, const ShotUncertainty& u, const Collision
   const WaltonMeasurement& m = nominal.inverse.m;
   CollisionProperties& c = out.collision;
   c.e = {m.e, u.e.sigma()};
-  c.beta = {m.beta, u.beta.sigma()};
+  c.beta_from_spins = {m.beta, u.beta.sigma()};
   c.beta_from_impulse = {m.beta_from_impulse, u.beta_from_impulse.sigma()};
+  // The two as one estimate (betaSpinWeight): where the spins after the
+  // impact are poorly measured, beta rests on the impulse.
+  const double w = betaSpinWeight(u);
+  c.beta_spin_weight = w;
+  c.beta = {w < 1 ? w * m.beta + (1 - w) * m.beta_from_impulse : m.beta, combinedBetaSigma(u, w)};
   c.f = {m.f, u.f.sigma()};
   c.gamma_deg = {m.before.gamma_rad * 180 / std::numbers::pi, u.gamma_deg.sigma()};
   c.vn_m_s = {m.before.v_n_m_s, u.vn.sigma()};
@@ -545,7 +550,7 @@ void flagInstants(ShotAnalysis& out, const FlagInputs& q) {
 // (withoutUnmeasuredSpins), and nothing is compared.
 void flagSpinImpulse(ShotAnalysis& out, const FlagInputs& q) {
   const CollisionProperties& c = out.collision;
-  const auto why = spinImpulseDisagreement(c.beta.value, c.beta_from_impulse.value,
+  const auto why = spinImpulseDisagreement(c.beta_from_spins.value, c.beta_from_impulse.value,
                                            q.u->beta_spin_minus_impulse.sigma());
   if (!why) return;
   addFlag(out, "spin_impulse_disagree");
@@ -563,7 +568,7 @@ void withoutUnmeasuredSpins(CollisionProperties& c, const ShotSpins& spins) {
     before = before && !spins.side[s][0].unknown_reason;
     after = after && !spins.side[s][1].unknown_reason;
   }
-  if (!before || !after) c.beta = {kNaN, kNaN};
+  if (!before || !after) c.beta = c.beta_from_spins = {kNaN, kNaN};
   if (!after) c.vs_after_m_s = {kNaN, kNaN};
   if (!before) c.beta_from_impulse = {kNaN, kNaN};
 }
@@ -896,7 +901,7 @@ Result<ShotAnalysis> analyzeBurst(const Burst& burst, const AnalysisSettings& se
                   u.kink_gap_var_per_offset_var * pass.scale.px * pass.scale.px};
   withoutUnmeasuredSpins(out.collision, spins);
   if (set.error_budget) {
-    out.error_budget = errorBudget(boundModel(pass));
+    out.error_budget = errorBudget(boundModel(pass), 300, 12345, out.collision.beta_spin_weight);
     // beta's rows only where beta is stated (both spins measured).
     if (!std::isfinite(out.collision.beta.value))
       for (ErrorBudgetRow& r : out.error_budget) r.beta = std::nan("");

@@ -187,7 +187,14 @@ struct SphereKinematics {
 };
 
 struct CollisionProperties {
-  Measured e, beta, beta_from_impulse, f, gamma_deg;
+  /// beta: beta_from_spins (the contact velocity after the impact, from the
+  /// post-impact spins) and beta_from_impulse (the velocities' change and the
+  /// spins before: angular momentum about the contact point) combined as two
+  /// correlated estimates of one value, beta_spin_weight on the first
+  /// (analysis/shot_uncertainty.hpp betaSpinWeight); its sigma the
+  /// combination's over the draws.
+  Measured e, beta, beta_from_spins, beta_from_impulse, f, gamma_deg;
+  double beta_spin_weight = 1.0;
   Measured vn_m_s;        ///< normal contact velocity before, < 0 on approach
   Measured vs_m_s;        ///< tangential contact speed before, >= 0
   Measured vs_after_m_s;  ///< v_s' . t (signed along the pre-impact tangent)
@@ -244,9 +251,12 @@ struct ShotAnalysis {
   ///  "spin_poorly_measured": a measured spin's sigma exceeds those 50 rad/s
   ///    on some axis (dots followed too briefly or matched badly; its errors
   ///    can reach hundreds of rad/s, beyond what beta's and gamma's sigmas
-  ///    say); `collide fit` leaves the shot out;
+  ///    say); `collide fit` leaves the shot out. Before the impact the
+  ///    launchers' spread is first combined with the directions the dots pin
+  ///    less well than it (measureSpins), so there it fires only when that
+  ///    spread is above 50 rad/s;
   ///  "spin_impulse_disagree": angular momentum about the contact point is not
-  ///    conserved: beta from the spins after the impact and beta_from_impulse
+  ///    conserved: beta_from_spins and beta_from_impulse
   ///    (the spins before plus what the impulse from the velocity changes
   ///    turns them by) differ by more than 4 sigma of their difference (its
   ///    Monte Carlo spread); a measured spin or velocity is wrong (a dot

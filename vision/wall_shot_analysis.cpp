@@ -653,6 +653,17 @@ void checkTheSpins(const WallSpins& spins, WallShotAnalysis& a) {
     a.quality_flags.push_back("spin_impulse_disagree");
     a.notes.push_back(*why);
   }
+  // The spins' beta and the impulse's as one estimate (betaSpinWeight).
+  a.beta_from_spins = a.measured.beta;
+  a.beta_from_spins_sigma = a.beta_sigma;
+  if (!std::isfinite(a.measured.beta) || !std::isfinite(a.measured.beta_from_impulse)) return;
+  const double vs = a.beta_sigma * a.beta_sigma,
+               vi = a.beta_from_impulse_sigma * a.beta_from_impulse_sigma,
+               vd = a.beta_spin_minus_impulse_sigma * a.beta_spin_minus_impulse_sigma;
+  const double w = betaSpinWeight(vs, vi, vd);
+  a.beta_spin_weight = w;
+  a.measured.beta = w * a.measured.beta + (1 - w) * a.measured.beta_from_impulse;
+  a.beta_sigma = combinedBetaSigma(vs, vi, vd, w);
 }
 
 }  // namespace

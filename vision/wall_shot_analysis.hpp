@@ -97,6 +97,10 @@ struct WallShotAnalysis {
   /// Spread of beta - beta_from_impulse over the draws: the yardstick of the
   /// angular-momentum check ("spin_impulse_disagree", as ShotAnalysis).
   double beta_spin_minus_impulse_sigma = 0;
+  /// measured.beta and beta_sigma are beta from the spins after the impact
+  /// and beta_from_impulse combined (analysis/shot_uncertainty.hpp
+  /// betaSpinWeight), beta_spin_weight on the first; the spins' own here.
+  double beta_from_spins = 0, beta_from_spins_sigma = 0, beta_spin_weight = 1.0;
   std::vector<std::string> quality_flags;  ///< as ShotAnalysis; "no_spin_before", ...
   std::vector<std::string> notes;
 };

@@ -20,6 +20,7 @@ json vec(const Vec3& v) {
 
 const char* const kCollisionKeys[] = {"e",
                                       "beta",
+                                      "beta_from_spins",
                                       "beta_from_impulse",
                                       "f",
                                       "gamma_deg",
@@ -36,6 +37,7 @@ template <class C>
 auto measuredFields(C& c) {
   return std::array{&c.e,
                     &c.beta,
+                    &c.beta_from_spins,
                     &c.beta_from_impulse,
                     &c.f,
                     &c.gamma_deg,
@@ -163,6 +165,7 @@ std::string resultsToJson(const vision::ShotAnalysis& a, int indent) {
     collision[kCollisionKeys[i]] = number(fields[i]->value);
     uncertainty[kCollisionKeys[i]] = number(fields[i]->sigma);
   }
+  collision["beta_spin_weight"] = number(c.beta_spin_weight);
   collision["t_collision_before_s"] = number(c.t_collision_before_s);
   collision["t_collision_after_s"] = number(c.t_collision_after_s);
   if (c.line_of_centres_z_from_size) {
@@ -252,10 +255,17 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
     *fields[i] = {*v, *s};
   }
   for (auto [key, field] : {std::pair{"t_collision_before_s", &r.collision.t_collision_before_s},
-                            std::pair{"t_collision_after_s", &r.collision.t_collision_after_s}}) {
+                            std::pair{"t_collision_after_s", &r.collision.t_collision_after_s},
+                            std::pair{"beta_spin_weight", &r.collision.beta_spin_weight}}) {
     auto v = readNumber(collision, key, "collision.");
     if (!v) return v.error();
     *field = *v;
+  }
+  // Results of an earlier collide: beta was the spins' alone.
+  if (!std::isfinite(r.collision.beta_spin_weight)) {
+    r.collision.beta_spin_weight = 1.0;
+    if (!std::isfinite(r.collision.beta_from_spins.value))
+      r.collision.beta_from_spins = r.collision.beta;
   }
   for (int s = 0; s < 2; ++s) {
     const std::string name = s == 0 ? "sphere1" : "sphere2";

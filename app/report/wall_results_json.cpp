@@ -26,7 +26,7 @@ std::string wallResultsToJson(const vision::WallShotAnalysis& a, int indent) {
   json j;
   j["schema"] = kResultsSchema;
   j["target"] = "wall";
-  const double vs_after = -m.beta * m.before.v_s_m_s;  // v_s' . t
+  const double vs_after = -a.beta_from_spins * m.before.v_s_m_s;  // v_s' . t, from the spins
   j["e"] = number(m.e);
   j["beta"] = number(m.beta);
   j["f"] = number(m.f);
@@ -41,6 +41,9 @@ std::string wallResultsToJson(const vision::WallShotAnalysis& a, int indent) {
   u["e"] = number(a.e_sigma);
   c["beta"] = number(m.beta);
   u["beta"] = number(a.beta_sigma);
+  c["beta_from_spins"] = number(a.beta_from_spins);
+  u["beta_from_spins"] = number(a.beta_from_spins_sigma);
+  c["beta_spin_weight"] = number(a.beta_spin_weight);
   c["beta_from_impulse"] = number(m.beta_from_impulse);
   u["beta_from_impulse"] = number(a.beta_from_impulse_sigma);
   c["f"] = number(m.f);

@@ -10,6 +10,8 @@
 #include <functional>
 #include <numbers>
 #include <random>
+#include <utility>
+#include <vector>
 
 using namespace collide;
 
@@ -596,4 +598,47 @@ TEST(PropagateShot, WithoutTheContactReachedTheKinksAlonePlaceTheInstant) {
   EXPECT_GT(u.t_c.sigma(), 0.0);
   EXPECT_EQ(u.dt_ba.sigma(), 0.0);
   EXPECT_NEAR(u.nominal.inverse.m.e, 0.97, 5 * u.e.sigma());
+}
+
+// Two estimates of one beta that share an error (the inputs before the
+// impact) and each carry their own (the spins after, the velocities' change),
+// drawn with known variances: the weight is the least-variance one worked by
+// hand, and the combination's spread over the draws is what it states.
+TEST(BetaCombination, TheWeightIsTheLeastVarianceOneAndItsSigmaTheDrawsSpread) {
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> unit(0, 1);
+  const double shared = 0.02, own_s = 0.05, own_i = 0.01, truth = 0.4;
+  ShotUncertainty u;
+  std::vector<std::pair<double, double>> draws;
+  for (int i = 0; i < 20000; ++i) {
+    const double c = shared * unit(rng);
+    const double s = truth + c + own_s * unit(rng), b = truth + c + own_i * unit(rng);
+    u.beta.add(s), u.beta_from_impulse.add(b), u.beta_spin_minus_impulse.add(s - b);
+    draws.emplace_back(s, b);
+  }
+  // Var(w s + (1 - w) b) = w^2 own_s^2 + (1 - w)^2 own_i^2 + shared^2: least at
+  // w = own_i^2 / (own_s^2 + own_i^2).
+  const double w_hand = own_i * own_i / (own_s * own_s + own_i * own_i);
+  const double w = betaSpinWeight(u);
+  EXPECT_NEAR(w, w_hand, 0.01);
+  Spread combined;
+  for (const auto& [s, b] : draws) combined.add(w * s + (1 - w) * b);
+  EXPECT_NEAR(combinedBetaSigma(u, w), combined.sigma(), 1e-9);
+  EXPECT_LT(combinedBetaSigma(u, w), u.beta_from_impulse.sigma());
+  EXPECT_NEAR(combinedBetaSigma(u, w), std::hypot(shared, own_s * own_i / std::hypot(own_s, own_i)),
+              0.002);
+  // w = 1 is the spins' own sigma; w = 0 the impulse's.
+  EXPECT_DOUBLE_EQ(combinedBetaSigma(u, 1.0), u.beta.sigma());
+  EXPECT_NEAR(combinedBetaSigma(u, 0.0), u.beta_from_impulse.sigma(), 1e-9);
+}
+
+TEST(BetaCombination, HeldWithinBothAndOneWhereASpreadIsMissing) {
+  // The impulse's beta no better than the spins' and wholly correlated with
+  // it: the least-variance weight would extrapolate beyond the spins (w > 1).
+  EXPECT_DOUBLE_EQ(betaSpinWeight(0.01, 0.04, 0.01), 1.0);
+  EXPECT_DOUBLE_EQ(betaSpinWeight(0.04, 0.01, 0.01), 0.0);
+  EXPECT_DOUBLE_EQ(betaSpinWeight(0.01, 0.0, 0.01), 1.0);  // no spread: one estimate
+  EXPECT_DOUBLE_EQ(betaSpinWeight(0.01, 0.01, 0.0), 1.0);  // identical estimates
+  EXPECT_DOUBLE_EQ(betaSpinWeight(std::nan(""), 0.01, 0.02), 1.0);
+  EXPECT_DOUBLE_EQ(betaSpinWeight(ShotUncertainty{}), 1.0);  // no draws
 }

@@ -30,10 +30,11 @@ vision::ShotAnalysis sample() {
     s.spin_before_prior_directions = static_cast<int>(next()) % 4;
   }
   auto& c = a.collision;
-  for (vision::Measured* m :
-       {&c.e, &c.beta, &c.beta_from_impulse, &c.f, &c.gamma_deg, &c.vn_m_s, &c.vs_m_s,
-        &c.vs_after_m_s, &c.t_collision_s, &c.kinetic_energy_change_J, &c.line_of_centres_z})
+  for (vision::Measured* m : {&c.e, &c.beta, &c.beta_from_spins, &c.beta_from_impulse, &c.f,
+                              &c.gamma_deg, &c.vn_m_s, &c.vs_m_s, &c.vs_after_m_s, &c.t_collision_s,
+                              &c.kinetic_energy_change_J, &c.line_of_centres_z})
     *m = {next(), next() * 1e-3};
+  c.beta_spin_weight = 0.25;
   c.t_collision_before_s = next();
   c.t_collision_after_s = next();
   a.quality_flags = {"few_frames_after", "beta_untrustworthy_geometry"};
@@ -60,8 +61,7 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   for (int s = 0; s < 2; ++s) {
     EXPECT_EQ(r->sphere[s].frames_before, a.sphere[s].frames_before);
     EXPECT_EQ(r->sphere[s].frames_after, a.sphere[s].frames_after);
-    EXPECT_EQ(r->sphere[s].spin_before_prior_directions,
-              a.sphere[s].spin_before_prior_directions);
+    EXPECT_EQ(r->sphere[s].spin_before_prior_directions, a.sphere[s].spin_before_prior_directions);
     EXPECT_EQ(r->sphere[s].velocity_before_m_s.value, a.sphere[s].velocity_before_m_s.value);
     EXPECT_EQ(r->sphere[s].velocity_after_m_s.sigma, a.sphere[s].velocity_after_m_s.sigma);
     EXPECT_EQ(r->sphere[s].spin_before_rad_s.value, a.sphere[s].spin_before_rad_s.value);
@@ -72,6 +72,9 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(c.e.sigma, a.collision.e.sigma);
   EXPECT_EQ(c.beta.value, a.collision.beta.value);
   EXPECT_EQ(c.beta_from_impulse.sigma, a.collision.beta_from_impulse.sigma);
+  EXPECT_EQ(c.beta_from_spins.value, a.collision.beta_from_spins.value);
+  EXPECT_EQ(c.beta_from_spins.sigma, a.collision.beta_from_spins.sigma);
+  EXPECT_EQ(c.beta_spin_weight, a.collision.beta_spin_weight);
   EXPECT_EQ(c.f.value, a.collision.f.value);
   EXPECT_EQ(c.gamma_deg.value, a.collision.gamma_deg.value);
   EXPECT_EQ(c.vn_m_s.sigma, a.collision.vn_m_s.sigma);
@@ -83,6 +86,20 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(c.kinetic_energy_change_J.value, a.collision.kinetic_energy_change_J.value);
   EXPECT_EQ(c.line_of_centres_z.value, a.collision.line_of_centres_z.value);
   EXPECT_EQ(c.line_of_centres_z.sigma, a.collision.line_of_centres_z.sigma);
+}
+
+// Results written before beta combined the spins' and the impulse's: beta
+// was the spins' alone (weight 1).
+TEST(ResultsJson, BetaFromEarlierResultsIsTheSpinsAlone) {
+  auto j = nlohmann::json::parse(resultsToJson(sample()));
+  j["collision"].erase("beta_from_spins");
+  j["uncertainty"].erase("beta_from_spins");
+  j["collision"].erase("beta_spin_weight");
+  auto r = parseResultsJson(j.dump());
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->collision.beta_spin_weight, 1.0);
+  EXPECT_EQ(r->collision.beta_from_spins.value, r->collision.beta.value);
+  EXPECT_EQ(r->collision.beta_from_spins.sigma, r->collision.beta.sigma);
 }
 
 // Results written before the kinks' gaps: none (NaN, not usable); a gap
