@@ -671,7 +671,8 @@ void flagGravity(ShotAnalysis& out, const FlagInputs& q) {
 // thesis-like shots: 130-480 rad/s sigma against at most 22 on every other
 // shot): beta and gamma rest on the contact point's velocity. Before the
 // impact the launchers' spread stands in where the dots pin a direction less
-// well than it (measureSpins); a note says so. After it nothing does.
+// well than it (measureSpins); a note says so. After it nothing bounds the
+// spin, though beta then leans on the impulse (betaSpinWeight).
 void flagPoorSpins(ShotAnalysis& out, const ShotSpins& spins, double launch_spin_rad_s) {
   for (int s = 0; s < 2; ++s)
     if (const int n = spins.side[s][0].prior_directions; n > 0)

@@ -22,7 +22,9 @@
 //                          "spin_before_prior_directions": directions of the
 //                          spin before that the dots pinned less well than the
 //                          launchers' spread, combined with it, 0-3},
-//    "collision": {"e", "beta", "beta_from_impulse", "f", "gamma_deg", "vn_m_s",
+//    "collision": {"e", "beta" (beta_from_spins and beta_from_impulse
+//                  combined, beta_spin_weight on the first), "beta_from_spins",
+//                  "beta_from_impulse", "beta_spin_weight", "f", "gamma_deg", "vn_m_s",
 //                  "vs_m_s", "vs_after_m_s", "t_collision_s",
 //                  "t_collision_before_s", "t_collision_after_s"},
 //    "uncertainty": {same keys as "collision" (standard uncertainties),
