@@ -285,6 +285,10 @@ Result<ShotResults> parseResultsJson(const std::string& text) {
           std::pair{"spin_before_prior_directions", &r.sphere[s].spin_before_prior_directions}}) {
       auto v = readNumber(values, key, name + ".");
       if (!v) return v.error();
+      // A count: converting a number beyond int's range would be undefined.
+      if (std::isfinite(*v) && !(*v >= 0 && *v <= 1e9))
+        return fail("results JSON: " + name + "." + key + " = " + std::to_string(*v) +
+                    " is not a count (0 to 1e9)");
       *field = std::isfinite(*v) ? static_cast<int>(*v) : 0;
     }
   }

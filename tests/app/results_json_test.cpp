@@ -88,6 +88,19 @@ TEST(ResultsJson, RoundTripKeepsEveryField) {
   EXPECT_EQ(c.line_of_centres_z.sigma, a.collision.line_of_centres_z.sigma);
 }
 
+// A count that is not one (negative, or beyond what an int holds) is named,
+// not converted.
+TEST(ResultsJson, CountsOutOfRangeAreNamed) {
+  for (const double bad : {-1.0, 1e300}) {
+    auto j = nlohmann::json::parse(resultsToJson(sample()));
+    j["sphere2"]["spin_before_prior_directions"] = bad;
+    auto r = parseResultsJson(j.dump());
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.error().message.find("sphere2.spin_before_prior_directions"), std::string::npos)
+        << r.error().message;
+  }
+}
+
 // Results written before beta combined the spins' and the impulse's: beta
 // was the spins' alone (weight 1).
 TEST(ResultsJson, BetaFromEarlierResultsIsTheSpinsAlone) {
